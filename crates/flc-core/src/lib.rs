@@ -1,0 +1,50 @@
+//! # flc-core
+//!
+//! The on-board algorithms of *"A LiDAR-Driven Fallback Longitudinal Controller for Safer
+//! Following in Sudden Braking Scenarios"* (Sabry et al., ICVES 2025) as an embeddable,
+//! `no_std`, allocation-free and panic-free library:
+//!
+//! | module | paper | what it does |
+//! |---|---|---|
+//! | [`flc`] | Sec. III-B, Eqs. (2)-(5) | the fallback longitudinal controller (LiDAR distance + own speed only) |
+//! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
+//! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
+//! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
+//! | [`detector`] | Sec. III-A.1 | the BEV-grid LiDAR lead-vehicle detector |
+//!
+//! Units are SI everywhere (m, m/s, m/s², s, rad). Every step function returns a defined command
+//! together with a [`Status`]; invalid input never panics and never makes a controller accelerate.
+//! Parameter structs implement `Default` with the paper's values; constructors validate them and
+//! return a [`ParamError`] naming the offending field.
+#![no_std]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing,
+        clippy::unreachable,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
+
+#[cfg(any(feature = "std", test))]
+extern crate std;
+
+pub mod command;
+// pub mod detector;
+pub mod flc;
+pub mod params;
+pub mod pid;
+pub mod pure_pursuit;
+pub mod supervisor;
+
+pub use command::{LongitudinalCommand, Status};
+// pub use detector::{Detection, DetectorParams, DetectorStatus, LeadDetector};
+pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
+pub use params::ParamError;
+pub use pid::{GainSet, PidController, PidGains, PidParams, PidTerms};
+pub use pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};
+pub use supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};

@@ -1,0 +1,395 @@
+//! The parallel longitudinal controller of Fig. 1.
+//!
+//! Both controllers are stepped every frame. The PID (which needs the lead's speed) drives while
+//! V2V data is fresh; the FLC drives when V2V data is absent or late. Freshness is judged from what
+//! actually arrives, counted in local control ticks, so no clock synchronisation between the
+//! vehicles is needed:
+//!
+//! * `age` = control ticks since the last accepted V2V message (0 on a tick that brings one);
+//! * V2V is *fresh* while `age <= max_age_ticks`;
+//! * PID -> FLC as soon as V2V is not fresh (no hysteresis: safety first);
+//! * FLC -> PID only after `return_after` consecutive fresh messages (each arriving within
+//!   `max_age_ticks` of the previous one), so a flickering link does not chatter;
+//! * the switch to the PID is bumpless: the PID's integrator is preset so that its first command
+//!   equals the last command issued; the switch to the FLC takes the FLC's own command.
+
+use crate::command::LongitudinalCommand;
+use crate::flc::{FallbackController, FlcParams};
+use crate::params::{ParamError, check_range};
+use crate::pid::{PidController, PidParams};
+
+/// One V2V message as received by the follower.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct V2vMessage {
+    /// The lead's speed as broadcast, m/s.
+    pub lead_speed: f64,
+    /// The sender's sequence number (wrapping). Duplicates and messages older than the newest
+    /// accepted one are ignored.
+    pub seq: u32,
+}
+
+/// Parameters of the supervisor (and of the two controllers it runs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupervisorParams {
+    /// Highest V2V age, in local control ticks, still counted as fresh. Default 4 (200 ms at the
+    /// paper's 20 Hz, i.e. two missed messages at 10 Hz V2V).
+    pub max_age_ticks: u32,
+    /// Consecutive fresh messages needed before the PID drives again. Default 5.
+    pub return_after: u32,
+    /// Preset the PID integrator on FLC -> PID so that the command does not jump. Default `true`.
+    pub bumpless: bool,
+    /// The FLC's parameters.
+    pub flc: FlcParams,
+    /// The PID's parameters.
+    pub pid: PidParams,
+}
+
+impl Default for SupervisorParams {
+    fn default() -> Self {
+        Self { max_age_ticks: 4, return_after: 5, bumpless: true, flc: FlcParams::paper(), pid: PidParams::paper() }
+    }
+}
+
+/// Which controller produced the command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum ActiveController {
+    /// The fallback longitudinal controller.
+    Flc = 0,
+    /// The V2V-based PID gap controller.
+    Pid = 1,
+}
+
+impl ActiveController {
+    /// `"flc"` or `"pid"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            ActiveController::Flc => "flc",
+            ActiveController::Pid => "pid",
+        }
+    }
+}
+
+/// Why the active controller is the one it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SwitchReason {
+    /// V2V is fresh and the PID drives.
+    V2vFresh = 0,
+    /// No valid V2V message has been received yet.
+    NoV2v = 1,
+    /// The last valid V2V message is older than `max_age_ticks`.
+    V2vStale = 2,
+    /// V2V is fresh again but fewer than `return_after` consecutive fresh messages have arrived.
+    Recovering = 3,
+    /// The last message carried an unusable lead speed (NaN, infinite, implausible).
+    InvalidV2v = 4,
+}
+
+impl SwitchReason {
+    /// Stable lower-case name.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            SwitchReason::V2vFresh => "v2v_fresh",
+            SwitchReason::NoV2v => "no_v2v",
+            SwitchReason::V2vStale => "v2v_stale",
+            SwitchReason::Recovering => "recovering",
+            SwitchReason::InvalidV2v => "invalid_v2v",
+        }
+    }
+}
+
+/// Result of one supervisor step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupervisorOutput {
+    /// The command to apply.
+    pub command: LongitudinalCommand,
+    /// Which controller produced it.
+    pub active: ActiveController,
+    /// Why.
+    pub reason: SwitchReason,
+    /// `true` on the tick the active controller changed.
+    pub switched: bool,
+    /// Ticks since the last accepted V2V message (`u32::MAX` if none yet).
+    pub v2v_age_ticks: u32,
+    /// Consecutive fresh messages counted so far.
+    pub fresh_count: u32,
+    /// What the FLC commanded this tick.
+    pub flc: LongitudinalCommand,
+    /// What the PID commanded this tick.
+    pub pid: LongitudinalCommand,
+}
+
+/// The parallel longitudinal controller.
+#[derive(Debug, Clone)]
+pub struct Supervisor {
+    params: SupervisorParams,
+    flc: FallbackController,
+    pid: PidController,
+    active: ActiveController,
+    age: u32,
+    last_seq: Option<u32>,
+    lead_speed: Option<f64>,
+    fresh_count: u32,
+    last_command: Option<f64>,
+    last_invalid: bool,
+}
+
+impl Supervisor {
+    /// Validates all parameters (FLC and PID included) and builds the supervisor. It starts with
+    /// the FLC driving and no V2V.
+    pub fn new(params: SupervisorParams) -> Result<Self, ParamError> {
+        check_range("max_age_ticks", f64::from(params.max_age_ticks), 0.0, 1.0e6, "must be in [0, 1e6] ticks")?;
+        check_range("return_after", f64::from(params.return_after), 1.0, 1.0e6, "must be in [1, 1e6] messages")?;
+        Ok(Self {
+            params,
+            flc: FallbackController::new(params.flc)?,
+            pid: PidController::new(params.pid)?,
+            active: ActiveController::Flc,
+            age: u32::MAX,
+            last_seq: None,
+            lead_speed: None,
+            fresh_count: 0,
+            last_command: None,
+            last_invalid: false,
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &SupervisorParams {
+        &self.params
+    }
+
+    /// The FLC (for its terms).
+    pub fn flc(&self) -> &FallbackController {
+        &self.flc
+    }
+
+    /// The PID (for its terms).
+    pub fn pid(&self) -> &PidController {
+        &self.pid
+    }
+
+    /// Back to the initial state (FLC, no V2V).
+    pub fn reset(&mut self) {
+        self.flc.reset();
+        self.pid.reset();
+        self.active = ActiveController::Flc;
+        self.age = u32::MAX;
+        self.last_seq = None;
+        self.lead_speed = None;
+        self.fresh_count = 0;
+        self.last_command = None;
+        self.last_invalid = false;
+    }
+
+    /// One control tick. `v2v` is the message received since the previous tick (if any),
+    /// `distance` the LiDAR distance (`None`: no lead detected), `own_speed` in m/s, `dt` the PID's
+    /// time step in s (the FLC ignores it).
+    pub fn step(&mut self, v2v: Option<V2vMessage>, distance: Option<f64>, own_speed: f64, dt: f64) -> SupervisorOutput {
+        self.receive(v2v);
+        let fresh = self.age <= self.params.max_age_ticks;
+
+        let flc = self.flc.step(distance, own_speed);
+        // Without any lead speed the PID is stepped with zero relative speed; its output is then
+        // only logged (the FLC drives until V2V has been fresh for `return_after` messages).
+        let lead_speed = self.lead_speed.unwrap_or(own_speed);
+        let mut pid = self.pid.step(lead_speed, own_speed, distance, dt);
+
+        let previous = self.active;
+        self.active = match self.active {
+            ActiveController::Pid if !fresh => ActiveController::Flc,
+            ActiveController::Flc if fresh && self.fresh_count >= self.params.return_after => ActiveController::Pid,
+            same => same,
+        };
+        let switched = previous != self.active;
+        if switched && self.active == ActiveController::Pid && self.params.bumpless && pid.status.is_ok() {
+            if let Some(last) = self.last_command {
+                pid.speed = self.pid.preset_output(last, own_speed);
+                pid.accel = self.pid.terms().u;
+            }
+        }
+        let reason = if self.last_invalid {
+            SwitchReason::InvalidV2v
+        } else if self.last_seq.is_none() {
+            SwitchReason::NoV2v
+        } else if !fresh {
+            SwitchReason::V2vStale
+        } else if self.active == ActiveController::Flc {
+            SwitchReason::Recovering
+        } else {
+            SwitchReason::V2vFresh
+        };
+        let command = match self.active {
+            ActiveController::Flc => flc,
+            ActiveController::Pid => pid,
+        };
+        self.last_command = Some(command.speed);
+        SupervisorOutput { command, active: self.active, reason, switched, v2v_age_ticks: self.age, fresh_count: self.fresh_count, flc, pid }
+    }
+
+    /// Updates age, sequence and the consecutive-fresh count from this tick's message.
+    fn receive(&mut self, v2v: Option<V2vMessage>) {
+        let max_speed = self.params.pid.max_speed;
+        let accepted = match v2v {
+            Some(m) if !(m.lead_speed.is_finite() && m.lead_speed >= -1.0 && m.lead_speed <= max_speed) => {
+                self.last_invalid = true;
+                self.fresh_count = 0;
+                None
+            }
+            Some(m) => {
+                self.last_invalid = false;
+                // Wrapping comparison: newer iff (seq - last) is in (0, 2^31).
+                let newer = self.last_seq.is_none_or(|last| {
+                    let d = m.seq.wrapping_sub(last);
+                    d != 0 && d < 1 << 31
+                });
+                newer.then_some(m)
+            }
+            None => None,
+        };
+        match accepted {
+            Some(m) => {
+                let in_time = self.age <= self.params.max_age_ticks;
+                self.fresh_count = if in_time { self.fresh_count.saturating_add(1) } else { 1 };
+                self.age = 0;
+                self.last_seq = Some(m.seq);
+                self.lead_speed = Some(m.lead_speed);
+            }
+            None => {
+                self.age = self.age.saturating_add(1);
+                if self.age > self.params.max_age_ticks {
+                    self.fresh_count = 0;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::command::Status;
+    use proptest::prelude::*;
+
+    const DT: f64 = 0.05;
+
+    fn msg(seq: u32) -> Option<V2vMessage> {
+        Some(V2vMessage { lead_speed: 10.0, seq })
+    }
+
+    #[test]
+    fn starts_on_flc_and_returns_to_pid_after_n_fresh_messages() {
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        let out = s.step(None, Some(20.0), 10.0, DT);
+        assert_eq!((out.active, out.reason), (ActiveController::Flc, SwitchReason::NoV2v));
+        for seq in 1..5 {
+            let out = s.step(msg(seq), Some(20.0), 10.0, DT);
+            assert_eq!((out.active, out.reason), (ActiveController::Flc, SwitchReason::Recovering));
+        }
+        let out = s.step(msg(5), Some(20.0), 10.0, DT);
+        assert_eq!(out.active, ActiveController::Pid);
+        assert!(out.switched);
+        assert_eq!(out.fresh_count, 5);
+    }
+
+    #[test]
+    fn falls_back_when_v2v_is_older_than_max_age_and_reports_why() {
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        for seq in 1..=5 {
+            s.step(msg(seq), Some(20.0), 10.0, DT);
+        }
+        // Age 1..4 ticks: still fresh (max_age_ticks = 4).
+        for age in 1..=4 {
+            let out = s.step(None, Some(20.0), 10.0, DT);
+            assert_eq!((out.active, out.v2v_age_ticks), (ActiveController::Pid, age));
+        }
+        // Age 5: stale -> FLC at once, with the FLC's own command.
+        let out = s.step(None, Some(20.0), 10.0, DT);
+        assert_eq!((out.active, out.reason, out.switched), (ActiveController::Flc, SwitchReason::V2vStale, true));
+        assert_eq!(out.command, out.flc);
+        // A single message does not bring the PID back...
+        let out = s.step(msg(6), Some(20.0), 10.0, DT);
+        assert_eq!((out.active, out.reason, out.fresh_count), (ActiveController::Flc, SwitchReason::Recovering, 1));
+        // ...five consecutive ones do.
+        for seq in 7..=10 {
+            s.step(msg(seq), Some(20.0), 10.0, DT);
+        }
+        assert_eq!(s.active, ActiveController::Pid);
+    }
+
+    #[test]
+    fn the_return_to_pid_is_bumpless() {
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        let mut last = 0.0;
+        for seq in 1..=5 {
+            let out = s.step(msg(seq), Some(22.0), 10.0, DT);
+            if out.switched {
+                assert_eq!(out.active, ActiveController::Pid);
+                assert!((out.command.speed - last).abs() < 1e-12, "{} vs {}", out.command.speed, last);
+            }
+            last = out.command.speed;
+        }
+        // Without bumpless transfer the PID's raw command differs from the FLC's last one.
+        let mut raw = Supervisor::new(SupervisorParams { bumpless: false, ..Default::default() }).unwrap();
+        let mut last = 0.0;
+        let mut jump = 0.0;
+        for seq in 1..=5 {
+            let out = raw.step(msg(seq), Some(22.0), 10.0, DT);
+            if out.switched {
+                jump = (out.command.speed - last).abs();
+            }
+            last = out.command.speed;
+        }
+        assert!(jump > 0.1);
+    }
+
+    #[test]
+    fn duplicates_and_old_messages_do_not_refresh() {
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        s.step(msg(7), Some(20.0), 10.0, DT);
+        let out = s.step(msg(7), Some(20.0), 10.0, DT);
+        assert_eq!(out.v2v_age_ticks, 1);
+        let out = s.step(msg(3), Some(20.0), 10.0, DT);
+        assert_eq!(out.v2v_age_ticks, 2);
+        // Wrapping sequence numbers are newer.
+        let mut w = Supervisor::new(SupervisorParams::default()).unwrap();
+        w.step(msg(u32::MAX), Some(20.0), 10.0, DT);
+        assert_eq!(w.step(msg(0), Some(20.0), 10.0, DT).v2v_age_ticks, 0);
+    }
+
+    #[test]
+    fn invalid_v2v_is_reported_and_not_used() {
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        for seq in 1..=5 {
+            s.step(msg(seq), Some(20.0), 10.0, DT);
+        }
+        let out = s.step(Some(V2vMessage { lead_speed: f64::NAN, seq: 6 }), Some(20.0), 10.0, DT);
+        assert_eq!(out.reason, SwitchReason::InvalidV2v);
+        assert_eq!(out.fresh_count, 0);
+        assert!(out.command.speed.is_finite());
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_field() {
+        let e = Supervisor::new(SupervisorParams { return_after: 0, ..Default::default() }).unwrap_err();
+        assert_eq!(e.field, "return_after");
+        let mut p = SupervisorParams::default();
+        p.flc.bound_t = -1.0;
+        assert_eq!(Supervisor::new(p).unwrap_err().field, "bound_t");
+    }
+
+    proptest! {
+        #[test]
+        fn any_input_sequence_gives_a_finite_command(
+            seq in proptest::collection::vec((proptest::option::of((proptest::num::f64::ANY, 0u32..20)), proptest::option::of(proptest::num::f64::ANY), proptest::num::f64::ANY, proptest::num::f64::ANY), 1..60)
+        ) {
+            let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+            for (m, d, v, dt) in seq {
+                let out = s.step(m.map(|(lead_speed, seq)| V2vMessage { lead_speed, seq }), d, v, dt);
+                prop_assert!(out.command.speed.is_finite() && out.command.speed >= 0.0 && out.command.speed <= 70.0);
+                if !v.is_finite() { prop_assert_eq!(out.command.status, Status::InvalidSpeed); }
+            }
+        }
+    }
+}

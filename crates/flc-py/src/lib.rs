@@ -1,0 +1,1 @@
+//! Python bindings for flc (work in progress; see issue 5).

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The one command that installs what the tests need and runs every test (Rust and Python).
+# Used by .ci/run and documented in README.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== Rust: no_std build of flc-core (host)"
+cargo build --locked -p flc-core --no-default-features
+if rustup target list --installed 2>/dev/null | grep -q thumbv7em-none-eabihf; then
+  echo "== Rust: cross build of flc-core for thumbv7em-none-eabihf"
+  cargo build --locked -p flc-core --no-default-features --target thumbv7em-none-eabihf
+else
+  echo "== Rust: thumbv7em-none-eabihf not installed, cross build skipped (host no_std build ran)"
+fi
+
+echo "== Rust: clippy"
+cargo clippy --locked --all-targets -- -D warnings
+
+echo "== Rust: tests"
+cargo test --locked
