@@ -27,6 +27,7 @@ use crate::params::{check_positive, check_range, ParamError};
 
 /// How the "`dist_s` is overridden to be -3" rule of Sec. III-B is applied in the fast-braking
 /// branch (`Delta_d <= brake_threshold`). The paper states the value, not the form.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DistOverride {
     /// `dist_s = min(dist_s, override_dist)`: never weakens braking when the gap is already far
@@ -40,6 +41,7 @@ pub enum DistOverride {
 
 /// What `Delta_d` is on a frame without a usable previous distance (the very first frame, or the
 /// first valid frame after a missing / invalid distance). The paper does not say.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum FirstFrame {
     /// `Delta_d = 0`: the normal (shift 1) branch. Default.
@@ -50,6 +52,7 @@ pub enum FirstFrame {
 
 /// Parameters of the FLC. `Default` is the paper's configuration (Sec. IV) plus the documented
 /// choices for what the paper leaves open.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlcParams {
     /// `T_G`, time gap of the dynamic threshold `tau_D = T_G * S_F`, s. Paper: 1.0.

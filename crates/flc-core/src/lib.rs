@@ -34,7 +34,7 @@
 extern crate std;
 
 pub mod command;
-// pub mod detector;
+pub mod detector;
 pub mod flc;
 pub mod params;
 pub mod pid;
@@ -42,7 +42,7 @@ pub mod pure_pursuit;
 pub mod supervisor;
 
 pub use command::{LongitudinalCommand, Status};
-// pub use detector::{Detection, DetectorParams, DetectorStatus, LeadDetector};
+pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use params::ParamError;
 pub use pid::{GainSet, PidController, PidGains, PidParams, PidTerms};

@@ -21,6 +21,7 @@ use crate::flc::{desired_distance, f_shift};
 use crate::params::{check_positive, check_range, ParamError};
 
 /// One set of PID gains (the output `u` is a speed increment in m/s).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
     /// Proportional gain on the gap error, (m/s)/m.
@@ -34,6 +35,7 @@ pub struct PidGains {
 /// Parameters of the PID gap controller. The paper gives the time gap (0.5 s) and the structure
 /// (two gain sets, far / near); the gains and the switching distance are documented choices
 /// (`docs/paper-notes.md`).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidParams {
     /// Desired time gap, s. Paper: 0.5.

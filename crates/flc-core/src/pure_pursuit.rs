@@ -14,6 +14,7 @@ use crate::params::{check_positive, check_range, ParamError};
 use nalgebra::Point2;
 
 /// Which pure-pursuit law to use.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PursuitLaw {
     /// The paper's Eq. (1), `theta = 2 dy / (D_ahead^2 + dx^2)`, taken as the road-wheel angle in rad.
@@ -26,6 +27,7 @@ pub enum PursuitLaw {
 }
 
 /// Parameters of the lateral controller.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PurePursuitParams {
     /// Base (minimum) lookahead distance, m. Paper: not given; default 4.0.

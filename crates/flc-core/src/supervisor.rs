@@ -29,6 +29,7 @@ pub struct V2vMessage {
 }
 
 /// Parameters of the supervisor (and of the two controllers it runs).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SupervisorParams {
     /// Highest V2V age, in local control ticks, still counted as fresh. Default 4 (200 ms at the

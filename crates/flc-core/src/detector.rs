@@ -1,0 +1,1192 @@
+//! The LiDAR lead-vehicle detector of Sec. III-A.1.
+//!
+//! The paper (after Sabry et al., AutoNav 2024) only names the steps: "divides the area in front of
+//! the follower vehicle into a 2D grid and identifies potential edge candidates. These edge
+//! candidates are processed using the Dilation Morphological operation, followed by object
+//! clustering [...]. The clustered objects that satisfy predefined geometric constraints are
+//! classified as vehicles. The pixel coordinates of these vehicles are reprojected into meters".
+//! This module implements exactly these steps on a fixed-size bird's-eye-view (BEV) grid:
+//!
+//! ```text
+//! (1) points   : drop non-finite points (counted), ignore points outside the grid
+//! (2) grid     : occupancy bitmap, NX cells forward from x_min, NY cells lateral centred on y = 0
+//! (3) edges    : occupied cells with at least one free 4-neighbour (outside the grid = free)
+//! (4) dilation : square structuring element of radius `dilation_radius` cells
+//! (5) clusters : 8-connected components of the dilated map (run-based two-pass union-find)
+//! (6) stats    : per cluster, extents and counts of the ORIGINAL points lying in its cells
+//! (7) accept   : points >= min_cluster_points, width in [min_width, max_width],
+//!                depth <= max_depth, |centre_y - 0.5 * curvature * x_rear^2| <= path_half_width
+//! (8) select   : the accepted cluster with the smallest rear-face x
+//! (9) metres   : position = (rear-face x, lateral centre); distance = rear-face x
+//! ```
+//!
+//! Everything is fixed capacity (no allocation) and the result depends only on order-independent
+//! aggregates (bitmaps, integer counts, minima and maxima), so it does not depend on the order of
+//! the points. The thresholds and the grid resolution, which the paper leaves open, are the fields
+//! of [`DetectorParams`]; see `docs/detector.md`.
+
+use crate::params::{check_positive, check_range, ParamError};
+use nalgebra::Point2;
+
+/// Capacity of the run table (maximal vertical runs of dilated cells per grid column) and of the
+/// union-find parent table. When a scan produces more runs, the columns beyond the last stored run
+/// (the far ones) are not clustered and the status is [`DetectorStatus::TooManyClusters`].
+pub const RUN_CAPACITY: usize = 2048;
+
+/// Capacity of the cluster table. When a scan has more clusters, the farthest ones (numbered by
+/// their first grid column) are dropped and the status is [`DetectorStatus::TooManyClusters`].
+pub const CLUSTER_CAPACITY: usize = 256;
+
+const NO_CLUSTER: u16 = u16::MAX;
+
+/// How the selected cluster's grid ("pixel") coordinates are reprojected into metres (step 9).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Reprojection {
+    /// Cell centres: rear face = centre of the nearest occupied cell column of the cluster,
+    /// lateral position = centre of its occupied cell span. Quantised to `cell_size`.
+    CellCenter,
+    /// Raw points: rear face = smallest x of the cluster's points, lateral position =
+    /// `(min y + max y) / 2` of its points. Default.
+    PointRefined,
+}
+
+/// Parameters of the detector. The paper gives none of these values; `Default` holds the
+/// documented choices (see `docs/detector.md`).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetectorParams {
+    /// Edge length of a grid cell, m. Default 0.2.
+    pub cell_size: f64,
+    /// Forward distance from the sensor to the near edge of the grid, m. Default 0.5 (drops
+    /// returns from the follower's own body).
+    pub x_min: f64,
+    /// Radius of the square dilation element, cells (0 = no dilation). Default 1: bridges gaps of
+    /// up to two empty cells, i.e. the beam spacing of a 0.2 deg LiDAR up to ~115 m.
+    pub dilation_radius: u8,
+    /// Fewest original points for a vehicle. Default 3.
+    pub min_cluster_points: usize,
+    /// Smallest lateral extent of a vehicle, m. Default 0.8 (a partly seen or partly occluded car).
+    pub min_width: f64,
+    /// Largest lateral extent of a vehicle, m. Default 3.0 (trucks are ~2.55 m wide).
+    pub max_width: f64,
+    /// Largest longitudinal extent of a vehicle, m. Default 7.0 (rejects guard rails and walls).
+    pub max_depth: f64,
+    /// Lateral half width of the follower's path corridor, m. Default 1.8 (half a 3.6 m lane).
+    pub path_half_width: f64,
+    /// Most points used per scan; later points are ignored ([`DetectorStatus::Truncated`]).
+    /// Default 8192.
+    pub max_points: usize,
+    /// Reprojection of step 9. Default [`Reprojection::PointRefined`].
+    pub reprojection: Reprojection,
+}
+
+impl Default for DetectorParams {
+    fn default() -> Self {
+        Self::defaults()
+    }
+}
+
+impl DetectorParams {
+    /// The documented default parameters (identical to `Default`).
+    pub const fn defaults() -> Self {
+        Self {
+            cell_size: 0.2,
+            x_min: 0.5,
+            dilation_radius: 1,
+            min_cluster_points: 3,
+            min_width: 0.8,
+            max_width: 3.0,
+            max_depth: 7.0,
+            path_half_width: 1.8,
+            max_points: 8192,
+            reprojection: Reprojection::PointRefined,
+        }
+    }
+
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_positive("cell_size", self.cell_size, 10.0, "must be finite and in (0, 10] m")?;
+        check_range("x_min", self.x_min, 0.0, 100.0, "must be finite and in [0, 100] m")?;
+        if self.dilation_radius > 8 {
+            return Err(ParamError { field: "dilation_radius", problem: "must be in [0, 8] cells" });
+        }
+        if !(1..=1_000_000).contains(&self.min_cluster_points) {
+            return Err(ParamError { field: "min_cluster_points", problem: "must be in [1, 1e6]" });
+        }
+        check_range("min_width", self.min_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
+        check_positive("max_width", self.max_width, 50.0, "must be finite and in (0, 50] m")?;
+        if self.max_width < self.min_width {
+            return Err(ParamError { field: "max_width", problem: "must be >= min_width" });
+        }
+        check_range("max_depth", self.max_depth, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
+        check_positive("path_half_width", self.path_half_width, 100.0, "must be finite and in (0, 100] m")?;
+        if !(1..=1_000_000).contains(&self.max_points) {
+            return Err(ParamError { field: "max_points", problem: "must be in [1, 1e6]" });
+        }
+        Ok(())
+    }
+}
+
+/// Outcome of one [`LeadDetector::detect`] call. Only one status is reported; when several apply,
+/// the first in this order wins: `InvalidCurvature`, `TooManyClusters`, `Truncated`, `EmptyScan`,
+/// `NonFinitePoints`, `Ok`. Every status except `EmptyScan` may come with a detection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum DetectorStatus {
+    /// The scan was processed completely ("no lead", `detection: None`, is a valid result).
+    Ok = 0,
+    /// No finite point fell inside the grid.
+    EmptyScan = 1,
+    /// Some points were NaN or infinite; they were dropped (see `points_rejected`).
+    NonFinitePoints = 2,
+    /// The scan had more than `max_points` points; only the first `max_points` were used.
+    Truncated = 3,
+    /// The run or cluster table overflowed; the nearest clusters were kept (best effort).
+    TooManyClusters = 4,
+    /// The path curvature was NaN or infinite; a straight path (curvature 0) was used.
+    InvalidCurvature = 5,
+}
+
+impl DetectorStatus {
+    /// `true` for [`DetectorStatus::Ok`].
+    pub const fn is_ok(self) -> bool {
+        matches!(self, DetectorStatus::Ok)
+    }
+
+    /// A short, stable, lower-case name (used by the simulator's JSON and the Python bindings).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            DetectorStatus::Ok => "ok",
+            DetectorStatus::EmptyScan => "empty_scan",
+            DetectorStatus::NonFinitePoints => "non_finite_points",
+            DetectorStatus::Truncated => "truncated",
+            DetectorStatus::TooManyClusters => "too_many_clusters",
+            DetectorStatus::InvalidCurvature => "invalid_curvature",
+        }
+    }
+}
+
+impl core::fmt::Display for DetectorStatus {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Why a cluster was not classified as a vehicle (step 7). Checked in this order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RejectReason {
+    /// Fewer than `min_cluster_points` original points.
+    TooFewPoints,
+    /// Lateral extent of the points below `min_width`.
+    TooNarrow,
+    /// Lateral extent of the points above `max_width`.
+    TooWide,
+    /// Longitudinal extent of the points above `max_depth`.
+    TooDeep,
+    /// Lateral centre farther than `path_half_width` from the predicted path.
+    OffPath,
+}
+
+impl RejectReason {
+    /// A short, stable, lower-case name.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            RejectReason::TooFewPoints => "too_few_points",
+            RejectReason::TooNarrow => "too_narrow",
+            RejectReason::TooWide => "too_wide",
+            RejectReason::TooDeep => "too_deep",
+            RejectReason::OffPath => "off_path",
+        }
+    }
+}
+
+/// One cluster of the last scan, for visualisation and diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClusterInfo {
+    /// Smallest x of the cluster's original points (rear face), m.
+    pub x_min: f64,
+    /// Largest x of the cluster's original points, m.
+    pub x_max: f64,
+    /// Smallest y of the cluster's original points, m.
+    pub y_min: f64,
+    /// Largest y of the cluster's original points, m.
+    pub y_max: f64,
+    /// Smallest x index of the occupied cells holding the points.
+    pub ix_min: u16,
+    /// Largest x index of the occupied cells holding the points.
+    pub ix_max: u16,
+    /// Smallest y index of the occupied cells holding the points.
+    pub iy_min: u16,
+    /// Largest y index of the occupied cells holding the points.
+    pub iy_max: u16,
+    /// Number of original points in the cluster's cells.
+    pub points: usize,
+    /// Number of dilated cells forming the cluster.
+    pub cells: usize,
+    /// `None` when the cluster passed every geometric constraint (a vehicle).
+    pub rejection: Option<RejectReason>,
+    /// `true` for the cluster reported as the lead.
+    pub selected: bool,
+}
+
+impl ClusterInfo {
+    const EMPTY: Self = Self {
+        x_min: f64::INFINITY,
+        x_max: f64::NEG_INFINITY,
+        y_min: f64::INFINITY,
+        y_max: f64::NEG_INFINITY,
+        ix_min: u16::MAX,
+        ix_max: 0,
+        iy_min: u16::MAX,
+        iy_max: 0,
+        points: 0,
+        cells: 0,
+        rejection: None,
+        selected: false,
+    };
+
+    /// `true` when the cluster was classified as a vehicle.
+    pub const fn accepted(&self) -> bool {
+        self.rejection.is_none()
+    }
+
+    /// Lateral extent of the points, m.
+    pub fn width(&self) -> f64 {
+        self.y_max - self.y_min
+    }
+
+    /// Longitudinal extent of the points, m.
+    pub fn depth(&self) -> f64 {
+        self.x_max - self.x_min
+    }
+
+    /// Lateral centre `(y_min + y_max) / 2` of the points, m.
+    pub fn center_y(&self) -> f64 {
+        0.5 * (self.y_min + self.y_max)
+    }
+
+    fn add_point(&mut self, x: f64, y: f64, ix: usize, iy: usize) {
+        self.x_min = self.x_min.min(x);
+        self.x_max = self.x_max.max(x);
+        self.y_min = self.y_min.min(y);
+        self.y_max = self.y_max.max(y);
+        let (ix, iy) = (ix as u16, iy as u16);
+        self.ix_min = self.ix_min.min(ix);
+        self.ix_max = self.ix_max.max(ix);
+        self.iy_min = self.iy_min.min(iy);
+        self.iy_max = self.iy_max.max(iy);
+        self.points += 1;
+    }
+}
+
+/// The lead vehicle found in a scan, in the sensor frame (x forward, y left), m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detection {
+    /// `(rear-face x, lateral centre y)`, reprojected as set by [`DetectorParams::reprojection`].
+    pub position: Point2<f64>,
+    /// Longitudinal distance from the sensor to the lead's rear face (`= position.x`), m. This is
+    /// the `LF_dist` the FLC uses.
+    pub distance: f64,
+    /// Lateral extent of the cluster's points, m.
+    pub width: f64,
+    /// Longitudinal extent of the cluster's points, m.
+    pub depth: f64,
+    /// Number of original points in the cluster.
+    pub points: usize,
+    /// `min(1, points / (4 min_cluster_points)) * (1 - 0.5 min(1, |width - w_ref| / w_half))` with
+    /// `w_ref = (min_width + max_width) / 2` and `w_half = (max_width - min_width) / 2`; in [0, 1].
+    pub confidence: f64,
+}
+
+/// Result of [`LeadDetector::detect`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetectorOutput {
+    /// The nearest accepted cluster, if any.
+    pub detection: Option<Detection>,
+    /// See [`DetectorStatus`].
+    pub status: DetectorStatus,
+    /// Finite points (among the first `max_points`) that fell inside the grid.
+    pub points_used: usize,
+    /// Non-finite points (among the first `max_points`) that were dropped.
+    pub points_rejected: usize,
+    /// Clusters found (at most [`CLUSTER_CAPACITY`]); see [`LeadDetector::clusters`].
+    pub clusters: usize,
+}
+
+/// A maximal vertical run of dilated cells in one grid column.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    ix: u16,
+    y0: u8,
+    y1: u8,
+    cluster: u16,
+}
+
+impl Run {
+    const EMPTY: Self = Self { ix: 0, y0: 0, y1: 0, cluster: NO_CLUSTER };
+}
+
+/// Grid geometry in metres.
+#[derive(Debug, Clone, Copy)]
+struct Geometry {
+    x_lo: f64,
+    y_lo: f64,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Geometry {
+    fn cell_of(&self, x: f64, y: f64) -> Option<(usize, usize)> {
+        let fx = (x - self.x_lo) / self.cell;
+        let fy = (y - self.y_lo) / self.cell;
+        // Written so that NaN falls through to `None`.
+        if fx >= 0.0 && fx < self.nx as f64 && fy >= 0.0 && fy < self.ny as f64 {
+            let ix = (libm::floor(fx) as usize).min(self.nx.saturating_sub(1));
+            let iy = (libm::floor(fy) as usize).min(self.ny.saturating_sub(1));
+            Some((ix, iy))
+        } else {
+            None
+        }
+    }
+}
+
+/// The BEV-grid lead detector: `NX` cells forward starting at `x_min`, `NY` cells lateral centred
+/// on the sensor (`NY <= 64`, checked at compile time). The default `LeadDetector<350, 60>` with
+/// 0.2 m cells covers x in [0.5, 70.5] m and y in [-6, 6] m and takes 41 256 bytes = 40.3 KiB on 64-bit targets (a test checks
+/// `size_of::<LeadDetector>() <= 64 KiB`).
+///
+/// Each grid column is one `u64` bitmap (bit `iy` = lateral cell `iy`), so occupancy, edges and
+/// the dilated map take `3 * 8 * NX` bytes. Build with `<LeadDetector>::new(params)` (the
+/// angle brackets select the default grid size).
+#[derive(Debug, Clone)]
+pub struct LeadDetector<const NX: usize = 350, const NY: usize = 60> {
+    params: DetectorParams,
+    occupied: [u64; NX],
+    edges: [u64; NX],
+    dilated: [u64; NX],
+    runs: [Run; RUN_CAPACITY],
+    parent: [u16; RUN_CAPACITY],
+    n_runs: usize,
+    clusters: [ClusterInfo; CLUSTER_CAPACITY],
+    n_clusters: usize,
+}
+
+impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
+    /// Validates `params` and builds the detector.
+    pub fn new(params: DetectorParams) -> Result<Self, ParamError> {
+        const {
+            assert!(NX >= 1 && NX <= u16::MAX as usize, "LeadDetector: NX must be in [1, 65535]");
+            assert!(NY >= 1 && NY <= 64, "LeadDetector: NY must be in [1, 64] (one u64 per column)");
+        }
+        params.validate()?;
+        Ok(Self {
+            params,
+            occupied: [0; NX],
+            edges: [0; NX],
+            dilated: [0; NX],
+            runs: [Run::EMPTY; RUN_CAPACITY],
+            parent: [0; RUN_CAPACITY],
+            n_runs: 0,
+            clusters: [ClusterInfo::EMPTY; CLUSTER_CAPACITY],
+            n_clusters: 0,
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &DetectorParams {
+        &self.params
+    }
+
+    /// Grid size in cells, `(NX, NY)`.
+    pub const fn grid_size() -> (usize, usize) {
+        (NX, NY)
+    }
+
+    /// Forward extent of the grid `[x_min, x_min + NX * cell_size)`, m.
+    pub fn x_range(&self) -> (f64, f64) {
+        let g = self.geometry();
+        (g.x_lo, g.x_lo + NX as f64 * g.cell)
+    }
+
+    /// Lateral extent of the grid `[-NY * cell_size / 2, NY * cell_size / 2)`, m.
+    pub fn y_range(&self) -> (f64, f64) {
+        let g = self.geometry();
+        (g.y_lo, g.y_lo + NY as f64 * g.cell)
+    }
+
+    /// The cell `(ix, iy)` holding the point `(x, y)`, if inside the grid.
+    pub fn cell_of(&self, x: f64, y: f64) -> Option<(usize, usize)> {
+        self.geometry().cell_of(x, y)
+    }
+
+    /// Centre of cell `(ix, iy)` in metres (not checked against the grid size).
+    pub fn cell_center(&self, ix: usize, iy: usize) -> Point2<f64> {
+        let g = self.geometry();
+        Point2::new(g.x_lo + (ix as f64 + 0.5) * g.cell, g.y_lo + (iy as f64 + 0.5) * g.cell)
+    }
+
+    /// Occupancy (step 2) of cell `(ix, iy)` in the last scan; `false` outside the grid.
+    pub fn is_occupied(&self, ix: usize, iy: usize) -> bool {
+        bit(&self.occupied, ix, iy)
+    }
+
+    /// Edge candidate (step 3) at cell `(ix, iy)` in the last scan; `false` outside the grid.
+    pub fn is_edge(&self, ix: usize, iy: usize) -> bool {
+        bit(&self.edges, ix, iy)
+    }
+
+    /// Dilated edge map (step 4) at cell `(ix, iy)` in the last scan; `false` outside the grid.
+    pub fn is_dilated(&self, ix: usize, iy: usize) -> bool {
+        bit(&self.dilated, ix, iy)
+    }
+
+    /// All clusters of the last scan, numbered by their nearest grid column.
+    pub fn clusters(&self) -> &[ClusterInfo] {
+        self.clusters.get(..self.n_clusters).unwrap_or(&[])
+    }
+
+    fn geometry(&self) -> Geometry {
+        let cell = self.params.cell_size;
+        Geometry { x_lo: self.params.x_min, y_lo: -0.5 * NY as f64 * cell, cell, nx: NX, ny: NY }
+    }
+
+    /// Runs the pipeline on one scan. `points` are `[x, y]` in the sensor frame (x forward, y left),
+    /// m. `path_curvature` (1/m, positive = left, 0 = straight) predicts the follower's path as
+    /// `y = 0.5 * path_curvature * x^2`. Never panics; see [`DetectorStatus`] for the outcomes.
+    pub fn detect(&mut self, points: &[[f64; 2]], path_curvature: f64) -> DetectorOutput {
+        let p = self.params;
+        let g = self.geometry();
+        let curvature_ok = path_curvature.is_finite();
+        let curvature = if curvature_ok { path_curvature } else { 0.0 };
+        let truncated = points.len() > p.max_points;
+        let scan = points.get(..p.max_points).unwrap_or(points);
+
+        // (1)-(2): occupancy.
+        self.occupied = [0; NX];
+        let (mut used, mut rejected) = (0usize, 0usize);
+        for &[x, y] in scan {
+            if !(x.is_finite() && y.is_finite()) {
+                rejected += 1;
+                continue;
+            }
+            if let Some((ix, iy)) = g.cell_of(x, y) {
+                used += 1;
+                if let Some(col) = self.occupied.get_mut(ix) {
+                    *col |= 1u64.checked_shl(iy as u32).unwrap_or(0);
+                }
+            }
+        }
+
+        // (3)-(4): edges and dilation.
+        self.find_edges();
+        self.dilate();
+
+        // (5): 8-connected components.
+        let overflow = self.label();
+
+        // (6): statistics of the original points.
+        for &[x, y] in scan {
+            if !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
+            let Some((ix, iy)) = g.cell_of(x, y) else { continue };
+            let Some(c) = self.cluster_at(ix, iy) else { continue };
+            if let Some(info) = self.clusters.get_mut(c) {
+                // `+ 0.0` maps -0.0 to +0.0, so that min/max cannot depend on the order of points.
+                info.add_point(x + 0.0, y + 0.0, ix, iy);
+            }
+        }
+
+        // (7)-(8): geometric constraints and selection of the nearest vehicle.
+        let mut best: Option<usize> = None;
+        let mut best_x = f64::INFINITY;
+        let n_clusters = self.n_clusters;
+        for (i, c) in self.clusters.iter_mut().take(n_clusters).enumerate() {
+            if c.points == 0 {
+                *c = ClusterInfo { x_min: 0.0, x_max: 0.0, y_min: 0.0, y_max: 0.0, ..*c };
+            }
+            c.rejection = judge(c, &p, curvature);
+            c.selected = false;
+            if c.rejection.is_none() && c.x_min < best_x {
+                best_x = c.x_min;
+                best = Some(i);
+            }
+        }
+
+        // (9): reprojection.
+        let detection = best.and_then(|i| self.clusters.get_mut(i)).map(|c| {
+            c.selected = true;
+            reproject(c, &p, &g)
+        });
+
+        let status = if !curvature_ok {
+            DetectorStatus::InvalidCurvature
+        } else if overflow {
+            DetectorStatus::TooManyClusters
+        } else if truncated {
+            DetectorStatus::Truncated
+        } else if used == 0 {
+            DetectorStatus::EmptyScan
+        } else if rejected > 0 {
+            DetectorStatus::NonFinitePoints
+        } else {
+            DetectorStatus::Ok
+        };
+        DetectorOutput { detection, status, points_used: used, points_rejected: rejected, clusters: n_clusters }
+    }
+
+    /// Step 3: occupied cells with at least one free 4-neighbour (cells outside the grid are free).
+    fn find_edges(&mut self) {
+        let mask = column_mask(NY);
+        for ix in 0..NX {
+            let c = self.occupied.get(ix).copied().unwrap_or(0);
+            let left = ix.checked_sub(1).and_then(|j| self.occupied.get(j)).copied().unwrap_or(0);
+            let right = self.occupied.get(ix + 1).copied().unwrap_or(0);
+            // Bit iy of `c << 1` is cell iy-1, of `c >> 1` cell iy+1; both shift in free cells.
+            let interior = c & (c << 1) & (c >> 1) & left & right;
+            if let Some(e) = self.edges.get_mut(ix) {
+                *e = c & !interior & mask;
+            }
+        }
+    }
+
+    /// Step 4: dilation with a (2r+1) x (2r+1) square. Lateral dilation distributes over OR, so
+    /// each dilated column is the lateral dilation of the OR of the 2r+1 neighbouring edge columns.
+    fn dilate(&mut self) {
+        let r = usize::from(self.params.dilation_radius);
+        let mask = column_mask(NY);
+        for ix in 0..NX {
+            let lo = ix.saturating_sub(r);
+            let hi = (ix + r + 1).min(NX);
+            let cols = self.edges.get(lo..hi).unwrap_or(&[]).iter().fold(0u64, |acc, &e| acc | e);
+            let mut d = cols;
+            for k in 1..=r as u32 {
+                d |= cols.checked_shl(k).unwrap_or(0) | cols.checked_shr(k).unwrap_or(0);
+            }
+            if let Some(out) = self.dilated.get_mut(ix) {
+                *out = d & mask;
+            }
+        }
+    }
+
+    /// Step 5: two-pass labelling on runs. Pass 1 stores the runs column by column and unites each
+    /// run with the 8-connected runs of the previous column; pass 2 gives every root a cluster
+    /// number in run order (i.e. nearest column first). Returns `true` on table overflow.
+    fn label(&mut self) -> bool {
+        self.n_runs = 0;
+        self.n_clusters = 0;
+        let mut overflow = false;
+        let mut prev = 0..0;
+        'columns: for ix in 0..NX {
+            let mut bits = self.dilated.get(ix).copied().unwrap_or(0);
+            let start = self.n_runs;
+            while bits != 0 {
+                if self.n_runs >= RUN_CAPACITY {
+                    overflow = true;
+                    break 'columns;
+                }
+                let y0 = bits.trailing_zeros();
+                let len = (!(bits >> y0)).trailing_zeros(); // >= 1: bit y0 is set
+                let y1 = y0 + len.saturating_sub(1);
+                bits &= !span_mask(y0, len);
+                let idx = self.n_runs;
+                if let Some(run) = self.runs.get_mut(idx) {
+                    *run = Run { ix: ix as u16, y0: y0 as u8, y1: y1 as u8, cluster: NO_CLUSTER };
+                }
+                if let Some(pa) = self.parent.get_mut(idx) {
+                    *pa = idx as u16;
+                }
+                self.n_runs += 1;
+                for j in prev.clone() {
+                    let Some(a) = self.runs.get(j).copied() else { break };
+                    if u32::from(a.y0) > y1 + 1 {
+                        break;
+                    }
+                    if u32::from(a.y1) + 1 >= y0 {
+                        union(&mut self.parent, j, idx);
+                    }
+                }
+            }
+            prev = start..self.n_runs;
+        }
+
+        for i in 0..self.n_runs {
+            let root = find(&mut self.parent, i);
+            let cluster = if root == i {
+                if self.n_clusters < CLUSTER_CAPACITY {
+                    let c = self.n_clusters;
+                    self.n_clusters += 1;
+                    if let Some(info) = self.clusters.get_mut(c) {
+                        *info = ClusterInfo::EMPTY;
+                    }
+                    c as u16
+                } else {
+                    overflow = true;
+                    NO_CLUSTER
+                }
+            } else {
+                // The root is the smallest index of its set, so it already has its number.
+                self.runs.get(root).map_or(NO_CLUSTER, |r| r.cluster)
+            };
+            let mut len = 0;
+            if let Some(run) = self.runs.get_mut(i) {
+                run.cluster = cluster;
+                len = usize::from(run.y1.saturating_sub(run.y0)) + 1;
+            }
+            if let Some(info) = self.clusters.get_mut(usize::from(cluster)) {
+                info.cells += len;
+            }
+        }
+        overflow
+    }
+
+    /// The cluster owning dilated cell `(ix, iy)`, if any. Runs are sorted by `(ix, y0)` and, being
+    /// disjoint within a column, also by `(ix, y1)`.
+    fn cluster_at(&self, ix: usize, iy: usize) -> Option<usize> {
+        let runs = self.runs.get(..self.n_runs).unwrap_or(&[]);
+        let k = runs.partition_point(|r| (usize::from(r.ix), usize::from(r.y1)) < (ix, iy));
+        let r = runs.get(k)?;
+        (usize::from(r.ix) == ix && usize::from(r.y0) <= iy && r.cluster != NO_CLUSTER).then_some(usize::from(r.cluster))
+    }
+}
+
+fn bit(cols: &[u64], ix: usize, iy: usize) -> bool {
+    let b = cols.get(ix).copied().unwrap_or(0);
+    u32::try_from(iy).ok().and_then(|s| b.checked_shr(s)).is_some_and(|v| v & 1 == 1)
+}
+
+/// The low `ny` bits set.
+fn column_mask(ny: usize) -> u64 {
+    if ny >= 64 { u64::MAX } else { (1u64 << ny) - 1 }
+}
+
+/// `len` bits set starting at bit `y0` (`y0 + len <= 64`).
+fn span_mask(y0: u32, len: u32) -> u64 {
+    let ones = if len >= 64 { u64::MAX } else { (1u64 << len) - 1 };
+    ones.checked_shl(y0).unwrap_or(0)
+}
+
+/// Union-find root with path halving. Invariant: `parent[i] <= i`, so the loop terminates.
+fn find(parent: &mut [u16], mut i: usize) -> usize {
+    loop {
+        let Some(p) = parent.get(i).map(|&p| usize::from(p)) else { return i };
+        if p >= i {
+            return i;
+        }
+        let gp = parent.get(p).map_or(p, |&g| usize::from(g));
+        if let Some(slot) = parent.get_mut(i) {
+            *slot = gp as u16;
+        }
+        i = gp;
+    }
+}
+
+/// Unites the sets of `a` and `b`; the smaller root index becomes the root.
+fn union(parent: &mut [u16], a: usize, b: usize) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    let (root, child) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+    if root != child {
+        if let Some(slot) = parent.get_mut(child) {
+            *slot = root as u16;
+        }
+    }
+}
+
+/// Step 7. `curvature` is finite.
+fn judge(c: &ClusterInfo, p: &DetectorParams, curvature: f64) -> Option<RejectReason> {
+    let width = c.width();
+    if c.points < p.min_cluster_points {
+        Some(RejectReason::TooFewPoints)
+    } else if width < p.min_width {
+        Some(RejectReason::TooNarrow)
+    } else if width > p.max_width {
+        Some(RejectReason::TooWide)
+    } else if c.depth() > p.max_depth {
+        Some(RejectReason::TooDeep)
+    } else {
+        let path_y = 0.5 * curvature * c.x_min * c.x_min;
+        // Written so that a non-finite offset is rejected.
+        if libm::fabs(c.center_y() - path_y) <= p.path_half_width { None } else { Some(RejectReason::OffPath) }
+    }
+}
+
+/// Step 9 and the confidence.
+fn reproject(c: &ClusterInfo, p: &DetectorParams, g: &Geometry) -> Detection {
+    let (x, y) = match p.reprojection {
+        Reprojection::PointRefined => (c.x_min, c.center_y()),
+        Reprojection::CellCenter => (
+            g.x_lo + (f64::from(c.ix_min) + 0.5) * g.cell,
+            g.y_lo + 0.5 * (f64::from(c.iy_min) + f64::from(c.iy_max) + 1.0) * g.cell,
+        ),
+    };
+    let width = c.width();
+    let point_term = (c.points as f64 / (4.0 * p.min_cluster_points as f64)).min(1.0);
+    let w_ref = 0.5 * (p.min_width + p.max_width);
+    let w_half = 0.5 * (p.max_width - p.min_width);
+    let width_term = if w_half > 0.0 { 1.0 - 0.5 * (libm::fabs(width - w_ref) / w_half).min(1.0) } else { 1.0 };
+    Detection {
+        position: Point2::new(x, y),
+        distance: x,
+        width,
+        depth: c.depth(),
+        points: c.points,
+        confidence: (point_term * width_term).clamp(0.0, 1.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use proptest::prelude::*;
+    use std::vec::Vec;
+
+    /// Angular resolution of the simulated LiDAR, rad (0.2 deg).
+    const RES: f64 = 0.2 * core::f64::consts::PI / 180.0;
+
+    fn det() -> LeadDetector {
+        <LeadDetector>::new(DetectorParams::default()).unwrap()
+    }
+
+    /// A vehicle's rear face centred at `(d, yc)`, `width` wide, as seen by a LiDAR at the origin
+    /// with beams at multiples of 0.2 deg. The face bulges 0.1 m towards the sensor at its edges
+    /// (bumper corners) and carries a deterministic +-2 cm range noise; its nearest point is at
+    /// `d - 0.02` at worst.
+    fn rear_face(d: f64, yc: f64, width: f64) -> Vec<[f64; 2]> {
+        let a0 = libm::atan2(yc - 0.5 * width, d);
+        let a1 = libm::atan2(yc + 0.5 * width, d);
+        let mut k = libm::ceil(a0 / RES) as i64;
+        let mut pts = Vec::new();
+        while k as f64 * RES <= a1 {
+            let y = d * libm::tan(k as f64 * RES);
+            let u = (y - yc) / (0.5 * width);
+            let x = d + 0.1 * u * u + 0.02 * libm::sin(k as f64 * 12.9898);
+            pts.push([x, y]);
+            k += 1;
+        }
+        pts
+    }
+
+    /// A line of points at lateral offset `y` from `x0` to `x1`, every `step` m.
+    fn rail(y: f64, x0: f64, x1: f64, step: f64) -> Vec<[f64; 2]> {
+        let n = libm::floor((x1 - x0) / step) as usize;
+        (0..=n).map(|i| [x0 + i as f64 * step, y]).collect()
+    }
+
+    #[test]
+    fn status_names() {
+        assert_eq!(DetectorStatus::Ok.as_str(), "ok");
+        assert_eq!(DetectorStatus::EmptyScan.as_str(), "empty_scan");
+        assert_eq!(DetectorStatus::NonFinitePoints.as_str(), "non_finite_points");
+        assert_eq!(DetectorStatus::Truncated.as_str(), "truncated");
+        assert_eq!(DetectorStatus::TooManyClusters.as_str(), "too_many_clusters");
+        assert_eq!(DetectorStatus::InvalidCurvature.as_str(), "invalid_curvature");
+        assert_eq!(RejectReason::OffPath.as_str(), "off_path");
+    }
+
+    #[test]
+    fn memory_fits_in_64_kib() {
+        let size = core::mem::size_of::<LeadDetector>();
+        assert!(size <= 65536, "LeadDetector takes {size} bytes");
+        // The figure quoted in the docs (40.3 KiB on 64-bit targets).
+        #[cfg(target_pointer_width = "64")]
+        assert_eq!(size, 41256);
+    }
+
+    #[test]
+    fn default_grid_geometry() {
+        let d = det();
+        assert_eq!(LeadDetector::<350, 60>::grid_size(), (350, 60));
+        let (x0, x1) = d.x_range();
+        let (y0, y1) = d.y_range();
+        assert!((x0 - 0.5).abs() < 1e-12 && (x1 - 70.5).abs() < 1e-9);
+        assert!((y0 + 6.0).abs() < 1e-12 && (y1 - 6.0).abs() < 1e-9);
+        assert_eq!(d.cell_of(0.5, -6.0), Some((0, 0)));
+        assert_eq!(d.cell_of(0.49, 0.0), None);
+        assert_eq!(d.cell_of(70.6, 0.0), None);
+        assert_eq!(d.cell_of(10.0, 6.1), None);
+        let c = d.cell_center(0, 0);
+        assert!((c.x - 0.6).abs() < 1e-12 && (c.y + 5.9).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rear_face_distance_within_one_cell() {
+        for reprojection in [Reprojection::PointRefined, Reprojection::CellCenter] {
+            let mut d = <LeadDetector>::new(DetectorParams { reprojection, ..Default::default() }).unwrap();
+            for dist in [5.0, 20.0, 45.0, 65.0] {
+                let scan = rear_face(dist, 0.0, 1.9);
+                assert!(scan.len() >= 8, "{} points at {dist} m", scan.len());
+                let out = d.detect(&scan, 0.0);
+                assert_eq!(out.status, DetectorStatus::Ok);
+                let det = out.detection.unwrap_or_else(|| panic!("no detection at {dist} m ({reprojection:?})"));
+                assert!((det.distance - dist).abs() <= 0.2, "{reprojection:?} at {dist}: {}", det.distance);
+                assert_eq!(det.distance, det.position.x);
+                assert!(det.position.y.abs() <= 0.2, "{reprojection:?} at {dist}: y {}", det.position.y);
+                assert!(det.width > 1.6 && det.width <= 1.9, "width {}", det.width);
+                assert!(det.depth <= 0.2, "depth {}", det.depth);
+                assert_eq!(det.points, scan.len());
+                assert!(det.confidence > 0.5 && det.confidence <= 1.0);
+                if reprojection == Reprojection::PointRefined {
+                    // The raw rear face is within the simulated noise of the truth.
+                    assert!((det.distance - dist).abs() <= 0.021, "at {dist}: {}", det.distance);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn empty_scan() {
+        let mut d = det();
+        let out = d.detect(&[], 0.0);
+        assert_eq!(out.status, DetectorStatus::EmptyScan);
+        assert_eq!(out.detection, None);
+        assert_eq!((out.points_used, out.points_rejected, out.clusters), (0, 0, 0));
+        // Points only outside the grid are an empty scan as well.
+        let out = d.detect(&[[-3.0, 0.0], [100.0, 0.0], [10.0, 40.0]], 0.0);
+        assert_eq!(out.status, DetectorStatus::EmptyScan);
+        assert_eq!(out.detection, None);
+        assert!(d.clusters().is_empty());
+    }
+
+    #[test]
+    fn no_lead_is_ok() {
+        let mut d = det();
+        let out = d.detect(&rear_face(20.0, 5.0, 1.9), 0.0);
+        assert_eq!(out.status, DetectorStatus::Ok);
+        assert_eq!(out.detection, None);
+        assert_eq!(out.clusters, 1);
+    }
+
+    #[test]
+    fn non_finite_points_are_counted_and_dropped() {
+        let mut d = det();
+        let mut scan = rear_face(20.0, 0.0, 1.9);
+        let n = scan.len();
+        scan.insert(3, [f64::NAN, 0.0]);
+        scan.push([20.0, f64::INFINITY]);
+        scan.push([f64::NEG_INFINITY, f64::NAN]);
+        let out = d.detect(&scan, 0.0);
+        assert_eq!(out.status, DetectorStatus::NonFinitePoints);
+        assert_eq!(out.points_rejected, 3);
+        assert_eq!(out.points_used, n);
+        let det = out.detection.unwrap();
+        assert!((det.distance - 20.0).abs() <= 0.2);
+        assert_eq!(det.points, n);
+    }
+
+    #[test]
+    fn guard_rails_rejected_car_accepted() {
+        let mut d = det();
+        let mut scan = rear_face(30.0, 0.0, 1.9);
+        scan.extend(rail(5.0, 1.0, 70.0, 0.1));
+        scan.extend(rail(-5.0, 1.0, 70.0, 0.1));
+        let out = d.detect(&scan, 0.0);
+        let det = out.detection.unwrap();
+        assert!((det.distance - 30.0).abs() <= 0.2);
+        assert!(det.position.y.abs() <= 0.2);
+        assert_eq!(out.clusters, 3);
+        let rails: Vec<_> = d.clusters().iter().filter(|c| c.y_min.abs() > 4.0).collect();
+        assert_eq!(rails.len(), 2);
+        for r in rails {
+            assert_eq!(r.rejection, Some(RejectReason::TooNarrow));
+            assert!(!r.selected && r.depth() > 60.0);
+        }
+        let car: Vec<_> = d.clusters().iter().filter(|c| c.accepted()).collect();
+        assert_eq!(car.len(), 1);
+        assert!(car.first().unwrap().selected);
+        // A wall-like cluster (deep and wide enough) is rejected by depth.
+        let mut wall = rail(1.0, 10.0, 30.0, 0.1);
+        wall.extend(rail(-0.5, 10.0, 30.0, 0.1));
+        wall.extend((0..16).map(|i| [10.0, -0.5 + 0.1 * f64::from(i)]));
+        let out = d.detect(&wall, 0.0);
+        assert_eq!(out.detection, None);
+        assert_eq!(d.clusters().first().unwrap().rejection, Some(RejectReason::TooDeep));
+    }
+
+    #[test]
+    fn next_lane_car_needs_curved_path() {
+        let mut d = det();
+        let scan = rear_face(20.0, 3.7, 1.9);
+        let out = d.detect(&scan, 0.0);
+        assert_eq!(out.detection, None);
+        assert_eq!(d.clusters().first().unwrap().rejection, Some(RejectReason::OffPath));
+        // y_path(20) = 0.5 * k * 400 = 3.7 for k = 0.0185 1/m (a 54 m radius left curve).
+        let out = d.detect(&scan, 0.0185);
+        let det = out.detection.unwrap();
+        assert!((det.position.y - 3.7).abs() <= 0.2 && (det.distance - 20.0).abs() <= 0.2);
+        // Bending the other way does not help.
+        assert_eq!(d.detect(&scan, -0.0185).detection, None);
+    }
+
+    #[test]
+    fn invalid_curvature_treated_as_straight() {
+        let mut d = det();
+        for k in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let out = d.detect(&rear_face(20.0, 0.0, 1.9), k);
+            assert_eq!(out.status, DetectorStatus::InvalidCurvature);
+            assert!((out.detection.unwrap().distance - 20.0).abs() <= 0.2);
+            let out = d.detect(&rear_face(20.0, 3.7, 1.9), k);
+            assert_eq!(out.detection, None);
+        }
+    }
+
+    #[test]
+    fn pole_rejected() {
+        let mut d = det();
+        // A 15 cm pole on the path: several points but far too narrow.
+        let pole = rear_face(15.0, 0.0, 0.15);
+        assert!(pole.len() >= 3);
+        let out = d.detect(&pole, 0.0);
+        assert_eq!(out.detection, None);
+        assert_eq!(out.clusters, 1);
+        assert_eq!(d.clusters().first().unwrap().rejection, Some(RejectReason::TooNarrow));
+        // Two stray returns: too few points.
+        let out = d.detect(&[[15.0, 0.0], [15.05, 0.9]], 0.0);
+        assert_eq!(out.detection, None);
+        assert_eq!(d.clusters().first().unwrap().rejection, Some(RejectReason::TooFewPoints));
+        // A wide object (a 4 m barrier) is rejected too.
+        let out = d.detect(&rear_face(15.0, 0.0, 4.0), 0.0);
+        assert_eq!(out.detection, None);
+        assert_eq!(d.clusters().first().unwrap().rejection, Some(RejectReason::TooWide));
+    }
+
+    #[test]
+    fn partially_seen_car_accepted_if_wide_enough() {
+        let mut d = det();
+        let out = d.detect(&rear_face(12.0, 0.6, 1.0), 0.0);
+        let det = out.detection.unwrap();
+        assert!((det.distance - 12.0).abs() <= 0.2);
+        // Wider than nothing, narrower than a full car: lower confidence than a full rear face.
+        let full = d.detect(&rear_face(12.0, 0.0, 1.9), 0.0).detection.unwrap();
+        assert!(det.confidence < full.confidence);
+    }
+
+    #[test]
+    fn nearest_of_two_cars() {
+        let mut d = det();
+        let mut scan = rear_face(35.0, 0.3, 1.9);
+        scan.extend(rear_face(20.0, -0.4, 1.8));
+        let out = d.detect(&scan, 0.0);
+        assert_eq!(out.clusters, 2);
+        let det = out.detection.unwrap();
+        assert!((det.distance - 20.0).abs() <= 0.2);
+        assert_eq!(d.clusters().iter().filter(|c| c.accepted()).count(), 2);
+        assert_eq!(d.clusters().iter().filter(|c| c.selected).count(), 1);
+        // The nearer one in the next lane does not count.
+        let mut scan = rear_face(35.0, 0.3, 1.9);
+        scan.extend(rear_face(20.0, -3.7, 1.8));
+        let det = d.detect(&scan, 0.0).detection.unwrap();
+        assert!((det.distance - 35.0).abs() <= 0.2);
+    }
+
+    #[test]
+    fn oversized_scan_truncated() {
+        let p = DetectorParams { max_points: 200, ..Default::default() };
+        let mut d = <LeadDetector>::new(p).unwrap();
+        let mut scan = rear_face(20.0, 0.0, 1.9);
+        let n = scan.len();
+        assert!(n < 200);
+        scan.resize(200, [-1.0, 0.0]); // outside the grid
+        scan.extend(core::iter::repeat_n([f64::NAN, 0.0], 50));
+        scan.extend(rear_face(10.0, 0.0, 1.9));
+        let out = d.detect(&scan, 0.0);
+        assert_eq!(out.status, DetectorStatus::Truncated);
+        assert_eq!(out.points_used, n);
+        assert_eq!(out.points_rejected, 0);
+        // The nearer car lies beyond max_points and is not seen.
+        assert!((out.detection.unwrap().distance - 20.0).abs() <= 0.2);
+    }
+
+    #[test]
+    fn too_many_clusters_keeps_the_nearest() {
+        let mut d = det();
+        let mut scan = rear_face(5.0, 0.0, 1.9);
+        // Isolated single points every 4 cells from x ~ 10 m: ~1300 clusters, ~3900 runs.
+        for ix in (48..350).step_by(4) {
+            for iy in (0..60).step_by(4) {
+                let c = d.cell_center(ix, iy);
+                scan.push([c.x, c.y]);
+            }
+        }
+        let out = d.detect(&scan, 0.0);
+        assert_eq!(out.status, DetectorStatus::TooManyClusters);
+        assert_eq!(out.clusters, CLUSTER_CAPACITY);
+        let det = out.detection.unwrap();
+        assert!((det.distance - 5.0).abs() <= 0.2);
+        assert!(d.clusters().first().unwrap().selected);
+        assert!(d.clusters().iter().skip(1).all(|c| c.rejection == Some(RejectReason::TooFewPoints)));
+    }
+
+    #[test]
+    fn grid_maps_follow_the_paper_steps() {
+        let mut d = det();
+        // A solid 5 x 5 block of occupied cells: 16 edge cells, 9 interior ones.
+        let mut scan = Vec::new();
+        for ix in 100..105 {
+            for iy in 20..25 {
+                let c = d.cell_center(ix, iy);
+                scan.push([c.x, c.y]);
+            }
+        }
+        d.detect(&scan, 0.0);
+        let count = |f: &dyn Fn(usize, usize) -> bool| (0..350).flat_map(|ix| (0..60).map(move |iy| (ix, iy))).filter(|&(ix, iy)| f(ix, iy)).count();
+        assert_eq!(count(&|ix, iy| d.is_occupied(ix, iy)), 25);
+        assert_eq!(count(&|ix, iy| d.is_edge(ix, iy)), 16);
+        assert!(!d.is_edge(102, 22) && d.is_edge(100, 22) && d.is_edge(102, 24));
+        // Radius-1 dilation of the ring covers the 7 x 7 square except the centre, which is two
+        // cells from every edge cell.
+        assert_eq!(count(&|ix, iy| d.is_dilated(ix, iy)), 48);
+        assert!(d.is_dilated(99, 19) && d.is_dilated(105, 25) && !d.is_dilated(106, 22));
+        assert!(d.is_dilated(101, 22) && !d.is_dilated(102, 22));
+        assert_eq!(d.clusters().len(), 1);
+        assert_eq!(d.clusters().first().unwrap().cells, 48);
+        // The point in the undilated centre cell belongs to no cluster (documented limitation).
+        assert_eq!(d.clusters().first().unwrap().points, 24);
+        // Cells on the grid border count their outside neighbour as free.
+        let c = d.cell_center(0, 0);
+        let c2 = d.cell_center(1, 0);
+        d.detect(&[[c.x, c.y], [c2.x, c2.y]], 0.0);
+        assert!(d.is_edge(0, 0) && d.is_edge(1, 0));
+        assert!(!d.is_occupied(350, 0) && !d.is_occupied(0, 60));
+    }
+
+    #[test]
+    fn dilation_bridges_sparse_far_returns() {
+        // At 65 m the 0.2 deg beams are 0.227 m apart, more than a cell: without dilation the rear
+        // face breaks into single-cell clusters, each too narrow.
+        let scan = rear_face(65.0, 0.0, 1.9);
+        let mut no_dil = <LeadDetector>::new(DetectorParams { dilation_radius: 0, ..Default::default() }).unwrap();
+        let out = no_dil.detect(&scan, 0.0);
+        assert!(out.clusters > 1);
+        // At best a fragment survives the width check.
+        assert!(out.detection.is_none_or(|det| det.points < scan.len() && det.width < 1.5));
+        let out = det().detect(&scan, 0.0);
+        assert_eq!(out.clusters, 1);
+        let det = out.detection.unwrap();
+        assert_eq!(det.points, scan.len());
+        assert!(det.width > 1.6);
+    }
+
+    #[test]
+    fn invalid_params_name_the_field() {
+        let d = DetectorParams::default();
+        let cases: [(DetectorParams, &str); 12] = [
+            (DetectorParams { cell_size: 0.0, ..d }, "cell_size"),
+            (DetectorParams { cell_size: f64::NAN, ..d }, "cell_size"),
+            (DetectorParams { x_min: -1.0, ..d }, "x_min"),
+            (DetectorParams { dilation_radius: 9, ..d }, "dilation_radius"),
+            (DetectorParams { min_cluster_points: 0, ..d }, "min_cluster_points"),
+            (DetectorParams { min_width: f64::INFINITY, ..d }, "min_width"),
+            (DetectorParams { max_width: f64::NAN, ..d }, "max_width"),
+            (DetectorParams { min_width: 2.0, max_width: 1.0, ..d }, "max_width"),
+            (DetectorParams { max_depth: -0.1, ..d }, "max_depth"),
+            (DetectorParams { path_half_width: 0.0, ..d }, "path_half_width"),
+            (DetectorParams { max_points: 0, ..d }, "max_points"),
+            (DetectorParams { max_points: 2_000_000, ..d }, "max_points"),
+        ];
+        for (p, field) in cases {
+            assert_eq!(p.validate().unwrap_err().field, field);
+            assert_eq!(<LeadDetector>::new(p).unwrap_err().field, field);
+        }
+        assert!(d.validate().is_ok());
+    }
+
+    #[test]
+    fn small_grid_compiles_and_works() {
+        let mut d = LeadDetector::<100, 64>::new(DetectorParams::default()).unwrap();
+        let out = d.detect(&rear_face(12.0, 0.0, 1.9), 0.0);
+        assert!((out.detection.unwrap().distance - 12.0).abs() <= 0.2);
+        assert!(d.y_range().1 > 6.3);
+    }
+
+    /// A car somewhere ahead, clutter, a few NaNs and signed zeros.
+    fn scene() -> impl Strategy<Value = Vec<[f64; 2]>> {
+        (
+            3.0f64..68.0,
+            -2.5f64..2.5,
+            0.5f64..2.8,
+            proptest::collection::vec((-2.0f64..75.0, -7.0f64..7.0), 0..150),
+            0usize..4,
+        )
+            .prop_map(|(dist, yc, w, clutter, nans)| {
+                let mut pts = rear_face(dist, yc, w);
+                pts.extend(clutter.into_iter().map(|(x, y)| [x, y]));
+                pts.extend(core::iter::repeat_n([f64::NAN, 1.0], nans));
+                pts.push([10.0, 0.0]);
+                pts.push([10.05, -0.0]);
+                pts
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn output_independent_of_point_order(
+            (pts, shuffled) in scene().prop_flat_map(|pts| (Just(pts.clone()), Just(pts).prop_shuffle())),
+            curvature in -0.03f64..0.03,
+            refined in any::<bool>(),
+        ) {
+            let reprojection = if refined { Reprojection::PointRefined } else { Reprojection::CellCenter };
+            let p = DetectorParams { reprojection, ..Default::default() };
+            let mut a = <LeadDetector>::new(p).unwrap();
+            let mut b = <LeadDetector>::new(p).unwrap();
+            let out_a = a.detect(&pts, curvature);
+            let out_b = b.detect(&shuffled, curvature);
+            prop_assert_eq!(out_a, out_b);
+            prop_assert_eq!(a.clusters(), b.clusters());
+            // Bit-identical, not just equal.
+            if let (Some(x), Some(y)) = (out_a.detection, out_b.detection) {
+                prop_assert_eq!(x.distance.to_bits(), y.distance.to_bits());
+                prop_assert_eq!(x.position.y.to_bits(), y.position.y.to_bits());
+            }
+        }
+
+        #[test]
+        fn arbitrary_points_never_panic(
+            pts in proptest::collection::vec(
+                (prop_oneof![proptest::num::f64::ANY, -5.0f64..80.0, Just(f64::NAN)],
+                 prop_oneof![proptest::num::f64::ANY, -8.0f64..8.0]), 0..600),
+            curvature in prop_oneof![proptest::num::f64::ANY, -0.05f64..0.05],
+            refined in any::<bool>(),
+            max_points in 1usize..700,
+            car in proptest::option::of((3.0f64..68.0, -2.0f64..2.0)),
+        ) {
+            let reprojection = if refined { Reprojection::PointRefined } else { Reprojection::CellCenter };
+            let p = DetectorParams { reprojection, max_points, ..Default::default() };
+            let mut d = <LeadDetector>::new(p).unwrap();
+            // An optional car first, so that detections (not only rejections) are exercised.
+            let mut scan: Vec<[f64; 2]> = car.map_or_else(Vec::new, |(dist, yc)| rear_face(dist, yc, 1.9));
+            scan.extend(pts.into_iter().map(|(x, y)| [x, y]));
+            let out = d.detect(&scan, curvature);
+            prop_assert!(out.points_used + out.points_rejected <= scan.len().min(max_points));
+            prop_assert!(out.clusters <= CLUSTER_CAPACITY && out.clusters == d.clusters().len());
+            if !curvature.is_finite() {
+                prop_assert_eq!(out.status, DetectorStatus::InvalidCurvature);
+            }
+            if out.points_used == 0 {
+                prop_assert_eq!(out.detection, None);
+            }
+            let (x0, x1) = d.x_range();
+            let (y0, y1) = d.y_range();
+            for c in d.clusters() {
+                prop_assert!(c.x_min.is_finite() && c.x_max.is_finite() && c.y_min.is_finite() && c.y_max.is_finite());
+            }
+            prop_assert!(d.clusters().iter().filter(|c| c.selected).count() == usize::from(out.detection.is_some()));
+            if let Some(det) = out.detection {
+                prop_assert!(det.position.x.is_finite() && det.position.y.is_finite());
+                prop_assert!(det.distance.is_finite() && det.width.is_finite() && det.depth.is_finite());
+                prop_assert!(det.position.x >= x0 && det.position.x <= x1 + 1e-9);
+                prop_assert!(det.position.y >= y0 - 1e-9 && det.position.y <= y1 + 1e-9);
+                prop_assert_eq!(det.distance, det.position.x);
+                prop_assert!(det.width >= p.min_width && det.width <= p.max_width);
+                prop_assert!(det.depth >= 0.0 && det.depth <= p.max_depth);
+                prop_assert!(det.points >= p.min_cluster_points && det.points <= out.points_used);
+                prop_assert!((0.0..=1.0).contains(&det.confidence));
+            }
+        }
+    }
+}
