@@ -48,3 +48,4 @@ pub use params::ParamError;
 pub use pid::{GainSet, PidController, PidGains, PidParams, PidTerms};
 pub use pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};
 pub use supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
+pub use nalgebra::Point2;

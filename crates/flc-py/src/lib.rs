@@ -1,1 +1,287 @@
-//! Python bindings for flc (work in progress; see issue 5).
+//! `flc._flc`: thin pyo3 bindings over `flc-core` and `flc-sim`. The typed, documented Python API
+//! is the `flc` package (`python/flc`); this module is private to it.
+//!
+//! Parameters cross the boundary as JSON text (the Python facade builds it from keyword
+//! arguments), so that the Rust `serde` definitions stay the single source of truth for names,
+//! defaults and validation.
+
+use numpy::{PyArray1, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde::de::DeserializeOwned;
+
+mod sim;
+
+create_exception!(_flc, FlcError, PyException, "Base class of every error raised by flc.");
+create_exception!(_flc, ParameterError, FlcError, "A parameter is out of range, of the wrong type or unknown; the message names it.");
+create_exception!(_flc, ScenarioError, FlcError, "A scenario is malformed or out of range; the message names the key.");
+create_exception!(_flc, SimulationError, FlcError, "A run failed.");
+
+/// Deserialises parameters from JSON; errors name the dotted key.
+pub(crate) fn from_json<T: DeserializeOwned>(json: &str, what: &str) -> PyResult<T> {
+    let de = &mut serde_json::Deserializer::from_str(json);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        if path.is_empty() || path == "." {
+            ParameterError::new_err(format!("{what}: {inner}"))
+        } else {
+            ParameterError::new_err(format!("{what}: `{path}`: {inner}"))
+        }
+    })
+}
+
+pub(crate) fn to_json<T: serde::Serialize>(v: &T) -> PyResult<String> {
+    serde_json::to_string(v).map_err(|e| FlcError::new_err(e.to_string()))
+}
+
+fn param_err(what: &str, e: flc_core::ParamError) -> PyErr {
+    ParameterError::new_err(format!("{what}: invalid parameter `{}`: {}", e.field, e.problem))
+}
+
+fn command_tuple(c: flc_core::LongitudinalCommand) -> (f64, f64, &'static str) {
+    (c.speed, c.accel, c.status.as_str())
+}
+
+/// The paper's default parameters of a component as JSON (`flc`, `pid`, `pure_pursuit`,
+/// `detector`, `supervisor`).
+#[pyfunction]
+fn default_params(kind: &str) -> PyResult<String> {
+    match kind {
+        "flc" => to_json(&flc_core::FlcParams::paper()),
+        "pid" => to_json(&flc_core::PidParams::paper()),
+        "pure_pursuit" => to_json(&flc_core::PurePursuitParams::default()),
+        "detector" => to_json(&flc_core::DetectorParams::default()),
+        "supervisor" => to_json(&flc_core::SupervisorParams::default()),
+        other => Err(ParameterError::new_err(format!("unknown component `{other}`"))),
+    }
+}
+
+/// The FLC of Eqs. (2)-(5).
+#[pyclass(module = "flc._flc")]
+struct FallbackController {
+    inner: flc_core::FallbackController,
+}
+
+#[pymethods]
+impl FallbackController {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::FlcParams = from_json(params_json, "FallbackController")?;
+        Ok(Self { inner: flc_core::FallbackController::new(p).map_err(|e| param_err("FallbackController", e))? })
+    }
+
+    /// `(speed_command, accel, status)`.
+    fn step(&mut self, distance: Option<f64>, own_speed: f64) -> (f64, f64, &'static str) {
+        command_tuple(self.inner.step(distance, own_speed))
+    }
+
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+
+    fn terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = self.inner.terms();
+        let d = PyDict::new(py);
+        d.set_item("tau_d", t.tau_d)?;
+        d.set_item("d_d", t.d_d)?;
+        d.set_item("scale_f", t.scale_f)?;
+        d.set_item("f_shift", t.f_shift)?;
+        d.set_item("delta_d", t.delta_d)?;
+        d.set_item("dist_s_raw", t.dist_s_raw)?;
+        d.set_item("dist_s", t.dist_s)?;
+        d.set_item("braking_branch", t.braking_branch)?;
+        d.set_item("overridden", t.overridden)?;
+        d.set_item("a_law", t.a_law)?;
+        d.set_item("a", t.a)?;
+        Ok(d)
+    }
+
+    fn params_json(&self) -> PyResult<String> {
+        to_json(self.inner.params())
+    }
+}
+
+/// The PID gap controller.
+#[pyclass(module = "flc._flc")]
+struct PidController {
+    inner: flc_core::PidController,
+}
+
+#[pymethods]
+impl PidController {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::PidParams = from_json(params_json, "PidController")?;
+        Ok(Self { inner: flc_core::PidController::new(p).map_err(|e| param_err("PidController", e))? })
+    }
+
+    /// `(speed_command, u, status)`.
+    fn step(&mut self, lead_speed: f64, own_speed: f64, distance: Option<f64>, dt: f64) -> (f64, f64, &'static str) {
+        command_tuple(self.inner.step(lead_speed, own_speed, distance, dt))
+    }
+
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+
+    /// `(desired, error, error_rate, integral, gains, u)`.
+    fn terms(&self) -> (f64, f64, f64, f64, &'static str, f64) {
+        let t = self.inner.terms();
+        let g = match t.gains {
+            flc_core::GainSet::Far => "far",
+            flc_core::GainSet::Near => "near",
+        };
+        (t.desired, t.error, t.error_rate, t.integral, g, t.u)
+    }
+
+    fn params_json(&self) -> PyResult<String> {
+        to_json(self.inner.params())
+    }
+}
+
+/// Pure pursuit, Eq. (1).
+#[pyclass(module = "flc._flc")]
+struct PurePursuit {
+    inner: flc_core::PurePursuit,
+}
+
+#[pymethods]
+impl PurePursuit {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::PurePursuitParams = from_json(params_json, "PurePursuit")?;
+        Ok(Self { inner: flc_core::PurePursuit::new(p).map_err(|e| param_err("PurePursuit", e))? })
+    }
+
+    /// `(steer, lookahead, alpha, (x, y) of the lookahead point, status)`.
+    fn step(&self, lead: Option<(f64, f64)>, own_speed: f64) -> (f64, f64, f64, (f64, f64), &'static str) {
+        let c = self.inner.step(lead.map(|(x, y)| nalgebra_point(x, y)), own_speed);
+        (c.steer, c.lookahead, c.alpha, (c.lookahead_point.x, c.lookahead_point.y), c.status.as_str())
+    }
+
+    fn params_json(&self) -> PyResult<String> {
+        to_json(self.inner.params())
+    }
+}
+
+fn nalgebra_point(x: f64, y: f64) -> flc_core::Point2<f64> {
+    flc_core::Point2::new(x, y)
+}
+
+/// The parallel longitudinal controller.
+#[pyclass(module = "flc._flc")]
+struct Supervisor {
+    inner: flc_core::Supervisor,
+}
+
+#[pymethods]
+impl Supervisor {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::SupervisorParams = from_json(params_json, "Supervisor")?;
+        Ok(Self { inner: flc_core::Supervisor::new(p).map_err(|e| param_err("Supervisor", e))? })
+    }
+
+    /// One tick; returns a dict with the command, the active controller and why.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        v2v: Option<(f64, u32)>,
+        distance: Option<f64>,
+        own_speed: f64,
+        dt: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage { lead_speed, seq });
+        let o = self.inner.step(msg, distance, own_speed, dt);
+        let d = PyDict::new(py);
+        d.set_item("speed", o.command.speed)?;
+        d.set_item("accel", o.command.accel)?;
+        d.set_item("status", o.command.status.as_str())?;
+        d.set_item("active", o.active.as_str())?;
+        d.set_item("reason", o.reason.as_str())?;
+        d.set_item("switched", o.switched)?;
+        d.set_item("v2v_age_ticks", if o.v2v_age_ticks == u32::MAX { None } else { Some(o.v2v_age_ticks) })?;
+        d.set_item("fresh_count", o.fresh_count)?;
+        d.set_item("flc_speed", o.flc.speed)?;
+        d.set_item("pid_speed", o.pid.speed)?;
+        Ok(d)
+    }
+
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+}
+
+/// The LiDAR lead detector (default 350 x 60 grid).
+#[pyclass(module = "flc._flc")]
+struct LeadDetector {
+    inner: Box<flc_core::LeadDetector>,
+}
+
+#[pymethods]
+impl LeadDetector {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::DetectorParams = from_json(params_json, "LeadDetector")?;
+        let d = <flc_core::LeadDetector>::new(p).map_err(|e| param_err("LeadDetector", e))?;
+        Ok(Self { inner: Box::new(d) })
+    }
+
+    /// Detects the lead in an (N, 2) array of points (sensor frame, m). Returns a dict.
+    fn detect<'py>(&mut self, py: Python<'py>, points: PyReadonlyArray2<'py, f64>, path_curvature: f64) -> PyResult<Bound<'py, PyDict>> {
+        let view = points.as_array();
+        if view.ncols() != 2 {
+            return Err(ParameterError::new_err(format!("points: expected shape (N, 2), got {:?}", view.shape())));
+        }
+        let pts: Vec<[f64; 2]> = view.rows().into_iter().map(|r| [r[0], r[1]]).collect();
+        let out = self.inner.detect(&pts, path_curvature);
+        let d = PyDict::new(py);
+        d.set_item("status", out.status.as_str())?;
+        d.set_item("points_used", out.points_used)?;
+        d.set_item("points_rejected", out.points_rejected)?;
+        d.set_item("clusters", out.clusters)?;
+        match out.detection {
+            Some(det) => {
+                let det_d = PyDict::new(py);
+                det_d.set_item("x", det.position.x)?;
+                det_d.set_item("y", det.position.y)?;
+                det_d.set_item("distance", det.distance)?;
+                det_d.set_item("width", det.width)?;
+                det_d.set_item("depth", det.depth)?;
+                det_d.set_item("points", det.points)?;
+                det_d.set_item("confidence", det.confidence)?;
+                d.set_item("detection", det_d)?;
+            }
+            None => d.set_item("detection", py.None())?,
+        }
+        let boxes: Vec<(f64, f64, f64, f64, usize, bool)> =
+            self.inner.clusters().iter().map(|c| (c.x_min, c.x_max, c.y_min, c.y_max, c.points, c.accepted())).collect();
+        d.set_item("cluster_boxes", boxes)?;
+        Ok(d)
+    }
+}
+
+/// Helper so the facade can build NumPy arrays without copying twice.
+pub(crate) fn array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_vec(py, v)
+}
+
+#[pymodule]
+fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("FlcError", py.get_type::<FlcError>())?;
+    m.add("ParameterError", py.get_type::<ParameterError>())?;
+    m.add("ScenarioError", py.get_type::<ScenarioError>())?;
+    m.add("SimulationError", py.get_type::<SimulationError>())?;
+    m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add_class::<FallbackController>()?;
+    m.add_class::<PidController>()?;
+    m.add_class::<PurePursuit>()?;
+    m.add_class::<Supervisor>()?;
+    m.add_class::<LeadDetector>()?;
+    sim::register(m)?;
+    Ok(())
+}

@@ -5,3 +5,5 @@
 pub mod error;
 
 pub use error::{ConfigError, SimError};
+pub mod v2v;
+pub mod metrics;

@@ -1,0 +1,96 @@
+//! Bindings of the simulator: scenarios as JSON, `run` and `sweep` with the GIL released.
+
+use std::path::PathBuf;
+
+use flc_sim::scenario::{Calibration, ControllerKind, Scenario};
+use flc_sim::{RunResult, SimError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+
+use crate::{ScenarioError, SimulationError, array, from_json, to_json};
+
+fn scenario_err(e: SimError) -> PyErr {
+    match e {
+        SimError::Config(_) | SimError::File { .. } | SimError::Param(_) => ScenarioError::new_err(e.to_string()),
+        other => SimulationError::new_err(other.to_string()),
+    }
+}
+
+fn parse_scenario(json: &str) -> PyResult<Scenario> {
+    let s: Scenario = from_json(json, "scenario").map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    s.validate().map_err(|e| ScenarioError::new_err(format!("scenario: {e}")))?;
+    Ok(s)
+}
+
+/// The paper experiment as scenario JSON.
+#[pyfunction]
+fn paper_scenario(speed_kmh: f64, controller: &str, preset: &str) -> PyResult<String> {
+    if !(speed_kmh.is_finite() && speed_kmh > 0.0 && speed_kmh <= 250.0) {
+        return Err(ScenarioError::new_err(format!("`speed_kmh`: must be in (0, 250] km/h, got {speed_kmh}")));
+    }
+    let c = ControllerKind::parse(controller).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let p = match preset {
+        "realistic" => Calibration::Realistic,
+        "paper" => Calibration::Paper,
+        other => return Err(ScenarioError::new_err(format!("`preset`: must be realistic or paper, got `{other}`"))),
+    };
+    to_json(&Scenario::paper_experiment(speed_kmh, c, p))
+}
+
+/// Reads a TOML scenario file and returns it as JSON.
+#[pyfunction]
+fn load_scenario(path: PathBuf) -> PyResult<String> {
+    to_json(&Scenario::from_file(&path).map_err(scenario_err)?)
+}
+
+/// Validates scenario JSON (defaults filled in) and returns the normalised JSON.
+#[pyfunction]
+fn check_scenario(json: &str) -> PyResult<String> {
+    to_json(&parse_scenario(json)?)
+}
+
+fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<(String, Bound<'py, PyDict>)> {
+    let metrics = to_json(&r.metrics)?;
+    let d = PyDict::new(py);
+    for (name, col) in r.series.columns() {
+        d.set_item(name, array(py, col))?;
+    }
+    Ok((metrics, d))
+}
+
+/// Runs one scenario (GIL released). Returns `(metrics_json, {column: ndarray})`.
+#[pyfunction]
+#[pyo3(signature = (scenario_json, record=None))]
+fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<(String, Bound<'py, PyDict>)> {
+    let s = parse_scenario(scenario_json)?;
+    let r = py.detach(|| flc_sim::run_with(&s, record.as_deref())).map_err(scenario_err)?;
+    result_to_py(py, r)
+}
+
+/// Runs many scenarios in parallel in Rust (GIL released); results in input order.
+#[pyfunction]
+#[pyo3(signature = (scenarios_json, threads=None))]
+fn sweep<'py>(py: Python<'py>, scenarios_json: Vec<String>, threads: Option<usize>) -> PyResult<Vec<(String, Bound<'py, PyDict>)>> {
+    let scenarios = scenarios_json.iter().map(|j| parse_scenario(j)).collect::<PyResult<Vec<_>>>()?;
+    let results: Vec<Result<RunResult, SimError>> = py.detach(|| {
+        let go = || scenarios.par_iter().map(flc_sim::run).collect::<Vec<_>>();
+        match threads {
+            Some(n) if n > 0 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
+                Ok(pool) => pool.install(go),
+                Err(_) => go(),
+            },
+            _ => go(),
+        }
+    });
+    results.into_iter().map(|r| result_to_py(py, r.map_err(scenario_err)?)).collect()
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(check_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    Ok(())
+}

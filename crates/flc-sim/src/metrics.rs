@@ -1,0 +1,731 @@
+//! Per-run metrics computed from the per-step time series.
+//!
+//! The closed loop pushes one [`StepRecord`] per physics step into a [`Series`]; at the end
+//! [`Metrics::compute`] turns the series (plus the collision reported by the physics engine) into
+//! the numbers of the results table. Every metric is defined precisely, with units and formula, in
+//! `docs/v2v-and-metrics.md`. The computation never panics: empty series, NaN samples and columns
+//! of unequal length (if edited by hand) are all handled.
+
+use flc_core::ActiveController;
+use serde::{Deserialize, Serialize};
+
+/// Code of the FLC in the `active` column (`flc_core::ActiveController::Flc as u8` = 0).
+pub const ACTIVE_FLC: u8 = ActiveController::Flc as u8;
+/// Code of the PID in the `active` column (`flc_core::ActiveController::Pid as u8` = 1).
+pub const ACTIVE_PID: u8 = ActiveController::Pid as u8;
+
+/// Tolerance on time comparisons, s.
+const TIME_EPS: f64 = 1e-9;
+
+/// One physics step as recorded by the closed loop (state *after* the step). SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct StepRecord {
+    /// Simulation time, s.
+    pub t: f64,
+    /// Lead position x, m (world frame).
+    pub lead_x: f64,
+    /// Lead position y, m.
+    pub lead_y: f64,
+    /// Lead speed, m/s.
+    pub lead_speed: f64,
+    /// Lead longitudinal acceleration, m/s².
+    pub lead_accel: f64,
+    /// Follower position x, m.
+    pub follower_x: f64,
+    /// Follower position y, m.
+    pub follower_y: f64,
+    /// Follower yaw, rad.
+    pub follower_yaw: f64,
+    /// Follower speed, m/s.
+    pub follower_speed: f64,
+    /// Follower longitudinal acceleration, m/s².
+    pub follower_accel: f64,
+    /// Bumper-to-bumper distance (ground truth), m; negative when overlapping.
+    pub gap: f64,
+    /// Desired gap at this step, m (for `gap_error_rms`; NaN if not defined).
+    pub desired_gap: f64,
+    /// Distance reported by the detector, m (NaN if nothing detected).
+    pub detected_distance: f64,
+    /// Speed command of the longitudinal controller, m/s.
+    pub speed_command: f64,
+    /// Acceleration command of the low-level speed controller, m/s².
+    pub accel_command: f64,
+    /// Steering command, rad.
+    pub steer_command: f64,
+    /// Active longitudinal controller: [`ACTIVE_FLC`] (0) or [`ACTIVE_PID`] (1).
+    pub active: u8,
+    /// Supervisor switch reason, `flc_core::SwitchReason as u8`.
+    pub reason: u8,
+    /// Control ticks since the last accepted V2V message (NaN if none yet).
+    pub v2v_age: f64,
+    /// Signed lateral offset of the follower from the lane centreline, m (+ left).
+    pub lateral_offset: f64,
+    /// Follower heading minus centreline heading, wrapped to (-pi, pi], rad.
+    pub heading_error: f64,
+}
+
+/// The per-step time series of a run, one column per [`StepRecord`] field.
+///
+/// [`Series::push`] keeps the columns equally long; if columns are edited by hand, the metrics use
+/// the shortest one's length.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[allow(missing_docs)] // the columns are documented on `StepRecord` and in `Series::COLUMNS`
+pub struct Series {
+    pub t: Vec<f64>,
+    pub lead_x: Vec<f64>,
+    pub lead_y: Vec<f64>,
+    pub lead_speed: Vec<f64>,
+    pub lead_accel: Vec<f64>,
+    pub follower_x: Vec<f64>,
+    pub follower_y: Vec<f64>,
+    pub follower_yaw: Vec<f64>,
+    pub follower_speed: Vec<f64>,
+    pub follower_accel: Vec<f64>,
+    pub gap: Vec<f64>,
+    pub desired_gap: Vec<f64>,
+    pub detected_distance: Vec<f64>,
+    pub speed_command: Vec<f64>,
+    pub accel_command: Vec<f64>,
+    pub steer_command: Vec<f64>,
+    pub active: Vec<u8>,
+    pub reason: Vec<u8>,
+    pub v2v_age: Vec<f64>,
+    pub lateral_offset: Vec<f64>,
+    pub heading_error: Vec<f64>,
+}
+
+impl Series {
+    /// Column names (as in [`Series::columns`], CSV headers and Python) with their units.
+    pub const COLUMNS: [(&'static str, &'static str); 21] = [
+        ("t", "s"),
+        ("lead_x", "m"),
+        ("lead_y", "m"),
+        ("lead_speed", "m/s"),
+        ("lead_accel", "m/s^2"),
+        ("follower_x", "m"),
+        ("follower_y", "m"),
+        ("follower_yaw", "rad"),
+        ("follower_speed", "m/s"),
+        ("follower_accel", "m/s^2"),
+        ("gap", "m"),
+        ("desired_gap", "m"),
+        ("detected_distance", "m"),
+        ("speed_command", "m/s"),
+        ("accel_command", "m/s^2"),
+        ("steer_command", "rad"),
+        ("active", "code"),
+        ("reason", "code"),
+        ("v2v_age", "ticks"),
+        ("lateral_offset", "m"),
+        ("heading_error", "rad"),
+    ];
+
+    /// An empty series with room for `n` steps.
+    pub fn with_capacity(n: usize) -> Self {
+        let v = || Vec::with_capacity(n);
+        Self {
+            t: v(),
+            lead_x: v(),
+            lead_y: v(),
+            lead_speed: v(),
+            lead_accel: v(),
+            follower_x: v(),
+            follower_y: v(),
+            follower_yaw: v(),
+            follower_speed: v(),
+            follower_accel: v(),
+            gap: v(),
+            desired_gap: v(),
+            detected_distance: v(),
+            speed_command: v(),
+            accel_command: v(),
+            steer_command: v(),
+            active: Vec::with_capacity(n),
+            reason: Vec::with_capacity(n),
+            v2v_age: v(),
+            lateral_offset: v(),
+            heading_error: v(),
+        }
+    }
+
+    /// Appends one step.
+    pub fn push(&mut self, r: StepRecord) {
+        self.t.push(r.t);
+        self.lead_x.push(r.lead_x);
+        self.lead_y.push(r.lead_y);
+        self.lead_speed.push(r.lead_speed);
+        self.lead_accel.push(r.lead_accel);
+        self.follower_x.push(r.follower_x);
+        self.follower_y.push(r.follower_y);
+        self.follower_yaw.push(r.follower_yaw);
+        self.follower_speed.push(r.follower_speed);
+        self.follower_accel.push(r.follower_accel);
+        self.gap.push(r.gap);
+        self.desired_gap.push(r.desired_gap);
+        self.detected_distance.push(r.detected_distance);
+        self.speed_command.push(r.speed_command);
+        self.accel_command.push(r.accel_command);
+        self.steer_command.push(r.steer_command);
+        self.active.push(r.active);
+        self.reason.push(r.reason);
+        self.v2v_age.push(r.v2v_age);
+        self.lateral_offset.push(r.lateral_offset);
+        self.heading_error.push(r.heading_error);
+    }
+
+    /// Number of complete steps (the shortest column's length).
+    pub fn len(&self) -> usize {
+        self.float_columns().iter().map(|c| c.len()).chain([self.active.len(), self.reason.len()]).min().unwrap_or(0)
+    }
+
+    /// `true` if no step was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Step `i`, if recorded.
+    pub fn get(&self, i: usize) -> Option<StepRecord> {
+        if i >= self.len() {
+            return None;
+        }
+        Some(StepRecord {
+            t: self.t[i],
+            lead_x: self.lead_x[i],
+            lead_y: self.lead_y[i],
+            lead_speed: self.lead_speed[i],
+            lead_accel: self.lead_accel[i],
+            follower_x: self.follower_x[i],
+            follower_y: self.follower_y[i],
+            follower_yaw: self.follower_yaw[i],
+            follower_speed: self.follower_speed[i],
+            follower_accel: self.follower_accel[i],
+            gap: self.gap[i],
+            desired_gap: self.desired_gap[i],
+            detected_distance: self.detected_distance[i],
+            speed_command: self.speed_command[i],
+            accel_command: self.accel_command[i],
+            steer_command: self.steer_command[i],
+            active: self.active[i],
+            reason: self.reason[i],
+            v2v_age: self.v2v_age[i],
+            lateral_offset: self.lateral_offset[i],
+            heading_error: self.heading_error[i],
+        })
+    }
+
+    /// Every column as `f64` (codes converted), in [`Series::COLUMNS`] order, truncated to
+    /// [`Series::len`].
+    pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
+        let n = self.len();
+        let f = |c: &Vec<f64>| c[..n].to_vec();
+        let u = |c: &Vec<u8>| c[..n].iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
+        let [t, lx, ly, ls, la, fx, fy, fyaw, fs, fa, gap, dg, dd, sc, ac, st, v2v, lat, he] = self.float_columns();
+        let values = [
+            f(t),
+            f(lx),
+            f(ly),
+            f(ls),
+            f(la),
+            f(fx),
+            f(fy),
+            f(fyaw),
+            f(fs),
+            f(fa),
+            f(gap),
+            f(dg),
+            f(dd),
+            f(sc),
+            f(ac),
+            f(st),
+            u(&self.active),
+            u(&self.reason),
+            f(v2v),
+            f(lat),
+            f(he),
+        ];
+        Self::COLUMNS.iter().map(|(name, _)| *name).zip(values).collect()
+    }
+
+    fn float_columns(&self) -> [&Vec<f64>; 19] {
+        [
+            &self.t,
+            &self.lead_x,
+            &self.lead_y,
+            &self.lead_speed,
+            &self.lead_accel,
+            &self.follower_x,
+            &self.follower_y,
+            &self.follower_yaw,
+            &self.follower_speed,
+            &self.follower_accel,
+            &self.gap,
+            &self.desired_gap,
+            &self.detected_distance,
+            &self.speed_command,
+            &self.accel_command,
+            &self.steer_command,
+            &self.v2v_age,
+            &self.lateral_offset,
+            &self.heading_error,
+        ]
+    }
+}
+
+/// The first contact between the two vehicles, as reported by the physics engine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CollisionInfo {
+    /// Time of the first contact, s.
+    pub time: f64,
+    /// Relative impact speed `max(0, v_follower - v_lead)`, m/s.
+    pub impact_speed: f64,
+    /// Lead speed at impact, m/s.
+    pub lead_speed: f64,
+    /// Follower speed at impact, m/s.
+    pub follower_speed: f64,
+}
+
+/// Thresholds of the metrics. [`Metrics::compute`] uses the defaults (documented values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MetricsParams {
+    /// Both speeds below this count as standstill (for `final_clearance`), m/s. Default 0.05
+    /// (the closed loop's stop condition).
+    pub standstill_speed: f64,
+    /// Window of the jerk estimate, s. Default 0.1.
+    pub jerk_window: f64,
+    /// Steady following: `|v_follower - v_lead|` below this, m/s. Default 0.5.
+    pub steady_speed_diff: f64,
+    /// Steady following: `|a_lead|` below this, m/s². Default 0.2.
+    pub steady_lead_accel: f64,
+    /// Steady following: the conditions must have held this long, s. Default 2.
+    pub steady_min_time: f64,
+    /// Steady following: the lead must move at least this fast, m/s (standstill is not
+    /// following). Default 1.
+    pub steady_min_speed: f64,
+    /// Tracking errors are averaged while the follower moves at least this fast, m/s. Default 0.5.
+    pub tracking_min_speed: f64,
+    /// Closing speeds at or below this count as "not closing" for TTC, m/s. Default 1e-6.
+    pub ttc_min_closing: f64,
+}
+
+impl Default for MetricsParams {
+    fn default() -> Self {
+        Self {
+            standstill_speed: 0.05,
+            jerk_window: 0.1,
+            steady_speed_diff: 0.5,
+            steady_lead_accel: 0.2,
+            steady_min_time: 2.0,
+            steady_min_speed: 1.0,
+            tracking_min_speed: 0.5,
+            ttc_min_closing: 1e-6,
+        }
+    }
+}
+
+/// The metrics of one run. Field names are a contract (JSON output, Python, results table);
+/// definitions in `docs/v2v-and-metrics.md`. `Option`s serialise as `null`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// The vehicles touched.
+    pub collision: bool,
+    /// Relative impact speed, m/s (0 without collision).
+    pub impact_speed: f64,
+    /// Time of the first contact, s.
+    pub collision_time: Option<f64>,
+    /// Smallest bumper-to-bumper gap, m (NaN, serialised `null`, for an empty series).
+    pub min_gap: f64,
+    /// Gap at the end of the run if both vehicles stand still and they did not collide, m.
+    pub final_clearance: Option<f64>,
+    /// Smallest time to collision `gap / (v_follower - v_lead)` over the closing samples, s
+    /// (`None` if the follower never closed in).
+    pub min_ttc: Option<f64>,
+    /// Strongest braking of the follower, m/s² (positive; 0 if it never braked).
+    pub max_decel: f64,
+    /// Largest absolute jerk of the follower over a `jerk_window` (0.1 s), m/s³.
+    pub max_jerk: f64,
+    /// RMS of `gap - desired_gap` during steady following, m (`None` if never steady).
+    pub gap_error_rms: Option<f64>,
+    /// Time spent in steady following (the samples of `gap_error_rms`), s.
+    pub steady_time: f64,
+    /// Mean absolute heading error w.r.t. the lane centreline while moving, deg.
+    pub rot_error_deg: Option<f64>,
+    /// Mean absolute lateral offset from the lane centreline while moving, m.
+    pub trans_error_m: Option<f64>,
+    /// Time driven by the PID, s.
+    pub time_pid: f64,
+    /// Time driven by the FLC, s.
+    pub time_flc: f64,
+    /// Changes of the active controller.
+    pub switches: u32,
+    /// Time covered by the series, s.
+    pub duration: f64,
+}
+
+impl Metrics {
+    /// Computes the metrics with the default thresholds.
+    pub fn compute(series: &Series, collision: Option<CollisionInfo>) -> Metrics {
+        Self::compute_with(series, collision, &MetricsParams::default())
+    }
+
+    /// Computes the metrics with explicit thresholds.
+    pub fn compute_with(s: &Series, collision: Option<CollisionInfo>, p: &MetricsParams) -> Metrics {
+        let n = s.len();
+        let t = &s.t[..n];
+        let dts = step_durations(t);
+        let duration: f64 = dts.iter().sum();
+
+        // Collision.
+        let impact_speed = collision.map_or(0.0, |c| finite_or(c.impact_speed, 0.0).max(0.0));
+        let collision_time = collision.map(|c| c.time).filter(|x| x.is_finite());
+
+        // Gap, TTC.
+        let min_gap = s.gap[..n].iter().copied().filter(|g| g.is_finite()).fold(f64::NAN, f64::min);
+        let mut min_ttc: Option<f64> = None;
+        for i in 0..n {
+            let (gap, closing) = (s.gap[i], s.follower_speed[i] - s.lead_speed[i]);
+            if !gap.is_finite() || !closing.is_finite() {
+                continue;
+            }
+            let ttc = if gap <= 0.0 {
+                0.0
+            } else if closing > p.ttc_min_closing {
+                gap / closing
+            } else {
+                continue;
+            };
+            min_ttc = Some(min_ttc.map_or(ttc, |m| m.min(ttc)));
+        }
+
+        // Final clearance.
+        let final_clearance = match n.checked_sub(1) {
+            Some(last) if collision.is_none() => {
+                let still = s.follower_speed[last].abs() < p.standstill_speed && s.lead_speed[last].abs() < p.standstill_speed;
+                Some(s.gap[last]).filter(|g| still && g.is_finite())
+            }
+            _ => None,
+        };
+
+        // Decel and jerk.
+        let accel = &s.follower_accel[..n];
+        let max_decel = accel.iter().copied().filter(|a| a.is_finite()).fold(0.0, |m: f64, a| m.max(-a));
+        let max_jerk = max_abs_jerk(t, accel, p.jerk_window);
+
+        // Steady following.
+        let mut run_start: Option<f64> = None;
+        let (mut sq_sum, mut steady_time, mut steady_n, mut sq_sum_n) = (0.0, 0.0, 0usize, 0.0);
+        for i in 0..n {
+            let (vl, vf, al) = (s.lead_speed[i], s.follower_speed[i], s.lead_accel[i]);
+            let err = s.gap[i] - s.desired_gap[i];
+            let ok = t[i].is_finite()
+                && err.is_finite()
+                && (vf - vl).abs() < p.steady_speed_diff
+                && al.abs() < p.steady_lead_accel
+                && vl >= p.steady_min_speed;
+            if !ok {
+                run_start = None;
+                continue;
+            }
+            let start = *run_start.get_or_insert(t[i]);
+            if t[i] - start >= p.steady_min_time - TIME_EPS {
+                sq_sum += dts[i] * err * err;
+                steady_time += dts[i];
+                sq_sum_n += err * err;
+                steady_n += 1;
+            }
+        }
+        let gap_error_rms = match steady_n {
+            0 => None,
+            _ if steady_time > 0.0 => Some((sq_sum / steady_time).sqrt()),
+            k => Some((sq_sum_n / k as f64).sqrt()),
+        };
+
+        // Tracking errors while moving.
+        let moving = |i: usize| s.follower_speed[i] >= p.tracking_min_speed;
+        let rot_error_deg = weighted_mean((0..n).filter(|&i| moving(i)).map(|i| (dts[i], s.heading_error[i].abs().to_degrees())));
+        let trans_error_m = weighted_mean((0..n).filter(|&i| moving(i)).map(|i| (dts[i], s.lateral_offset[i].abs())));
+
+        // Controller shares and switches.
+        let active = &s.active[..n];
+        let time_of = |code: u8| active.iter().zip(&dts).filter(|(a, _)| **a == code).map(|(_, d)| d).sum::<f64>();
+        let switches = active.windows(2).filter(|w| w[0] != w[1]).count();
+
+        Metrics {
+            collision: collision.is_some(),
+            impact_speed,
+            collision_time,
+            min_gap,
+            final_clearance,
+            min_ttc,
+            max_decel,
+            max_jerk,
+            gap_error_rms,
+            steady_time,
+            rot_error_deg,
+            trans_error_m,
+            time_pid: time_of(ACTIVE_PID),
+            time_flc: time_of(ACTIVE_FLC),
+            switches: u32::try_from(switches).unwrap_or(u32::MAX),
+            duration,
+        }
+    }
+}
+
+fn finite_or(x: f64, fallback: f64) -> f64 {
+    if x.is_finite() { x } else { fallback }
+}
+
+/// Duration covered by each sample: sample `i >= 1` covers `(t[i-1], t[i]]`; sample 0 covers one
+/// step before it (`t[1] - t[0]`; 0 for a single sample). Negative or non-finite spans count 0.
+fn step_durations(t: &[f64]) -> Vec<f64> {
+    let span = |a: f64, b: f64| {
+        let d = b - a;
+        if d.is_finite() && d > 0.0 { d } else { 0.0 }
+    };
+    let mut out = Vec::with_capacity(t.len());
+    for i in 0..t.len() {
+        out.push(match i {
+            0 => t.get(1).map_or(0.0, |&t1| span(t[0], t1)),
+            _ => span(t[i - 1], t[i]),
+        });
+    }
+    out
+}
+
+/// `max |a(t_i) - a(t_k)| / (t_i - t_k)` where `t_k` is the latest sample at least `window`
+/// before `t_i`: the mean jerk over a window of (at least) `window` seconds, i.e. the step jerk
+/// smoothed by a box filter of that width. 0 if the series is shorter than the window.
+fn max_abs_jerk(t: &[f64], a: &[f64], window: f64) -> f64 {
+    let mut k = 0usize;
+    let mut best = 0.0f64;
+    for i in 1..t.len().min(a.len()) {
+        while k + 1 < i && t[i] - t[k + 1] >= window - TIME_EPS {
+            k += 1;
+        }
+        let span = t[i] - t[k];
+        if span.is_finite() && span > 0.0 && span >= window - TIME_EPS {
+            let j = ((a[i] - a[k]) / span).abs();
+            if j.is_finite() {
+                best = best.max(j);
+            }
+        }
+    }
+    best
+}
+
+/// Weighted mean of the finite values; equal weights if the weights sum to 0; `None` if empty.
+fn weighted_mean(items: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
+    let (mut sw, mut swx, mut n, mut sx) = (0.0, 0.0, 0usize, 0.0);
+    for (w, x) in items.filter(|(_, x)| x.is_finite()) {
+        sw += w;
+        swx += w * x;
+        n += 1;
+        sx += x;
+    }
+    match n {
+        0 => None,
+        _ if sw > 0.0 => Some(swx / sw),
+        _ => Some(sx / n as f64),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 0.01;
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    /// A series of `n` steps at `DT` (t = DT, 2 DT, ...) built by `f(t)` from a neutral record.
+    fn series(n: usize, f: impl Fn(f64, &mut StepRecord)) -> Series {
+        let mut s = Series::default();
+        for i in 1..=n {
+            let t = i as f64 * DT;
+            let mut r = StepRecord { t, lead_speed: 10.0, follower_speed: 10.0, gap: 20.0, desired_gap: 20.0, detected_distance: f64::NAN, v2v_age: f64::NAN, ..StepRecord::default() };
+            f(t, &mut r);
+            s.push(r);
+        }
+        s
+    }
+
+    #[test]
+    fn empty_series_gives_neutral_metrics_without_panicking() {
+        let m = Metrics::compute(&Series::default(), None);
+        assert!(!m.collision);
+        assert!(m.min_gap.is_nan());
+        assert_eq!((m.min_ttc, m.final_clearance, m.gap_error_rms, m.rot_error_deg, m.trans_error_m), (None, None, None, None, None));
+        assert_eq!((m.max_decel, m.max_jerk, m.time_pid, m.time_flc, m.duration, m.switches), (0.0, 0.0, 0.0, 0.0, 0.0, 0));
+        // JSON: NaN and None become null.
+        let j = serde_json::to_value(&m).unwrap();
+        assert!(j["min_gap"].is_null() && j["min_ttc"].is_null());
+        // A single sample and a collision on an empty series do not panic either.
+        let one = series(1, |_, _| {});
+        let m = Metrics::compute(&one, Some(CollisionInfo { time: 0.0, impact_speed: f64::NAN, lead_speed: 0.0, follower_speed: 0.0 }));
+        assert_eq!((m.duration, m.impact_speed, m.max_jerk), (0.0, 0.0, 0.0));
+        let m = Metrics::compute(&Series::default(), Some(CollisionInfo { time: 1.0, impact_speed: 3.0, lead_speed: 0.0, follower_speed: 3.0 }));
+        assert!(m.collision && m.impact_speed == 3.0 && m.collision_time == Some(1.0));
+    }
+
+    #[test]
+    fn constant_closing_speed_gives_known_ttc() {
+        // Lead at 10 m/s, follower at 15 m/s: closing at 5 m/s from a 50 m gap to 5 m over 9 s.
+        let s = series(900, |t, r| {
+            r.follower_speed = 15.0;
+            r.gap = 50.0 - 5.0 * t;
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.min_gap, 5.0, 1e-9), "{}", m.min_gap);
+        assert!(close(m.min_ttc.unwrap(), 1.0, 1e-9), "{:?}", m.min_ttc);
+        // Down to contact: TTC 0.
+        let s = series(1000, |t, r| {
+            r.follower_speed = 15.0;
+            r.gap = 50.0 - 5.0 * t;
+        });
+        assert!(close(Metrics::compute(&s, None).min_ttc.unwrap(), 0.0, 1e-9));
+        // Opening gap: no TTC.
+        let s = series(100, |t, r| {
+            r.follower_speed = 5.0;
+            r.gap = 20.0 + 5.0 * t;
+        });
+        assert_eq!(Metrics::compute(&s, None).min_ttc, None);
+    }
+
+    #[test]
+    fn decel_profile_gives_known_max_decel_and_jerk() {
+        // a = 0 until 2 s, ramps to -6 m/s² over 0.6 s (jerk -10), holds, ramps back to 0 over
+        // 0.3 s from 5 s (jerk +20).
+        let a = |t: f64| {
+            if t <= 2.0 {
+                0.0
+            } else if t <= 2.6 {
+                -10.0 * (t - 2.0)
+            } else if t <= 5.0 {
+                -6.0
+            } else if t <= 5.3 {
+                -6.0 + 20.0 * (t - 5.0)
+            } else {
+                0.0
+            }
+        };
+        let s = series(800, |t, r| r.follower_accel = a(t));
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.max_decel, 6.0, 1e-9), "{}", m.max_decel);
+        assert!(close(m.max_jerk, 20.0, 1e-6), "{}", m.max_jerk);
+        // A step of 3 m/s² in one sample reads as 3 / 0.1 s = 30 m/s³, not 300.
+        let s = series(300, |t, r| r.follower_accel = if t > 1.0 { -3.0 } else { 0.0 });
+        assert!(close(Metrics::compute(&s, None).max_jerk, 30.0, 1e-6));
+        // Accelerating only: max_decel 0.
+        let s = series(100, |_, r| r.follower_accel = 1.5);
+        assert_eq!(Metrics::compute(&s, None).max_decel, 0.0);
+    }
+
+    #[test]
+    fn switches_and_time_shares_from_the_active_column() {
+        // 10 s: FLC for 0-3 s, PID 3-8 s, FLC 8-10 s.
+        let s = series(1000, |t, r| r.active = if t > 3.0 + 1e-9 && t <= 8.0 + 1e-9 { ACTIVE_PID } else { ACTIVE_FLC });
+        let m = Metrics::compute(&s, None);
+        assert_eq!(m.switches, 2);
+        assert!(close(m.duration, 10.0, 1e-9), "{}", m.duration);
+        assert!(close(m.time_pid, 5.0, 1e-9), "{}", m.time_pid);
+        assert!(close(m.time_flc, 5.0, 1e-9), "{}", m.time_flc);
+        assert_eq!(ACTIVE_FLC, 0);
+        assert_eq!(ACTIVE_PID, 1);
+    }
+
+    #[test]
+    fn final_clearance_only_at_standstill_without_collision() {
+        let stopping = |t: f64, r: &mut StepRecord| {
+            r.lead_speed = (10.0 - 2.0 * t).max(0.0);
+            r.follower_speed = (10.0 - 2.0 * t).max(0.0);
+            r.gap = 3.7;
+        };
+        let s = series(800, stopping);
+        assert_eq!(Metrics::compute(&s, None).final_clearance, Some(3.7));
+        let crash = CollisionInfo { time: 4.0, impact_speed: 1.0, lead_speed: 2.0, follower_speed: 3.0 };
+        let m = Metrics::compute(&s, Some(crash));
+        assert_eq!(m.final_clearance, None);
+        assert!(m.collision && m.impact_speed == 1.0 && m.collision_time == Some(4.0));
+        // Still moving at the end.
+        let s = series(300, stopping);
+        assert_eq!(Metrics::compute(&s, None).final_clearance, None);
+    }
+
+    #[test]
+    fn rot_and_trans_errors_of_a_constant_offset() {
+        let s = series(500, |_, r| {
+            r.lateral_offset = -0.25;
+            r.heading_error = 0.5_f64.to_radians();
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.trans_error_m.unwrap(), 0.25, 1e-12));
+        assert!(close(m.rot_error_deg.unwrap(), 0.5, 1e-12));
+        // Standing still does not count.
+        let s = series(500, |t, r| {
+            r.follower_speed = if t <= 2.5 { 10.0 } else { 0.0 };
+            r.lateral_offset = if t <= 2.5 { 0.1 } else { 3.0 };
+        });
+        assert!(close(Metrics::compute(&s, None).trans_error_m.unwrap(), 0.1, 1e-12));
+    }
+
+    #[test]
+    fn gap_error_rms_only_counts_steady_following_after_two_seconds() {
+        // 0-5 s the lead accelerates (not steady); from 5 s on steady, but the first 2 s of the
+        // stretch (5-7 s, gap error +80 m) are settling time; then +1 m for 4 s and -3 m for 4 s.
+        let s = series(1500, |t, r| {
+            r.lead_accel = if t <= 5.0 { 1.0 } else { 0.0 };
+            r.gap = if t <= 7.0 { 100.0 } else if t <= 11.0 { 21.0 } else { 17.0 };
+        });
+        let m = Metrics::compute(&s, None);
+        // Steady samples: (7, 15] = 8 s with errors +1 (4 s) and -3 (4 s): RMS sqrt((1 + 9) / 2).
+        assert!(close(m.steady_time, 8.0, 0.011), "{}", m.steady_time);
+        assert!(close(m.gap_error_rms.unwrap(), 5.0_f64.sqrt(), 0.02), "{:?}", m.gap_error_rms);
+        // Never steady (speeds differ by 1 m/s).
+        let s = series(1000, |_, r| r.follower_speed = 11.0);
+        assert_eq!(Metrics::compute(&s, None).gap_error_rms, None);
+    }
+
+    #[test]
+    fn columns_are_named_and_aligned() {
+        let s = series(3, |t, r| {
+            r.active = ACTIVE_PID;
+            r.gap = t;
+        });
+        let cols = s.columns();
+        assert_eq!(cols.len(), Series::COLUMNS.len());
+        assert!(cols.iter().all(|(_, c)| c.len() == 3));
+        let get = |name: &str| cols.iter().find(|(n, _)| *n == name).map(|(_, c)| c.clone()).unwrap();
+        assert_eq!(get("active"), vec![1.0; 3]);
+        assert_eq!(get("gap"), s.t);
+        assert_eq!(s.get(2).map(|r| r.gap), Some(s.t[2]));
+        assert_eq!(s.get(3), None);
+        // Unequal columns (edited by hand): the shortest wins, nothing panics.
+        let mut bad = s.clone();
+        bad.gap.pop();
+        assert_eq!(bad.len(), 2);
+        assert_eq!(bad.columns()[0].1.len(), 2);
+        let _ = Metrics::compute(&bad, None);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics_on_arbitrary_series(
+            rows in proptest::collection::vec(
+                (proptest::prelude::any::<f64>(), -100.0f64..100.0, proptest::prelude::any::<f64>(), 0u8..3, -50.0f64..50.0),
+                0..60,
+            )
+        ) {
+            let mut s = Series::default();
+            for (i, (x, v, a, act, g)) in rows.into_iter().enumerate() {
+                let t = if i % 7 == 3 { x } else { i as f64 * DT };
+                s.push(StepRecord { t, lead_speed: v, follower_speed: x, follower_accel: a, lead_accel: a, active: act, gap: g, desired_gap: x, heading_error: x, lateral_offset: g, ..StepRecord::default() });
+            }
+            let m = Metrics::compute(&s, None);
+            proptest::prop_assert!(m.max_decel >= 0.0 && m.max_jerk >= 0.0 && m.duration >= 0.0);
+            proptest::prop_assert!(m.time_pid + m.time_flc <= m.duration * (1.0 + 1e-9) + 1e-9);
+            let _ = serde_json::to_string(&m);
+        }
+    }
+}

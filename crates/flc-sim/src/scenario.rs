@@ -1,0 +1,483 @@
+//! Scenario files: everything one closed-loop run needs, as TOML (schema in `docs/scenarios.md`).
+//!
+//! A scenario names the track, both vehicles, the lead's manoeuvre as a list of [`Phase`]s, the
+//! controller, every sensor / V2V / actuator impairment, the rates, the seed and the stop
+//! conditions. Unknown keys and out-of-range values are errors that name the dotted key and the
+//! allowed range ([`ConfigError`]).
+
+use std::path::Path;
+
+use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, SimError, check_range};
+use crate::lidar::LidarParams;
+use crate::track::Track;
+use crate::v2v::V2vParams;
+use crate::vehicle::{SpeedControllerParams, VehicleParams};
+
+/// km/h -> m/s. Only used where the user interface speaks km/h (keys ending in `_kmh`).
+pub const KMH: f64 = 1.0 / 3.6;
+
+/// Which longitudinal controller drives the follower.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ControllerKind {
+    /// The paper's FLC only (LiDAR distance + own speed).
+    Flc,
+    /// The V2V PID only (holds the last received lead speed when V2V is lost).
+    Pid,
+    /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC otherwise).
+    Pipeline,
+}
+
+impl ControllerKind {
+    /// The name used in scenario files, the CLI and the JSON output.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ControllerKind::Flc => "flc",
+            ControllerKind::Pid => "pid",
+            ControllerKind::Pipeline => "pipeline",
+        }
+    }
+
+    /// Parses the name used in scenario files and on the CLI.
+    pub fn parse(s: &str) -> Result<Self, ConfigError> {
+        match s {
+            "flc" => Ok(ControllerKind::Flc),
+            "pid" => Ok(ControllerKind::Pid),
+            "pipeline" => Ok(ControllerKind::Pipeline),
+            other => Err(ConfigError::new("controller", format!("must be one of flc, pid, pipeline, got `{other}`"))),
+        }
+    }
+}
+
+/// Which track to drive on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TrackSpec {
+    /// The paper's straight run ([`Track::straight`]).
+    Straight {
+        /// Length of the straight, m.
+        length: f64,
+    },
+    /// A route with curves like the paper's Fig. 3a ([`Track::curvy`]).
+    Curvy,
+    /// A track given in the file (polyline + width + road-side objects).
+    Custom(Track),
+}
+
+impl Default for TrackSpec {
+    fn default() -> Self {
+        TrackSpec::Straight { length: 2000.0 }
+    }
+}
+
+impl TrackSpec {
+    /// Builds the track.
+    pub fn build(&self) -> Result<Track, ConfigError> {
+        match self {
+            TrackSpec::Straight { length } => {
+                check_range("length", *length, 50.0, 100_000.0, "m")?;
+                Ok(Track::straight(*length))
+            }
+            TrackSpec::Curvy => Ok(Track::curvy()),
+            TrackSpec::Custom(t) => {
+                t.validate()?;
+                Ok(t.clone())
+            }
+        }
+    }
+}
+
+/// One phase of the lead's manoeuvre. Phases run in order; after the last one the lead holds its
+/// speed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Phase {
+    /// Accelerate at `accel` (m/s², > 0) until `speed` (m/s) or `speed_kmh` (km/h) is reached.
+    Accelerate {
+        /// Acceleration, m/s².
+        accel: f64,
+        /// Target speed, m/s (give this or `speed_kmh`).
+        #[serde(default)]
+        speed: Option<f64>,
+        /// Target speed, km/h (give this or `speed`).
+        #[serde(default)]
+        speed_kmh: Option<f64>,
+    },
+    /// Hold the current speed until the lead's travelled distance reaches `until_x` (m), the
+    /// simulation time reaches `until_t` (s), or for `duration` (s); exactly one of them.
+    Hold {
+        /// Distance travelled by the lead since the start, m.
+        #[serde(default)]
+        until_x: Option<f64>,
+        /// Simulation time, s.
+        #[serde(default)]
+        until_t: Option<f64>,
+        /// Duration of the phase, s.
+        #[serde(default)]
+        duration: Option<f64>,
+    },
+    /// Brake at `decel` (m/s², > 0) to `speed` / `speed_kmh` (default: to a stop). Its onset is
+    /// the "brake onset" event (V2V `outage_on_brake`, metrics).
+    Brake {
+        /// Deceleration, m/s² (positive number).
+        decel: f64,
+        /// Final speed, m/s (default 0).
+        #[serde(default)]
+        speed: Option<f64>,
+        /// Final speed, km/h.
+        #[serde(default)]
+        speed_kmh: Option<f64>,
+    },
+    /// Move laterally to `offset` (m, + left, relative to the lane centre) over `duration` (s):
+    /// a cut out (lead leaves the lane) or a cut back in. Speed is held.
+    LaneChange {
+        /// Final lateral offset from the lane centre, m.
+        offset: f64,
+        /// Duration of the manoeuvre, s.
+        duration: f64,
+    },
+}
+
+impl Phase {
+    fn target_speed(key: &str, speed: Option<f64>, speed_kmh: Option<f64>, default: Option<f64>) -> Result<f64, ConfigError> {
+        let v = match (speed, speed_kmh) {
+            (Some(v), None) => v,
+            (None, Some(k)) => k * KMH,
+            (None, None) => default.ok_or_else(|| ConfigError::new(key, "give `speed` (m/s) or `speed_kmh` (km/h)"))?,
+            (Some(_), Some(_)) => return Err(ConfigError::new(key, "give either `speed` (m/s) or `speed_kmh` (km/h), not both")),
+        };
+        check_range(if speed_kmh.is_some() { "speed_kmh" } else { "speed" }, v, 0.0, 70.0, "m/s (0-252 km/h)")?;
+        Ok(v)
+    }
+
+    /// The phase's target speed in m/s (accelerate / brake), validated.
+    pub fn speed_target(&self) -> Result<Option<f64>, ConfigError> {
+        match self {
+            Phase::Accelerate { speed, speed_kmh, .. } => Self::target_speed("speed", *speed, *speed_kmh, None).map(Some),
+            Phase::Brake { speed, speed_kmh, .. } => Self::target_speed("speed", *speed, *speed_kmh, Some(0.0)).map(Some),
+            _ => Ok(None),
+        }
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        self.speed_target()?;
+        match self {
+            Phase::Accelerate { accel, .. } => check_range("accel", *accel, 0.01, 15.0, "m/s²"),
+            Phase::Brake { decel, .. } => check_range("decel", *decel, 0.01, 15.0, "m/s² (positive number)"),
+            Phase::Hold { until_x, until_t, duration } => {
+                let given = [until_x, until_t, duration].iter().filter(|o| o.is_some()).count();
+                if given != 1 {
+                    return Err(ConfigError::new("until_x", "give exactly one of `until_x` (m), `until_t` (s), `duration` (s)"));
+                }
+                if let Some(x) = until_x {
+                    check_range("until_x", *x, 0.0, 1.0e6, "m")?;
+                }
+                if let Some(t) = until_t {
+                    check_range("until_t", *t, 0.0, 1.0e5, "s")?;
+                }
+                if let Some(d) = duration {
+                    check_range("duration", *d, 0.0, 1.0e5, "s")?;
+                }
+                Ok(())
+            }
+            Phase::LaneChange { offset, duration } => {
+                check_range("offset", *offset, -10.0, 10.0, "m")?;
+                check_range("duration", *duration, 0.1, 60.0, "s")
+            }
+        }
+    }
+}
+
+/// The lead vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LeadSpec {
+    /// Initial speed, m/s.
+    pub initial_speed: f64,
+    /// Vehicle model.
+    pub vehicle: VehicleParams,
+    /// The manoeuvre.
+    pub phases: Vec<Phase>,
+}
+
+impl Default for LeadSpec {
+    fn default() -> Self {
+        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new() }
+    }
+}
+
+/// The follower vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FollowerSpec {
+    /// Initial speed, m/s.
+    pub initial_speed: f64,
+    /// Initial bumper-to-bumper gap to the lead, m. The paper: 7 m at standstill.
+    pub initial_gap: f64,
+    /// Vehicle model.
+    pub vehicle: VehicleParams,
+    /// Low-level speed controller (turns the pipeline's speed command into drive / brake).
+    pub speed_controller: SpeedControllerParams,
+    /// What the controllers get as `LF_dist`: the detector's distance (from the LiDAR origin to the
+    /// lead's rear face) minus this offset, m. `None` (default) = the LiDAR's distance behind the
+    /// front bumper, so the controllers see the bumper-to-bumper gap.
+    pub distance_offset: Option<f64>,
+}
+
+impl Default for FollowerSpec {
+    fn default() -> Self {
+        Self {
+            initial_speed: 0.0,
+            initial_gap: 7.0,
+            vehicle: VehicleParams::default(),
+            speed_controller: SpeedControllerParams::default(),
+            distance_offset: None,
+        }
+    }
+}
+
+/// Supervisor settings (the FLC and PID parameters are the scenario's `[flc]` and `[pid]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SupervisorSpec {
+    /// V2V age, in control ticks, still counted as fresh.
+    pub max_age_ticks: u32,
+    /// Consecutive fresh messages before the PID drives again.
+    pub return_after: u32,
+    /// Bumpless return to the PID.
+    pub bumpless: bool,
+}
+
+impl Default for SupervisorSpec {
+    fn default() -> Self {
+        let d = flc_core::SupervisorParams::default();
+        Self { max_age_ticks: d.max_age_ticks, return_after: d.return_after, bumpless: d.bumpless }
+    }
+}
+
+/// When a run ends (besides `duration`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StopSpec {
+    /// End the run at the first collision between the vehicles.
+    pub on_collision: bool,
+    /// End the run once the lead has finished its phases and both vehicles have been at
+    /// standstill (< 0.05 m/s) for this long, s.
+    pub standstill_time: f64,
+}
+
+impl Default for StopSpec {
+    fn default() -> Self {
+        Self { on_collision: true, standstill_time: 2.0 }
+    }
+}
+
+/// A complete scenario. `Default` is the paper's experiment at 50 km/h with the FLC, realistic
+/// vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Scenario {
+    /// Name, used in output file names and the JSON's `scenario` field.
+    pub name: String,
+    /// Seed of every random process (LiDAR noise, dropouts, V2V loss, jitter).
+    pub seed: u64,
+    /// Which controller drives.
+    pub controller: ControllerKind,
+    /// Maximum simulated time, s.
+    pub duration: f64,
+    /// Physics (and low-level control) step, s. The pipeline runs on each delivered LiDAR scan.
+    pub physics_dt: f64,
+    /// The track.
+    pub track: TrackSpec,
+    /// The lead.
+    pub lead: LeadSpec,
+    /// The follower.
+    pub follower: FollowerSpec,
+    /// The follower's LiDAR.
+    pub lidar: LidarParams,
+    /// The V2V link lead -> follower.
+    pub v2v: V2vParams,
+    /// The lead detector.
+    pub detector: DetectorParams,
+    /// The FLC (Eqs. (2)-(5)).
+    pub flc: FlcParams,
+    /// The PID gap controller.
+    pub pid: PidParams,
+    /// The lateral controller (Eq. (1)).
+    pub pure_pursuit: PurePursuitParams,
+    /// The parallel longitudinal controller.
+    pub supervisor: SupervisorSpec,
+    /// Stop conditions.
+    pub stop: StopSpec,
+    /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
+    /// as `speed_kmh` in the JSON; informational).
+    pub speed_kmh: Option<f64>,
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Self::paper_experiment(50.0, ControllerKind::Flc, Calibration::Realistic)
+    }
+}
+
+/// Which set of choices for what the paper leaves open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Calibration {
+    /// The physically realistic default vehicle (`VehicleParams::default()`).
+    Realistic,
+    /// Calibrated (within plausible ranges) to reproduce the paper's outcome pattern
+    /// (`docs/sim-model.md`, "paper preset").
+    Paper,
+}
+
+impl Calibration {
+    /// `"realistic"` or `"paper"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Calibration::Realistic => "realistic",
+            Calibration::Paper => "paper",
+        }
+    }
+}
+
+/// The four maximum speeds of the paper's experiment, km/h.
+pub const PAPER_SPEEDS_KMH: [f64; 4] = [30.0, 50.0, 70.0, 90.0];
+
+impl Scenario {
+    /// The paper's experiment (Sec. IV): both vehicles at standstill 7 m apart on the straight
+    /// track; the lead accelerates to `speed_kmh`, covers about 650 m and brakes at -6 m/s² to a
+    /// stop. For [`ControllerKind::Pipeline`], V2V is lost at the brake onset.
+    pub fn paper_experiment(speed_kmh: f64, controller: ControllerKind, calibration: Calibration) -> Self {
+        let mut v2v = V2vParams::default();
+        let mut follower = FollowerSpec::default();
+        let mut flc = FlcParams::paper();
+        let lead = LeadSpec {
+            initial_speed: 0.0,
+            vehicle: VehicleParams::default(),
+            phases: vec![
+                Phase::Accelerate { accel: 2.5, speed: None, speed_kmh: Some(speed_kmh) },
+                Phase::Hold { until_x: Some(650.0), until_t: None, duration: None },
+                Phase::Brake { decel: 6.0, speed: None, speed_kmh: None },
+            ],
+        };
+        match controller {
+            ControllerKind::Flc => v2v.enabled = false,
+            ControllerKind::Pid => {}
+            ControllerKind::Pipeline => v2v.outage_on_brake = true,
+        }
+        if calibration == Calibration::Paper {
+            crate::calibration::apply_paper(&mut follower, &mut flc);
+        }
+        Self {
+            name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
+            seed: 1,
+            controller,
+            duration: 150.0,
+            physics_dt: 0.01,
+            track: TrackSpec::Straight { length: 2000.0 },
+            lead,
+            follower,
+            lidar: LidarParams::default(),
+            v2v,
+            detector: DetectorParams::default(),
+            flc,
+            pid: PidParams::paper(),
+            pure_pursuit: PurePursuitParams::default(),
+            supervisor: SupervisorSpec::default(),
+            stop: StopSpec::default(),
+            speed_kmh: Some(speed_kmh),
+        }
+    }
+
+    /// Checks every value; the error names the dotted key and the allowed range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_range("duration", self.duration, 0.01, 36_000.0, "s")?;
+        check_range("physics_dt", self.physics_dt, 0.0005, 0.05, "s")?;
+        self.track.build().map_err(|e| e.within("track"))?;
+        check_range("lead.initial_speed", self.lead.initial_speed, 0.0, 70.0, "m/s")?;
+        self.lead.vehicle.validate().map_err(|e| e.within("lead.vehicle"))?;
+        for (i, p) in self.lead.phases.iter().enumerate() {
+            p.validate().map_err(|e| e.within(&format!("lead.phases[{i}]")))?;
+        }
+        check_range("follower.initial_speed", self.follower.initial_speed, 0.0, 70.0, "m/s")?;
+        check_range("follower.initial_gap", self.follower.initial_gap, 0.5, 500.0, "m")?;
+        if let Some(o) = self.follower.distance_offset {
+            check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
+        }
+        self.follower.vehicle.validate().map_err(|e| e.within("follower.vehicle"))?;
+        self.follower.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
+        self.lidar.validate().map_err(|e| e.within("lidar"))?;
+        self.v2v.validate().map_err(|e| e.within("v2v"))?;
+        let core = |section: &str, r: Result<(), flc_core::ParamError>| {
+            r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
+        };
+        core("detector", self.detector.validate())?;
+        core("flc", self.flc.validate())?;
+        core("pid", self.pid.validate())?;
+        core("pure_pursuit", self.pure_pursuit.validate())?;
+        check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")?;
+        check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
+        if let Some(s) = self.speed_kmh {
+            check_range("speed_kmh", s, 0.0, 252.0, "km/h")?;
+        }
+        Ok(())
+    }
+
+    /// The supervisor's parameters assembled from `[supervisor]`, `[flc]` and `[pid]`.
+    pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
+        flc_core::SupervisorParams {
+            max_age_ticks: self.supervisor.max_age_ticks,
+            return_after: self.supervisor.return_after,
+            bumpless: self.supervisor.bumpless,
+            flc: self.flc,
+            pid: self.pid,
+        }
+    }
+
+    /// Parses TOML text. Errors name the dotted key (`lidar.rate_hz`) and the problem; `origin`
+    /// (a file name) prefixes the message.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, SimError> {
+        let file_err = |message: String| SimError::File { path: origin.to_string(), message };
+        let de = toml::Deserializer::parse(text).map_err(|e| file_err(one_line(&e.to_string())))?;
+        let scenario: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = one_line(&e.into_inner().to_string());
+            file_err(if path.is_empty() || path == "." { inner } else { format!("`{path}`: {inner}") })
+        })?;
+        scenario.validate().map_err(|e| file_err(e.to_string()))?;
+        Ok(scenario)
+    }
+
+    /// Reads and validates a scenario file.
+    pub fn from_file(path: &Path) -> Result<Self, SimError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
+        let mut s = Self::from_toml_str(&text, &origin)?;
+        if s.name.is_empty() {
+            s.name = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        }
+        Ok(s)
+    }
+
+    /// The scenario as TOML (round-trips through [`Scenario::from_toml_str`]).
+    pub fn to_toml(&self) -> Result<String, SimError> {
+        toml::to_string(self).map_err(|e| SimError::File { path: self.name.clone(), message: e.to_string() })
+    }
+}
+
+/// toml's messages span several lines (with a source excerpt); keep the first meaningful line.
+fn one_line(msg: &str) -> String {
+    let lines: Vec<&str> = msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    // toml 1 puts "TOML parse error at line L, column C" first and the problem last.
+    match (lines.first(), lines.last()) {
+        (Some(first), Some(last)) if first.starts_with("TOML parse error") && first != last => {
+            format!("{} ({})", last.trim_start_matches(['|', '^', ' ']), first.trim_start_matches("TOML parse error at ").trim_end_matches(':'))
+        }
+        (Some(first), _) => (*first).to_string(),
+        _ => msg.to_string(),
+    }
+}

@@ -1,0 +1,32 @@
+"""flc: fallback longitudinal control for vehicle following without V2V.
+
+Implements Sabry et al., "A LiDAR-Driven Fallback Longitudinal Controller for Safer Following in
+Sudden Braking Scenarios": the FLC, the V2V PID, pure pursuit, the supervisor and the LiDAR lead
+detector (Rust, ``flc-core``), a closed-loop simulator (``flc-sim``), and analysis / figures.
+
+Units are SI (m, m/s, m/s², s, rad); only arguments named ``*_kmh`` are in km/h.
+"""
+from __future__ import annotations
+
+from ._controllers import Command, FallbackController, LeadDetector, PidController, PurePursuit, Steering, Supervisor
+from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
+from ._run import RunResult, run, sweep
+from ._scenario import Scenario
+
+__all__ = [
+    "Command",
+    "FallbackController",
+    "FlcError",
+    "LeadDetector",
+    "ParameterError",
+    "PidController",
+    "PurePursuit",
+    "RunResult",
+    "Scenario",
+    "ScenarioError",
+    "SimulationError",
+    "Steering",
+    "Supervisor",
+    "run",
+    "sweep",
+]

@@ -1,0 +1,107 @@
+"""Step-wise controllers and the detector (typed facade over flc._flc)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Optional, Tuple
+
+import numpy as np
+
+from . import _flc
+from ._params import params_json
+
+
+@dataclass(frozen=True)
+class Command:
+    """A longitudinal command: target speed (m/s), the law's acceleration term (m/s²) and status."""
+
+    speed: float
+    accel: float
+    status: str
+
+
+class FallbackController:
+    """The paper's FLC, Eqs. (2)-(5): LiDAR distance + own speed in, speed command out.
+
+    Keyword arguments are the fields of ``FlcParams`` (paper symbols in snake case, e.g.
+    ``time_gap`` = T_G, ``base_gap`` = B_gap, ``bound_t``); defaults are the paper's.
+    No timestamp and no dt.
+    """
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.FallbackController(params_json("flc", params))
+
+    def step(self, distance: Optional[float], own_speed: float) -> Command:
+        """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
+        return Command(*self._inner.step(distance, own_speed))
+
+    def terms(self) -> dict[str, Any]:
+        """Intermediate terms of the last step (tau_d, d_d, scale_f, f_shift, delta_d, dist_s, a, ...)."""
+        return dict(self._inner.terms())
+
+    def reset(self) -> None:
+        """Forget the previous distance."""
+        self._inner.reset()
+
+
+class PidController:
+    """The V2V PID gap controller of Sec. III-A.3 (time gap 0.5 s, far / near gains)."""
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.PidController(params_json("pid", params))
+
+    def step(self, lead_speed: float, own_speed: float, distance: Optional[float], dt: float) -> Command:
+        """One step (speeds in m/s, distance in m, dt in s)."""
+        return Command(*self._inner.step(lead_speed, own_speed, distance, dt))
+
+    def reset(self) -> None:
+        """Clear the integrator."""
+        self._inner.reset()
+
+
+@dataclass(frozen=True)
+class Steering:
+    """Output of the lateral controller."""
+
+    steer: float
+    lookahead: float
+    alpha: float
+    lookahead_point: Tuple[float, float]
+    status: str
+
+
+class PurePursuit:
+    """Pure pursuit towards the lead, Eq. (1) (``law="paper"``) or the standard form."""
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.PurePursuit(params_json("pure_pursuit", params))
+
+    def step(self, lead: Optional[Tuple[float, float]], own_speed: float) -> Steering:
+        """Steering (rad, + left) towards the lead at ``lead`` = (x, y) in the follower frame (m)."""
+        return Steering(*self._inner.step(lead, own_speed))
+
+
+class Supervisor:
+    """The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC otherwise)."""
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.Supervisor(params_json("supervisor", params))
+
+    def step(self, v2v: Optional[Tuple[float, int]], distance: Optional[float], own_speed: float, dt: float) -> dict[str, Any]:
+        """One tick. ``v2v`` = (lead_speed m/s, sequence number) received this tick, or None."""
+        return dict(self._inner.step(v2v, distance, own_speed, dt))
+
+    def reset(self) -> None:
+        """Back to the initial state (FLC, no V2V)."""
+        self._inner.reset()
+
+
+class LeadDetector:
+    """The BEV-grid LiDAR lead detector of Sec. III-A.1."""
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.LeadDetector(params_json("detector", params))
+
+    def detect(self, points: Any, path_curvature: float = 0.0) -> dict[str, Any]:
+        """Detect the lead in an (N, 2) array of points (sensor frame, x forward, m)."""
+        arr = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 2))
+        return dict(self._inner.detect(arr, path_curvature))

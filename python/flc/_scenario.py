@@ -1,0 +1,121 @@
+"""Scenarios: load TOML, build from a dict, presets with keyword overrides (typed facade)."""
+from __future__ import annotations
+
+import copy
+import json
+import os
+from typing import Any, Mapping, Optional, Union
+
+from . import _flc
+from ._flc import ScenarioError
+
+#: Sections of a scenario; a keyword ``<section>_<key>`` overrides ``[section] key``.
+SECTIONS = ("follower", "lead", "lidar", "v2v", "detector", "flc", "pid", "pure_pursuit", "supervisor", "stop", "track")
+
+
+def _set_path(d: dict[str, Any], path: list[str], value: Any, full: str) -> None:
+    node = d
+    for part in path[:-1]:
+        nxt = node.get(part)
+        if nxt is None:
+            nxt = {}
+            node[part] = nxt
+        if not isinstance(nxt, dict):
+            raise ScenarioError(f"`{full}`: `{part}` is not a table")
+        node = nxt
+    node[path[-1]] = value
+
+
+def _override_path(name: str) -> list[str]:
+    if "." in name:
+        return name.split(".")
+    for section in sorted(SECTIONS, key=len, reverse=True):
+        if name.startswith(section + "_"):
+            return [section, name[len(section) + 1 :]]
+    return [name]
+
+
+class Scenario:
+    """One closed-loop run, as the simulator's scenario file (``docs/scenarios.md``).
+
+    Build with :meth:`paper`, :meth:`load` or :meth:`from_dict`; override fields by keyword:
+    ``lidar_rate_hz=10`` sets ``[lidar] rate_hz``, ``**{"follower.vehicle.max_brake": 7.0}`` any
+    nested key. Units are SI except keys ending in ``_kmh``.
+    """
+
+    def __init__(self, data: Mapping[str, Any]) -> None:
+        # Validate through Rust: unknown keys / out-of-range values raise ScenarioError naming the key.
+        self._json = _flc.check_scenario(json.dumps(dict(data), allow_nan=True))
+        self._data: dict[str, Any] = json.loads(self._json)
+
+    @classmethod
+    def paper(cls, speed_kmh: float = 50.0, controller: str = "flc", preset: str = "realistic", **overrides: Any) -> "Scenario":
+        """The paper's experiment at ``speed_kmh`` (km/h) with ``controller`` in
+        {"flc", "pid", "pipeline"} and ``preset`` in {"realistic", "paper"}."""
+        if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):
+            raise ScenarioError(f"`speed_kmh`: expected a number, got {type(speed_kmh).__name__}")
+        base = json.loads(_flc.paper_scenario(float(speed_kmh), controller, preset))
+        return cls.from_dict(base, **overrides)
+
+    @classmethod
+    def load(cls, path: Union[str, "os.PathLike[str]"], **overrides: Any) -> "Scenario":
+        """Read a TOML scenario file."""
+        base = json.loads(_flc.load_scenario(os.fspath(path)))
+        return cls.from_dict(base, **overrides)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], **overrides: Any) -> "Scenario":
+        """Build from a dict shaped like the TOML file (missing keys take their defaults)."""
+        d = copy.deepcopy(dict(data))
+        for name, value in overrides.items():
+            _set_path(d, _override_path(name), value, name)
+        return cls(d)
+
+    def replace(self, **overrides: Any) -> "Scenario":
+        """A copy with fields overridden by keyword."""
+        return Scenario.from_dict(self._data, **overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The full scenario (every key, defaults filled in)."""
+        return copy.deepcopy(self._data)
+
+    def to_json(self) -> str:
+        """The full scenario as JSON."""
+        return self._json
+
+    @property
+    def name(self) -> str:
+        return str(self._data.get("name", ""))
+
+    @property
+    def controller(self) -> str:
+        return str(self._data.get("controller", ""))
+
+    @property
+    def seed(self) -> int:
+        return int(self._data.get("seed", 0))
+
+    @property
+    def speed_kmh(self) -> Optional[float]:
+        v = self._data.get("speed_kmh")
+        return None if v is None else float(v)
+
+    def __getitem__(self, key: str) -> Any:
+        node: Any = self._data
+        for part in _override_path(key):
+            node = node[part]
+        return copy.deepcopy(node)
+
+    def __repr__(self) -> str:
+        return f"Scenario(name={self.name!r}, controller={self.controller!r}, seed={self.seed})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Scenario) and self._data == other._data
+
+    def __reduce__(self) -> Any:
+        # Picklable (for concurrent.futures executors): rebuilt and re-validated from its JSON.
+        return (_scenario_from_json, (self._json,))
+
+
+def _scenario_from_json(text: str) -> Scenario:
+    return Scenario(json.loads(text))
