@@ -1,9 +1,23 @@
 //! # flc-sim
 //!
-//! Closed-loop simulator for the flc pipeline: a rapier2d world with vehicles, road-side clutter,
-//! a ray-cast LiDAR, a lossy V2V channel and scenario files.
+//! Closed-loop simulator for the flc pipeline (the paper's CARLA experiment, Secs. III-IV): a
+//! rapier2d world with vehicles and road-side clutter ([`world`]), a ray-cast LiDAR ([`lidar`]), a
+//! lossy V2V channel ([`v2v`]), vehicle dynamics ([`vehicle`]), tracks as data ([`track`]),
+//! scenario files ([`scenario`]), the closed loop ([`sim`]), metrics ([`metrics`]) and reports
+//! ([`report`]).
+pub mod calibration;
 pub mod error;
+pub mod lead;
+pub mod lidar;
+pub mod metrics;
+pub mod report;
+pub mod scenario;
+pub mod sim;
+pub mod track;
+pub mod v2v;
+pub mod vehicle;
+pub mod world;
 
 pub use error::{ConfigError, SimError};
-pub mod v2v;
-pub mod metrics;
+pub use scenario::Scenario;
+pub use sim::{RunResult, Simulation, run, run_batch, run_with};

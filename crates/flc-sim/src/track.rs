@@ -1,0 +1,342 @@
+//! Tracks are data: a centreline polyline, a lane width and road-side objects (`docs/sim-model.md`).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, check_range};
+
+/// A road-side object; positions are given along the centreline (`s`, m) and across it (`offset`,
+/// m, + left).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RoadsideObject {
+    /// A guard rail (thin wall) at lateral `offset` from `from_s` to `to_s`.
+    GuardRail {
+        /// Lateral offset, m.
+        offset: f64,
+        /// Start, m along the centreline.
+        from_s: f64,
+        /// End, m along the centreline.
+        to_s: f64,
+    },
+    /// A post (e.g. delineator, sign pole) of `radius` m.
+    Post {
+        /// Position along the centreline, m.
+        s: f64,
+        /// Lateral offset, m.
+        offset: f64,
+        /// Radius, m.
+        radius: f64,
+    },
+    /// A parked (stationary) car, 4.7 m x 1.8 m.
+    ParkedCar {
+        /// Position along the centreline, m.
+        s: f64,
+        /// Lateral offset, m.
+        offset: f64,
+        /// Heading relative to the road, rad.
+        #[serde(default)]
+        heading_offset: f64,
+    },
+}
+
+/// Nearest point on the centreline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// Distance along the centreline, m.
+    pub s: f64,
+    /// Signed lateral offset (+ left of the direction of travel), m.
+    pub lateral_offset: f64,
+    /// Heading of the centreline there, rad.
+    pub heading: f64,
+    /// Index of the segment (a hint for the next, nearby query).
+    pub segment: usize,
+}
+
+/// A track: centreline polyline + lane width + road-side objects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Track {
+    /// Name.
+    #[serde(default)]
+    pub name: String,
+    /// Centreline of the lane driven in, as `[x, y]` points, m.
+    pub centerline: Vec<[f64; 2]>,
+    /// Lane width, m.
+    #[serde(default = "default_lane_width")]
+    pub lane_width: f64,
+    /// Road-side clutter (guard rails, posts, parked cars).
+    #[serde(default)]
+    pub objects: Vec<RoadsideObject>,
+    /// Cumulative length at each point (computed).
+    #[serde(skip)]
+    cum: Vec<f64>,
+}
+
+fn default_lane_width() -> f64 {
+    3.5
+}
+
+impl Track {
+    /// Builds a track and its length table.
+    pub fn new(name: &str, centerline: Vec<[f64; 2]>, lane_width: f64, objects: Vec<RoadsideObject>) -> Self {
+        let mut t = Self { name: name.to_string(), centerline, lane_width, objects, cum: Vec::new() };
+        t.prepare();
+        t
+    }
+
+    fn prepare(&mut self) {
+        let mut cum = Vec::with_capacity(self.centerline.len());
+        let mut acc = 0.0;
+        for (i, p) in self.centerline.iter().enumerate() {
+            if i > 0 {
+                let q = self.centerline[i - 1];
+                acc += (p[0] - q[0]).hypot(p[1] - q[1]);
+            }
+            cum.push(acc);
+        }
+        self.cum = cum;
+    }
+
+    /// A copy with the length table computed (for tracks read from files).
+    pub fn prepared(&self) -> Self {
+        let mut t = self.clone();
+        t.prepare();
+        t
+    }
+
+    /// Checks the geometry; errors name the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.centerline.len() < 2 {
+            return Err(ConfigError::new("centerline", "needs at least 2 points"));
+        }
+        for (i, w) in self.centerline.windows(2).enumerate() {
+            let (p, q) = (w[0], w[1]);
+            if !(p[0].is_finite() && p[1].is_finite() && q[0].is_finite() && q[1].is_finite()) {
+                return Err(ConfigError::new(format!("centerline[{}]", i + 1), "coordinates must be finite"));
+            }
+            if (q[0] - p[0]).hypot(q[1] - p[1]) < 1e-6 {
+                return Err(ConfigError::new(format!("centerline[{}]", i + 1), "repeats the previous point (zero-length segment)"));
+            }
+        }
+        check_range("lane_width", self.lane_width, 2.0, 6.0, "m")?;
+        for (i, o) in self.objects.iter().enumerate() {
+            let key = |k: &str| format!("objects[{i}].{k}");
+            match o {
+                RoadsideObject::GuardRail { offset, from_s, to_s } => {
+                    check_range(&key("offset"), *offset, -50.0, 50.0, "m")?;
+                    check_range(&key("from_s"), *from_s, 0.0, 1e6, "m")?;
+                    check_range(&key("to_s"), *to_s, *from_s, 1e6, "m (>= from_s)")?;
+                }
+                RoadsideObject::Post { s, offset, radius } => {
+                    check_range(&key("s"), *s, 0.0, 1e6, "m")?;
+                    check_range(&key("offset"), *offset, -50.0, 50.0, "m")?;
+                    check_range(&key("radius"), *radius, 0.01, 2.0, "m")?;
+                }
+                RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+                    check_range(&key("s"), *s, 0.0, 1e6, "m")?;
+                    check_range(&key("offset"), *offset, -50.0, 50.0, "m")?;
+                    check_range(&key("heading_offset"), *heading_offset, -3.2, 3.2, "rad")?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Total length, m.
+    pub fn length(&self) -> f64 {
+        self.cum.last().copied().unwrap_or(0.0)
+    }
+
+    fn segment_of(&self, s: f64) -> usize {
+        let n = self.centerline.len();
+        if n < 2 {
+            return 0;
+        }
+        let i = self.cum.partition_point(|&c| c <= s);
+        i.saturating_sub(1).min(n - 2)
+    }
+
+    /// Pose `(x, y, heading)` at distance `s` along the centreline (extrapolated beyond the ends).
+    pub fn pose_at(&self, s: f64) -> (f64, f64, f64) {
+        if self.centerline.len() < 2 {
+            return (0.0, 0.0, 0.0);
+        }
+        let i = self.segment_of(s);
+        let (p, q) = (self.centerline[i], self.centerline[i + 1]);
+        let len = (q[0] - p[0]).hypot(q[1] - p[1]).max(1e-12);
+        let h = (q[1] - p[1]).atan2(q[0] - p[0]);
+        let u = s - self.cum[i];
+        (p[0] + u * (q[0] - p[0]) / len, p[1] + u * (q[1] - p[1]) / len, h)
+    }
+
+    /// Signed curvature at `s`, 1/m (+ left), from the heading change over the neighbouring segments.
+    pub fn curvature_at(&self, s: f64) -> f64 {
+        let (_, _, h0) = self.pose_at(s - 2.0);
+        let (_, _, h1) = self.pose_at(s + 2.0);
+        wrap(h1 - h0) / 4.0
+    }
+
+    fn project_segment(&self, i: usize, x: f64, y: f64) -> (f64, Projection) {
+        let (p, q) = (self.centerline[i], self.centerline[i + 1]);
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        let len2 = (dx * dx + dy * dy).max(1e-12);
+        let n = self.centerline.len();
+        // Extrapolate beyond the first and last segments.
+        let lo = if i == 0 { f64::NEG_INFINITY } else { 0.0 };
+        let hi = if i + 2 == n { f64::INFINITY } else { 1.0 };
+        let u = (((x - p[0]) * dx + (y - p[1]) * dy) / len2).clamp(lo, hi);
+        let (cx, cy) = (p[0] + u * dx, p[1] + u * dy);
+        let len = len2.sqrt();
+        let lateral = (dx * (y - p[1]) - dy * (x - p[0])) / len;
+        let d2 = (x - cx).powi(2) + (y - cy).powi(2);
+        (d2, Projection { s: self.cum[i] + u * len, lateral_offset: lateral, heading: dy.atan2(dx), segment: i })
+    }
+
+    /// Nearest point on the centreline to `(x, y)` (full search).
+    pub fn project(&self, x: f64, y: f64) -> Projection {
+        self.project_range(x, y, 0, self.centerline.len().saturating_sub(1))
+    }
+
+    /// Nearest point searching only the segments within `window` of `hint` (for tracking a vehicle
+    /// step by step; falls back to a full search when the result is at the window's edge).
+    pub fn project_near(&self, x: f64, y: f64, hint: usize, window: usize) -> Projection {
+        let nseg = self.centerline.len().saturating_sub(1);
+        let lo = hint.saturating_sub(window);
+        let hi = (hint + window + 1).min(nseg);
+        let p = self.project_range(x, y, lo, hi);
+        if (p.segment == lo && lo > 0) || (p.segment + 1 == hi && hi < nseg) { self.project(x, y) } else { p }
+    }
+
+    fn project_range(&self, x: f64, y: f64, lo: usize, hi: usize) -> Projection {
+        let mut best: Option<(f64, Projection)> = None;
+        for i in lo..hi {
+            let (d2, p) = self.project_segment(i, x, y);
+            if best.as_ref().is_none_or(|(b, _)| d2 < *b) {
+                best = Some((d2, p));
+            }
+        }
+        best.map_or(Projection { s: 0.0, lateral_offset: 0.0, heading: 0.0, segment: 0 }, |(_, p)| p)
+    }
+
+    /// The paper's straight run: one lane of `length` m along +x, a second lane to the left,
+    /// guard rails on both sides, posts every 50 m and parked cars in the left lane.
+    pub fn straight(length: f64) -> Self {
+        let lw = default_lane_width();
+        let mut objects = vec![
+            RoadsideObject::GuardRail { offset: -(lw / 2.0 + 1.5), from_s: 0.0, to_s: length },
+            RoadsideObject::GuardRail { offset: 1.5 * lw + 1.5, from_s: 0.0, to_s: length },
+        ];
+        let mut s = 25.0;
+        while s < length {
+            objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08 });
+            s += 50.0;
+        }
+        let mut s = 300.0;
+        while s < length {
+            objects.push(RoadsideObject::ParkedCar { s, offset: lw, heading_offset: 0.0 });
+            s += 600.0;
+        }
+        Self::new("straight", vec![[0.0, 0.0], [length, 0.0]], lw, objects)
+    }
+
+    /// A route with curves like the paper's Fig. 3a: straights joined by arcs of radius 60-120 m,
+    /// sampled every 2 m, guard rails on both sides.
+    pub fn curvy() -> Self {
+        // (straight length m, arc radius m, arc angle rad, + left)
+        let plan: [(f64, f64, f64); 5] = [
+            (200.0, 100.0, std::f64::consts::FRAC_PI_2),
+            (150.0, 80.0, -std::f64::consts::FRAC_PI_2),
+            (200.0, 120.0, std::f64::consts::FRAC_PI_3),
+            (100.0, 60.0, -std::f64::consts::FRAC_PI_3),
+            (400.0, 1.0, 0.0),
+        ];
+        let step = 2.0;
+        let (mut x, mut y, mut h) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let mut pts = vec![[x, y]];
+        for (straight, radius, angle) in plan {
+            let n = (straight / step).round() as usize;
+            for _ in 0..n {
+                x += step * h.cos();
+                y += step * h.sin();
+                pts.push([x, y]);
+            }
+            if angle != 0.0 {
+                let arc = radius * angle.abs();
+                let n = (arc / step).ceil() as usize;
+                let dh = angle / n as f64;
+                let ds = arc / n as f64;
+                for _ in 0..n {
+                    // Chord of the sub-arc: heading at its middle.
+                    let hm = h + dh / 2.0;
+                    x += ds * hm.cos();
+                    y += ds * hm.sin();
+                    h += dh;
+                    pts.push([x, y]);
+                }
+            }
+        }
+        let mut t = Self::new("curvy", pts, default_lane_width(), Vec::new());
+        let len = t.length();
+        let lw = t.lane_width;
+        t.objects = vec![
+            RoadsideObject::GuardRail { offset: -(lw / 2.0 + 1.5), from_s: 0.0, to_s: len },
+            RoadsideObject::GuardRail { offset: lw / 2.0 + 1.5, from_s: 0.0, to_s: len },
+        ];
+        let mut s = 30.0;
+        while s < len {
+            t.objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08 });
+            s += 60.0;
+        }
+        t
+    }
+}
+
+/// Wraps an angle to (-pi, pi].
+pub fn wrap(a: f64) -> f64 {
+    let r = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    if r <= -std::f64::consts::PI { r + std::f64::consts::TAU } else { r }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_projection_and_pose() {
+        let t = Track::straight(1000.0);
+        assert_eq!(t.length(), 1000.0);
+        let p = t.project(250.0, 1.2);
+        assert!((p.s - 250.0).abs() < 1e-9 && (p.lateral_offset - 1.2).abs() < 1e-9);
+        assert_eq!(t.pose_at(400.0), (400.0, 0.0, 0.0));
+        assert!(t.validate().is_ok());
+    }
+
+    #[test]
+    fn curvy_track_geometry() {
+        let t = Track::curvy();
+        assert!(t.validate().is_ok());
+        // Length: straights 1050 m + arcs 100 pi/2 + 80 pi/2 + 120 pi/3 + 60 pi/3 = 1050 + 282.7 + 188.5.
+        let expected = 1050.0 + 180.0 * std::f64::consts::FRAC_PI_2 + 180.0 * std::f64::consts::FRAC_PI_3;
+        assert!((t.length() - expected).abs() < 0.1, "{}", t.length());
+        // In the middle of the first arc (radius 100 m, left) the curvature is 1/100.
+        let s_mid = 200.0 + 100.0 * std::f64::consts::FRAC_PI_4;
+        assert!((t.curvature_at(s_mid) - 0.01).abs() < 5e-4, "{}", t.curvature_at(s_mid));
+        // Points on the centreline project onto themselves.
+        for s in [10.0, 250.0, 700.0, 1200.0] {
+            let (x, y, h) = t.pose_at(s);
+            let p = t.project(x, y);
+            assert!((p.s - s).abs() < 1e-6 && p.lateral_offset.abs() < 1e-6);
+            // A point 1 m to the left has offset +1.
+            let q = t.project_near(x - h.sin(), y + h.cos(), p.segment, 5);
+            assert!((q.lateral_offset - 1.0).abs() < 0.01, "{}", q.lateral_offset);
+        }
+    }
+
+    #[test]
+    fn validation_names_the_key() {
+        let t = Track::new("bad", vec![[0.0, 0.0], [0.0, 0.0]], 3.5, vec![]);
+        assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
+        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 3.5, vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0 }]);
+        assert_eq!(t.validate().unwrap_err().key, "objects[0].radius");
+    }
+}

@@ -1,0 +1,325 @@
+//! Vehicle model: kinematic bicycle (lateral) + longitudinal dynamics with actuator dead time,
+//! first-order lag, drive / brake / friction limits, aerodynamic drag and rolling resistance; and
+//! the low-level speed controller that turns a speed command into an acceleration demand.
+//! Constants and their sources: `docs/sim-model.md`.
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, check_range};
+
+/// Gravity, m/s².
+const G: f64 = 9.81;
+
+/// Vehicle parameters. `Default`: a mid-size sedan on dry asphalt.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VehicleParams {
+    /// Body length (collider), m.
+    pub length: f64,
+    /// Body width (collider), m.
+    pub width: f64,
+    /// Wheelbase, m.
+    pub wheelbase: f64,
+    /// Mass, kg.
+    pub mass: f64,
+    /// Highest braking deceleration the tyres transmit (friction limit, ~mu g), m/s².
+    pub max_brake: f64,
+    /// Highest drive acceleration at low speed (traction / torque limit), m/s².
+    pub max_accel: f64,
+    /// Drive power limit, W (acceleration <= P / (m v) at speed).
+    pub max_power: f64,
+    /// Aerodynamic drag coefficient.
+    pub drag_cd: f64,
+    /// Frontal area, m².
+    pub frontal_area: f64,
+    /// Air density, kg/m³.
+    pub air_density: f64,
+    /// Rolling-resistance coefficient.
+    pub rolling_resistance: f64,
+    /// Actuator dead time (command to first response), s.
+    pub dead_time: f64,
+    /// Actuator first-order lag time constant, s.
+    pub lag: f64,
+    /// Steering (road-wheel) limit, rad.
+    pub max_steer: f64,
+    /// Steering rate limit, rad/s.
+    pub max_steer_rate: f64,
+}
+
+impl Default for VehicleParams {
+    fn default() -> Self {
+        Self {
+            length: 4.9,
+            width: 1.9,
+            wheelbase: 2.9,
+            mass: 1800.0,
+            max_brake: 8.0,
+            max_accel: 3.5,
+            max_power: 150_000.0,
+            drag_cd: 0.30,
+            frontal_area: 2.3,
+            air_density: 1.2,
+            rolling_resistance: 0.012,
+            dead_time: 0.1,
+            lag: 0.2,
+            max_steer: 0.6,
+            max_steer_rate: 0.8,
+        }
+    }
+}
+
+impl VehicleParams {
+    /// Checks every field; the error names it and the allowed range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_range("length", self.length, 1.0, 25.0, "m")?;
+        check_range("width", self.width, 0.5, 3.0, "m")?;
+        check_range("wheelbase", self.wheelbase, 0.5, self.length, "m (<= length)")?;
+        check_range("mass", self.mass, 100.0, 60_000.0, "kg")?;
+        check_range("max_brake", self.max_brake, 0.5, 15.0, "m/s²")?;
+        check_range("max_accel", self.max_accel, 0.1, 15.0, "m/s²")?;
+        check_range("max_power", self.max_power, 1_000.0, 2.0e6, "W")?;
+        check_range("drag_cd", self.drag_cd, 0.0, 2.0, "")?;
+        check_range("frontal_area", self.frontal_area, 0.0, 20.0, "m²")?;
+        check_range("air_density", self.air_density, 0.0, 2.0, "kg/m³")?;
+        check_range("rolling_resistance", self.rolling_resistance, 0.0, 0.1, "")?;
+        check_range("dead_time", self.dead_time, 0.0, 2.0, "s")?;
+        check_range("lag", self.lag, 0.0, 5.0, "s")?;
+        check_range("max_steer", self.max_steer, 0.05, 1.2, "rad")?;
+        check_range("max_steer_rate", self.max_steer_rate, 0.05, 10.0, "rad/s")
+    }
+}
+
+/// State of a vehicle; `(x, y)` is the body centre, `yaw` its heading.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct VehicleState {
+    /// Position of the body centre, m.
+    pub x: f64,
+    /// Position of the body centre, m.
+    pub y: f64,
+    /// Heading, rad.
+    pub yaw: f64,
+    /// Speed, m/s (>= 0).
+    pub speed: f64,
+    /// Longitudinal acceleration over the last step, m/s².
+    pub accel: f64,
+    /// Road-wheel steering angle, rad.
+    pub steer: f64,
+}
+
+/// A vehicle: state + actuator pipeline.
+#[derive(Debug, Clone)]
+pub struct Vehicle {
+    params: VehicleParams,
+    state: VehicleState,
+    delay: VecDeque<f64>,
+    actuator: f64,
+}
+
+impl Vehicle {
+    /// A vehicle at `state` with idle actuators.
+    pub fn new(params: VehicleParams, state: VehicleState) -> Self {
+        Self { params, state, delay: VecDeque::new(), actuator: 0.0 }
+    }
+
+    /// The state.
+    pub fn state(&self) -> &VehicleState {
+        &self.state
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &VehicleParams {
+        &self.params
+    }
+
+    /// Advances by `dt` with the acceleration demand `accel_cmd` (m/s²) and steering demand
+    /// `steer_cmd` (rad).
+    pub fn step(&mut self, accel_cmd: f64, steer_cmd: f64, dt: f64) {
+        let p = self.params;
+        let accel_cmd = if accel_cmd.is_finite() { accel_cmd } else { -p.max_brake };
+        let steer_cmd = if steer_cmd.is_finite() { steer_cmd } else { 0.0 };
+        // Dead time: a FIFO of round(dead_time / dt) steps.
+        let n = (p.dead_time / dt).round() as usize;
+        if self.delay.len() != n {
+            self.delay = std::iter::repeat_n(self.actuator, n).collect();
+        }
+        self.delay.push_back(accel_cmd);
+        let delayed = self.delay.pop_front().unwrap_or(accel_cmd);
+        // First-order lag (exact discretisation).
+        let alpha = if p.lag > 0.0 { 1.0 - (-dt / p.lag).exp() } else { 1.0 };
+        self.actuator += alpha * (delayed - self.actuator);
+        let v = self.state.speed;
+        // Drive limited by traction and power, brake by friction.
+        let a_act = if self.actuator >= 0.0 {
+            self.actuator.min(p.max_accel).min(p.max_power / (p.mass * v.max(1.0)))
+        } else {
+            self.actuator.max(-p.max_brake)
+        };
+        let resist = if v > 0.0 { (0.5 * p.air_density * p.drag_cd * p.frontal_area * v * v) / p.mass + p.rolling_resistance * G } else { 0.0 };
+        let v_new = (v + (a_act - resist) * dt).max(0.0);
+        let v_mid = 0.5 * (v + v_new);
+        // Kinematic bicycle about the body centre (slip angle beta, rear axle at L/2 behind).
+        let max_dsteer = p.max_steer_rate * dt;
+        let steer = (self.state.steer + (steer_cmd.clamp(-p.max_steer, p.max_steer) - self.state.steer).clamp(-max_dsteer, max_dsteer))
+            .clamp(-p.max_steer, p.max_steer);
+        let lr = p.wheelbase / 2.0;
+        let beta = (lr / p.wheelbase * steer.tan()).atan();
+        let s = &mut self.state;
+        s.x += v_mid * (s.yaw + beta).cos() * dt;
+        s.y += v_mid * (s.yaw + beta).sin() * dt;
+        s.yaw += v_mid / lr * beta.sin() * dt;
+        s.accel = (v_new - v) / dt;
+        s.speed = v_new;
+        s.steer = steer;
+    }
+}
+
+/// Parameters of the low-level speed controller (PI on the speed error, like CARLA's default
+/// longitudinal vehicle controller the paper feeds its speed command into).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SpeedControllerParams {
+    /// Proportional gain, (m/s²)/(m/s).
+    pub kp: f64,
+    /// Integral gain, (m/s²)/m.
+    pub ki: f64,
+    /// Clamp of the integral term, m/s².
+    pub integral_limit: f64,
+    /// Highest acceleration demand, m/s².
+    pub max_accel: f64,
+    /// Highest deceleration demand (positive), m/s².
+    pub max_decel: f64,
+}
+
+impl Default for SpeedControllerParams {
+    fn default() -> Self {
+        Self { kp: 1.0, ki: 0.1, integral_limit: 1.0, max_accel: 3.5, max_decel: 8.0 }
+    }
+}
+
+impl SpeedControllerParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_range("kp", self.kp, 0.01, 50.0, "1/s")?;
+        check_range("ki", self.ki, 0.0, 50.0, "1/s²")?;
+        check_range("integral_limit", self.integral_limit, 0.0, 10.0, "m/s²")?;
+        check_range("max_accel", self.max_accel, 0.1, 15.0, "m/s²")?;
+        check_range("max_decel", self.max_decel, 0.1, 15.0, "m/s²")
+    }
+}
+
+/// The low-level speed controller: speed command -> acceleration demand.
+#[derive(Debug, Clone)]
+pub struct SpeedController {
+    params: SpeedControllerParams,
+    integral: f64,
+}
+
+impl SpeedController {
+    /// A controller with an empty integrator.
+    pub fn new(params: SpeedControllerParams) -> Self {
+        Self { params, integral: 0.0 }
+    }
+
+    /// Acceleration demand to track `speed_cmd` from `speed` (m/s) over `dt` (s).
+    pub fn step(&mut self, speed_cmd: f64, speed: f64, dt: f64) -> f64 {
+        let p = self.params;
+        if !(speed_cmd.is_finite() && speed.is_finite()) {
+            return -p.max_decel;
+        }
+        let e = speed_cmd - speed;
+        // A stop request at standstill holds the brake (no creeping, no integrator windup).
+        if speed_cmd <= 0.0 && speed < 0.1 {
+            self.integral = 0.0;
+            return -p.max_decel.min(2.0);
+        }
+        let candidate = (self.integral + p.ki * e * dt).clamp(-p.integral_limit, p.integral_limit);
+        let raw = p.kp * e + candidate;
+        if raw < p.max_accel && raw > -p.max_decel {
+            self.integral = candidate;
+        }
+        (p.kp * e + self.integral).clamp(-p.max_decel, p.max_accel)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 0.01;
+
+    #[test]
+    fn full_braking_distance_matches_friction_limit_plus_actuator_delay() {
+        let p = VehicleParams::default();
+        let mut v = Vehicle::new(p, VehicleState { speed: 20.0, ..Default::default() });
+        let mut steps = 0;
+        while v.state().speed > 0.0 && steps < 10_000 {
+            v.step(-20.0, 0.0, DT);
+            steps += 1;
+        }
+        // Ideal: v²/(2 a) = 400 / 16 = 25 m; plus 20 m/s x dead time 0.1 s = 2 m; plus the lag
+        // ramp: the -20 demand reaches the -8 limit after -0.2 ln(1 - 8/20) = 0.10 s at about
+        // half the deceleration, ~1 m; drag and rolling resistance shorten it a little.
+        let x = v.state().x;
+        assert!(x > 26.5 && x < 28.5, "stopping distance {x}");
+        assert_eq!(v.state().speed, 0.0);
+    }
+
+    #[test]
+    fn speed_never_negative_and_coasting_slows_down() {
+        let mut v = Vehicle::new(VehicleParams::default(), VehicleState { speed: 30.0, ..Default::default() });
+        for _ in 0..100 {
+            v.step(0.0, 0.0, DT);
+        }
+        // Drag at 30 m/s: 0.5*1.2*0.3*2.3*900/1800 = 0.207 m/s² plus rolling 0.118 m/s².
+        assert!((v.state().speed - (30.0 - 0.325)).abs() < 0.02, "{}", v.state().speed);
+        let mut v = Vehicle::new(VehicleParams::default(), VehicleState { speed: 0.5, ..Default::default() });
+        for _ in 0..500 {
+            v.step(-8.0, 0.0, DT);
+            assert!(v.state().speed >= 0.0);
+        }
+    }
+
+    #[test]
+    fn lag_step_response() {
+        let p = VehicleParams { drag_cd: 0.0, rolling_resistance: 0.0, ..Default::default() };
+        let mut v = Vehicle::new(p, VehicleState { speed: 10.0, ..Default::default() });
+        // After dead time + one time constant the response reaches 1 - 1/e = 63 % of the -4 step.
+        for _ in 0..30 {
+            v.step(-4.0, 0.0, DT);
+        }
+        assert!((v.state().accel + 4.0 * (1.0 - (-1.0f64).exp())).abs() < 0.15, "{}", v.state().accel);
+    }
+
+    #[test]
+    fn straight_line_and_turning() {
+        let mut v = Vehicle::new(VehicleParams::default(), VehicleState { speed: 10.0, ..Default::default() });
+        for _ in 0..100 {
+            v.step(0.0, 0.0, DT);
+        }
+        assert_eq!(v.state().y, 0.0);
+        let mut v = Vehicle::new(VehicleParams::default(), VehicleState { speed: 10.0, ..Default::default() });
+        for _ in 0..100 {
+            v.step(0.0, 0.2, DT);
+        }
+        assert!(v.state().y > 0.0 && v.state().yaw > 0.0);
+    }
+
+    #[test]
+    fn speed_controller_tracks() {
+        let mut v = Vehicle::new(VehicleParams::default(), VehicleState::default());
+        let mut c = SpeedController::new(SpeedControllerParams::default());
+        for _ in 0..3000 {
+            let a = c.step(15.0, v.state().speed, DT);
+            v.step(a, 0.0, DT);
+        }
+        assert!((v.state().speed - 15.0).abs() < 0.1, "{}", v.state().speed);
+    }
+
+    #[test]
+    fn validation_names_the_key() {
+        let p = VehicleParams { max_brake: 0.0, ..Default::default() };
+        assert_eq!(p.validate().unwrap_err().key, "max_brake");
+    }
+}

@@ -1,0 +1,227 @@
+//! The rapier2d world: vehicles as kinematic bodies with cuboid colliders, road-side clutter as
+//! fixed colliders. Motion comes from the vehicle models ([`crate::vehicle`]); rapier provides
+//! contact detection (collisions) and ray casts (the LiDAR).
+
+use rapier2d::prelude::*;
+
+use crate::track::{RoadsideObject, Track};
+use crate::vehicle::{VehicleParams, VehicleState};
+
+/// A vehicle in the world.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Body {
+    body: RigidBodyHandle,
+    collider: ColliderHandle,
+}
+
+/// Two colliders touching (penetration depth >= 0) after a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    a: ColliderHandle,
+    b: ColliderHandle,
+    /// Penetration depth, m (>= 0).
+    pub depth: f64,
+}
+
+impl Contact {
+    /// `true` if `body` is one of the two.
+    pub fn involves(&self, body: Body) -> bool {
+        self.a == body.collider || self.b == body.collider
+    }
+}
+
+/// Length of the pieces guard rails are built from, m.
+const RAIL_PIECE: f64 = 10.0;
+
+fn pose(x: f64, y: f64, yaw: f64) -> Pose {
+    Pose::new(Vector::new(x as f32, y as f32), yaw as f32)
+}
+
+/// The physics world.
+pub struct World {
+    pw: PhysicsWorld,
+    vehicles: Vec<Body>,
+}
+
+impl World {
+    /// A world with the track's road-side objects as fixed colliders.
+    pub fn new(track: &Track) -> Self {
+        let mut pw = PhysicsWorld::new();
+        pw.gravity = Vector::ZERO;
+        // Exact contact state every step: no reuse of manifolds while poses drift slightly.
+        pw.integration_parameters.contact_recycling = false;
+        let place = |s: f64, offset: f64| {
+            let (x, y, h) = track.pose_at(s);
+            (x - offset * h.sin(), y + offset * h.cos(), h)
+        };
+        for o in &track.objects {
+            match *o {
+                RoadsideObject::GuardRail { offset, from_s, to_s } => {
+                    let mut s = from_s;
+                    while s < to_s {
+                        let e = (s + RAIL_PIECE).min(to_s);
+                        let (x0, y0, _) = place(s, offset);
+                        let (x1, y1, _) = place(e, offset);
+                        let len = (x1 - x0).hypot(y1 - y0);
+                        if len > 1e-3 {
+                            let c = ColliderBuilder::cuboid((len / 2.0 + 0.05) as f32, 0.1)
+                                .position(pose((x0 + x1) / 2.0, (y0 + y1) / 2.0, (y1 - y0).atan2(x1 - x0)));
+                            pw.insert_collider(c, None);
+                        }
+                        s = e;
+                    }
+                }
+                RoadsideObject::Post { s, offset, radius } => {
+                    let (x, y, _) = place(s, offset);
+                    pw.insert_collider(ColliderBuilder::ball(radius as f32).position(pose(x, y, 0.0)), None);
+                }
+                RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+                    let (x, y, h) = place(s, offset);
+                    pw.insert_collider(ColliderBuilder::cuboid(2.35, 0.9).position(pose(x, y, h + heading_offset)), None);
+                }
+            }
+        }
+        Self { pw, vehicles: Vec::new() }
+    }
+
+    /// Adds a vehicle (kinematic body, cuboid collider `length x width`) at `state`.
+    pub fn add_vehicle(&mut self, params: &VehicleParams, state: &VehicleState) -> Body {
+        let rb = RigidBodyBuilder::kinematic_position_based().pose(pose(state.x, state.y, state.yaw));
+        let col = ColliderBuilder::cuboid((params.length / 2.0) as f32, (params.width / 2.0) as f32)
+            .active_collision_types(ActiveCollisionTypes::default() | ActiveCollisionTypes::KINEMATIC_KINEMATIC | ActiveCollisionTypes::KINEMATIC_FIXED)
+            .active_events(ActiveEvents::COLLISION_EVENTS);
+        let (body, collider) = self.pw.insert(rb, col);
+        let b = Body { body, collider };
+        self.vehicles.push(b);
+        b
+    }
+
+    /// Moves a vehicle's body to `state` (takes effect for contacts at the next [`World::step`]).
+    pub fn set_pose(&mut self, body: Body, state: &VehicleState) {
+        if let Some(rb) = self.pw.bodies.get_mut(body.body) {
+            rb.set_position(pose(state.x, state.y, state.yaw), true);
+        }
+    }
+
+    /// Runs rapier's collision pipeline (broad + narrow phase) on the current poses; there is
+    /// nothing to integrate, since motion comes from the vehicle models. Returns every touching
+    /// pair that involves a vehicle.
+    pub fn step(&mut self, dt: f64) -> Vec<Contact> {
+        self.pw.integration_parameters.dt = dt as f32;
+        self.pw.detect_collisions(&(), &());
+        let mut out = Vec::new();
+        for (i, v) in self.vehicles.iter().enumerate() {
+            // Vehicle-vehicle pairs (each once) ...
+            for w in self.vehicles.iter().skip(i + 1) {
+                if let Some(c) = self.touching(v.collider, w.collider) {
+                    out.push(c);
+                }
+            }
+        }
+        // ... and vehicle-clutter pairs.
+        for pair in self.pw.narrow_phase.contact_pairs() {
+            let is_vehicle = |h: ColliderHandle| self.vehicles.iter().any(|v| v.collider == h);
+            let (a, b) = (pair.collider1, pair.collider2);
+            if is_vehicle(a) != is_vehicle(b) {
+                if let Some((_, c)) = pair.find_deepest_contact() {
+                    if c.dist <= 0.0 {
+                        out.push(Contact { a, b, depth: -f64::from(c.dist) });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn touching(&self, a: ColliderHandle, b: ColliderHandle) -> Option<Contact> {
+        let pair = self.pw.narrow_phase.contact_pair(a, b)?;
+        let (_, c) = pair.find_deepest_contact()?;
+        (c.dist <= 0.0).then(|| Contact { a, b, depth: -f64::from(c.dist) })
+    }
+
+    /// Casts a ray from `origin` along the unit vector `dir` (world frame) up to `max_range`,
+    /// ignoring `exclude` (the ego vehicle). Returns the hit distance.
+    pub fn cast_ray(&self, origin: [f64; 2], dir: [f64; 2], max_range: f64, exclude: Body) -> Option<f64> {
+        let ray = Ray::new(Vector::new(origin[0] as f32, origin[1] as f32), Vector::new(dir[0] as f32, dir[1] as f32));
+        let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
+        self.pw.cast_ray(&ray, max_range as f32, true, filter).map(|(_, toi)| f64::from(toi))
+    }
+
+    /// Casts many rays from one origin (one query pipeline for all of them); `hits[i]` receives the
+    /// distance of ray `dirs[i]` or `None`.
+    pub fn cast_rays(&self, origin: [f64; 2], dirs: &[[f64; 2]], max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+        hits.clear();
+        let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
+        let qp = self.pw.query_pipeline_with_filter(filter);
+        let o = Vector::new(origin[0] as f32, origin[1] as f32);
+        for d in dirs {
+            let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
+            hits.push(qp.cast_ray(&ray, max_range as f32, true).map(|(_, toi)| f64::from(toi)));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn empty() -> World {
+        World::new(&Track::new("t", vec![[0.0, 0.0], [1000.0, 0.0]], 3.5, vec![]))
+    }
+
+    #[test]
+    fn vehicles_driven_into_each_other_collide_at_the_right_step() {
+        let mut w = empty();
+        let p = VehicleParams::default();
+        let a_state = VehicleState { x: 0.0, ..Default::default() };
+        let b_state = VehicleState { x: 10.0, ..Default::default() };
+        let a = w.add_vehicle(&p, &a_state);
+        let b = w.add_vehicle(&p, &b_state);
+        // Gap 10 - 4.9 = 5.1 m closed by 1 cm per step: contact at step 510 (f32 rounding: +-1).
+        let mut first = None;
+        for k in 1..=600 {
+            let s = VehicleState { x: 0.01 * k as f64, ..Default::default() };
+            w.set_pose(a, &s);
+            w.set_pose(b, &b_state);
+            let contacts = w.step(0.01);
+            if contacts.iter().any(|c| c.involves(a) && c.involves(b)) {
+                first = Some(k);
+                break;
+            }
+        }
+        let k = first.expect("no collision reported");
+        assert!((509..=511).contains(&k), "collision at step {k}");
+    }
+
+    #[test]
+    fn separate_vehicles_do_not_collide() {
+        let mut w = empty();
+        let p = VehicleParams::default();
+        let a = w.add_vehicle(&p, &VehicleState::default());
+        let b = w.add_vehicle(&p, &VehicleState { x: 5.0, ..Default::default() });
+        for _ in 0..10 {
+            w.set_pose(a, &VehicleState::default());
+            w.set_pose(b, &VehicleState { x: 5.0, ..Default::default() });
+            assert!(w.step(0.01).is_empty());
+        }
+    }
+
+    #[test]
+    fn ray_hits_a_box_at_the_analytic_range_and_ignores_the_ego() {
+        let mut w = empty();
+        let p = VehicleParams::default();
+        let ego = w.add_vehicle(&p, &VehicleState::default());
+        let lead = w.add_vehicle(&p, &VehicleState { x: 30.0, y: 0.5, ..Default::default() });
+        w.step(0.01);
+        // From the ego centre along +x: the lead's rear face is at 30 - 2.45 = 27.55 m.
+        let r = w.cast_ray([0.0, 0.0], [1.0, 0.0], 100.0, ego).expect("hit");
+        assert!((r - 27.55).abs() < 1e-3, "{r}");
+        // Excluding the lead instead, the ray from inside the ego hits the ego itself at once.
+        let r = w.cast_ray([0.0, 0.0], [1.0, 0.0], 100.0, lead).expect("hit");
+        assert!(r < 1e-3);
+        // Angled ray: hits the rear face plane x = 27.55 at y = 27.55 tan(1 deg).
+        let a = 1f64.to_radians();
+        let r = w.cast_ray([0.0, 0.0], [a.cos(), a.sin()], 100.0, ego).expect("hit");
+        assert!((r - 27.55 / a.cos()).abs() < 2e-3, "{r}");
+    }
+}

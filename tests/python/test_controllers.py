@@ -1,0 +1,77 @@
+"""The Python facade of the core controllers: same numbers as the paper's equations, clear errors."""
+import math
+
+import numpy as np
+import pytest
+
+import flc
+
+
+def test_flc_matches_eq5_by_hand():
+    c = flc.FallbackController()
+    # S_F = 10 m/s, LF_dist = 25 m: dist_s = 25 - (1.0 * 10 + 6) - 10 * 0.4 = 5.
+    out = c.step(25.0, 10.0)
+    assert out.status == "ok"
+    assert out.accel == pytest.approx(5 * (1 - math.cos(math.pi * 5 / 11)), abs=1e-12)
+    assert c.terms()["dist_s"] == pytest.approx(5.0)
+    # Delta_d = -0.5 <= -0.3: braking branch, dist_s overridden to -3, multiplier 2.
+    out = c.step(24.5, 10.0)
+    assert out.accel == pytest.approx(2 * -3 * (1.5 - math.cos(math.pi * 3 / 11)), abs=1e-12)
+
+
+def test_keyword_parameters_use_paper_names():
+    c = flc.FallbackController(time_gap=2.0, base_gap=4.0)
+    c.step(30.0, 10.0)
+    assert c.terms()["d_d"] == pytest.approx(2.0 * 10 + 4.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [({"time_gap": float("nan")}, "time_gap"), ({"bound_t": "11"}, "bound_t"), ({"tme_gap": 1.0}, "tme_gap"), ({"bound_t": -1.0}, "bound_t")],
+)
+def test_bad_parameters_name_the_field(kwargs, name):
+    with pytest.raises(flc.ParameterError, match=name):
+        flc.FallbackController(**kwargs)
+
+
+def test_errors_share_one_base():
+    assert issubclass(flc.ParameterError, flc.FlcError)
+    assert issubclass(flc.ScenarioError, flc.FlcError)
+
+
+def test_bad_input_gives_safe_command():
+    c = flc.FallbackController()
+    out = c.step(float("nan"), 10.0)
+    assert out.status == "invalid_distance" and out.speed == 7.0
+    assert c.step(None, 10.0).status == "no_lead"
+
+
+def test_pid_far_gains_by_hand():
+    p = flc.PidController()
+    out = p.step(12.0, 10.0, 30.0, 0.05)
+    assert out.accel == pytest.approx(0.2 * 15 + 0.01 * 15 * 0.05 + 0.6 * 2)
+
+
+def test_pure_pursuit_eq1():
+    pp = flc.PurePursuit()
+    s = pp.step((20.0, 2.0), 10.0)
+    assert s.steer == pytest.approx(2 * 2.0 / (9.0**2 + 20.0**2))
+
+
+def test_supervisor_falls_back_and_returns():
+    s = flc.Supervisor(max_age_ticks=2, return_after=3)
+    outs = [s.step((10.0, k), 20.0, 10.0, 0.05) for k in range(3)]
+    assert outs[-1]["active"] == "pid"
+    outs = [s.step(None, 20.0, 10.0, 0.05) for _ in range(3)]
+    assert [o["active"] for o in outs] == ["pid", "pid", "flc"]
+    assert outs[-1]["reason"] == "v2v_stale"
+
+
+def test_detector_finds_a_rear_face():
+    d = flc.LeadDetector()
+    ys = np.linspace(-0.95, 0.95, 40)
+    pts = np.column_stack([np.full_like(ys, 20.0), ys])
+    out = d.detect(pts)
+    assert out["status"] == "ok"
+    assert out["detection"]["distance"] == pytest.approx(20.0, abs=0.2)
+    assert d.detect(np.zeros((0, 2)))["detection"] is None
