@@ -55,7 +55,7 @@ def test_pid_far_gains_by_hand():
 def test_pure_pursuit_eq1():
     pp = flc.PurePursuit()
     s = pp.step((20.0, 2.0), 10.0)
-    assert s.steer == pytest.approx(2 * 2.0 / (9.0**2 + 20.0**2))
+    assert s.steer == pytest.approx(math.atan(2.9 * 2 * 2.0 / (9.0**2 + 20.0**2)))
 
 
 def test_supervisor_falls_back_and_returns():

@@ -3,7 +3,8 @@
 //! ```text
 //! D_ahead = base_lookahead + lookahead_gain * S_F
 //! (1)  theta = 2 * delta_y / (D_ahead^2 + delta_x^2)            (PursuitLaw::Paper)
-//!      delta  = atan(2 * wheelbase * sin(alpha) / D_ahead)        (PursuitLaw::Standard)
+//!      delta = atan(wheelbase * theta)
+//!      delta = atan(2 * wheelbase * sin(alpha) / D_ahead)        (PursuitLaw::Standard)
 //! ```
 //! with `(delta_x, delta_y)` the lead's position relative to the follower (x forward, y left) and
 //! `alpha = atan2(delta_y, delta_x)` the relative angle (quadrant-correct arc tangent, as the paper
@@ -17,13 +18,13 @@ use nalgebra::Point2;
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PursuitLaw {
-    /// The paper's Eq. (1), `theta = 2 dy / (D_ahead^2 + dx^2)`, taken as the road-wheel angle in rad.
+    /// The paper's Eq. (1), `theta = 2 dy / (D_ahead^2 + dx^2)`. `theta` has the unit 1/m: it is
+    /// the curvature of the pursuit arc (for `D_ahead = 0` exactly pure pursuit's `2 y / l^2`), so
+    /// it is turned into a road-wheel angle with the bicycle model, `delta = atan(L theta)`
+    /// (`docs/paper-notes.md`).
     Paper,
-    /// Standard pure pursuit (Coulter 1992), `delta = atan(2 L sin(alpha) / D_ahead)` with wheelbase `L` in m.
-    Standard {
-        /// Wheelbase, m.
-        wheelbase: f64,
-    },
+    /// Standard pure pursuit (Coulter 1992), `delta = atan(2 L sin(alpha) / D_ahead)`.
+    Standard,
 }
 
 /// Parameters of the lateral controller.
@@ -36,13 +37,15 @@ pub struct PurePursuitParams {
     pub lookahead_gain: f64,
     /// The law. Default [`PursuitLaw::Paper`].
     pub law: PursuitLaw,
+    /// Wheelbase `L`, m. Default 2.9.
+    pub wheelbase: f64,
     /// Steering saturation, rad. Default 0.6 (about 34 degrees).
     pub max_steer: f64,
 }
 
 impl Default for PurePursuitParams {
     fn default() -> Self {
-        Self { base_lookahead: 4.0, lookahead_gain: 0.5, law: PursuitLaw::Paper, max_steer: 0.6 }
+        Self { base_lookahead: 4.0, lookahead_gain: 0.5, law: PursuitLaw::Paper, wheelbase: 2.9, max_steer: 0.6 }
     }
 }
 
@@ -51,9 +54,7 @@ impl PurePursuitParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         check_positive("base_lookahead", self.base_lookahead, 1000.0, "must be finite and in (0, 1000] m")?;
         check_range("lookahead_gain", self.lookahead_gain, 0.0, 100.0, "must be finite and in [0, 100] s")?;
-        if let PursuitLaw::Standard { wheelbase } = self.law {
-            check_positive("wheelbase", wheelbase, 100.0, "must be finite and in (0, 100] m")?;
-        }
+        check_positive("wheelbase", self.wheelbase, 100.0, "must be finite and in (0, 100] m")?;
         check_positive("max_steer", self.max_steer, core::f64::consts::FRAC_PI_2, "must be finite and in (0, pi/2] rad")
     }
 }
@@ -113,8 +114,8 @@ impl PurePursuit {
         }
         let alpha = libm::atan2(dy, dx);
         let raw = match p.law {
-            PursuitLaw::Paper => 2.0 * dy / (lookahead * lookahead + dx * dx),
-            PursuitLaw::Standard { wheelbase } => libm::atan(2.0 * wheelbase * libm::sin(alpha) / lookahead),
+            PursuitLaw::Paper => libm::atan(p.wheelbase * 2.0 * dy / (lookahead * lookahead + dx * dx)),
+            PursuitLaw::Standard => libm::atan(2.0 * p.wheelbase * libm::sin(alpha) / lookahead),
         };
         let steer = if raw.is_finite() { raw.clamp(-p.max_steer, p.max_steer) } else { 0.0 };
         let lookahead_point = Point2::new(lookahead * libm::cos(alpha), lookahead * libm::sin(alpha));
@@ -129,17 +130,19 @@ mod tests {
     #[test]
     fn eq1_by_hand() {
         let pp = PurePursuit::new(PurePursuitParams::default()).unwrap();
-        // S_F = 10: D_ahead = 4 + 0.5 * 10 = 9. Lead at (20, 2): theta = 2 * 2 / (81 + 400) = 4 / 481.
+        // S_F = 10: D_ahead = 4 + 0.5 * 10 = 9. Lead at (20, 2): theta = 2 * 2 / (81 + 400) = 4 / 481
+        // = 0.0083160 1/m; delta = atan(2.9 * 0.0083160) = atan(0.0241164) = 0.0241117 rad.
         let out = pp.step(Some(Point2::new(20.0, 2.0)), 10.0);
         assert_eq!(out.lookahead, 9.0);
-        assert!((out.steer - 4.0 / 481.0).abs() < 1e-12);
+        assert!((out.steer - libm::atan(2.9 * 4.0 / 481.0)).abs() < 1e-12);
+        assert!((out.steer - 0.024_111_7).abs() < 1e-6);
         // Lead on the right steers right.
         assert!(pp.step(Some(Point2::new(20.0, -2.0)), 10.0).steer < 0.0);
     }
 
     #[test]
     fn standard_law_by_hand() {
-        let p = PurePursuitParams { law: PursuitLaw::Standard { wheelbase: 2.9 }, ..Default::default() };
+        let p = PurePursuitParams { law: PursuitLaw::Standard, ..Default::default() };
         let pp = PurePursuit::new(p).unwrap();
         // alpha = atan2(2, 20); sin(alpha) = 2 / sqrt(404) = 0.09950371902099892;
         // delta = atan(2 * 2.9 * 0.0995037... / 9) = atan(0.06412462003575486) = 0.06403700...

@@ -104,7 +104,10 @@ pub struct Lidar {
     noise: Option<Normal<f64>>,
     next_t: f64,
     queue: VecDeque<Option<Scan>>,
+    /// Ray angles in the sensor frame, ascending, rad.
     angles: Vec<f64>,
+    /// `(cos, sin)` of each ray's angle in the sensor frame.
+    unit: Vec<[f64; 2]>,
     dirs: Vec<[f64; 2]>,
     hits: Vec<Option<f64>>,
 }
@@ -115,9 +118,10 @@ impl Lidar {
         let n = params.rays();
         let half = params.fov_deg.to_radians() / 2.0;
         let step = if n > 1 { params.fov_deg.to_radians() / (n - 1) as f64 } else { 0.0 };
-        let angles = (0..n).map(|i| -half + step * i as f64).collect();
+        let angles: Vec<f64> = (0..n).map(|i| -half + step * i as f64).collect();
+        let unit = angles.iter().map(|a| [a.cos(), a.sin()]).collect();
         let noise = if params.range_noise_std > 0.0 { Normal::new(0.0, params.range_noise_std).ok() } else { None };
-        Self { params, rng: ChaCha8Rng::seed_from_u64(seed), noise, next_t: 0.0, queue: VecDeque::new(), angles, dirs: Vec::with_capacity(n), hits: Vec::with_capacity(n) }
+        Self { params, rng: ChaCha8Rng::seed_from_u64(seed), noise, next_t: 0.0, queue: VecDeque::new(), angles, unit, dirs: Vec::with_capacity(n), hits: Vec::with_capacity(n) }
     }
 
     /// The parameters.
@@ -146,17 +150,18 @@ impl Lidar {
         let origin = [pose.x + c * p.mount_x - s * p.mount_y, pose.y + s * p.mount_x + c * p.mount_y];
         let base = pose.yaw + p.mount_yaw_deg.to_radians();
         self.dirs.clear();
-        self.dirs.extend(self.angles.iter().map(|a| [(base + a).cos(), (base + a).sin()]));
-        world.cast_rays(origin, &self.dirs, p.max_range, ego, &mut self.hits);
+        let (cb, sb) = (base.cos(), base.sin());
+        self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
+        world.cast_fan(origin, base, &self.angles, &self.dirs, p.max_range, ego, &mut self.hits);
         let mut points = Vec::with_capacity(self.hits.len() / 4);
-        for (a, hit) in self.angles.iter().zip(&self.hits) {
+        for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
             // Draw for every ray, hit or not, so that one impairment does not reshuffle another.
             let drop = self.rng.random::<f64>() < p.dropout_prob;
             let n = self.noise.map_or(0.0, |d| d.sample(&mut self.rng));
             if let Some(r) = hit {
                 if !drop {
                     let r = (r + n).max(0.0);
-                    points.push([r * a.cos(), r * a.sin()]);
+                    points.push([r * ca, r * sa]);
                 }
             }
         }

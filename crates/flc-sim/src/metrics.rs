@@ -447,7 +447,7 @@ impl Metrics {
 
         // Controller shares and switches.
         let active = &s.active[..n];
-        let time_of = |code: u8| active.iter().zip(&dts).filter(|(a, _)| **a == code).map(|(_, d)| d).sum::<f64>();
+        let time_of = |code: u8| active.iter().zip(&dts).filter(|(a, _)| **a == code).fold(0.0, |acc, (_, d)| acc + d);
         let switches = active.windows(2).filter(|w| w[0] != w[1]).count();
 
         Metrics {

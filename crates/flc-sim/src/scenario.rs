@@ -318,8 +318,10 @@ pub struct Scenario {
 }
 
 impl Default for Scenario {
+    /// The paper's experiment at 50 km/h with the FLC and the realistic vehicle, unnamed (file
+    /// scenarios take their file name).
     fn default() -> Self {
-        Self::paper_experiment(50.0, ControllerKind::Flc, Calibration::Realistic)
+        Self { name: String::new(), speed_kmh: None, ..Self::paper_experiment(50.0, ControllerKind::Flc, Calibration::Realistic) }
     }
 }
 
@@ -353,8 +355,8 @@ impl Scenario {
     /// stop. For [`ControllerKind::Pipeline`], V2V is lost at the brake onset.
     pub fn paper_experiment(speed_kmh: f64, controller: ControllerKind, calibration: Calibration) -> Self {
         let mut v2v = V2vParams::default();
-        let mut follower = FollowerSpec::default();
-        let mut flc = FlcParams::paper();
+        let follower = FollowerSpec::default();
+        let flc = FlcParams::paper();
         let lead = LeadSpec {
             initial_speed: 0.0,
             vehicle: VehicleParams::default(),
@@ -369,10 +371,7 @@ impl Scenario {
             ControllerKind::Pid => {}
             ControllerKind::Pipeline => v2v.outage_on_brake = true,
         }
-        if calibration == Calibration::Paper {
-            crate::calibration::apply_paper(&mut follower, &mut flc);
-        }
-        Self {
+        let mut s = Self {
             name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
             seed: 1,
             controller,
@@ -390,7 +389,11 @@ impl Scenario {
             supervisor: SupervisorSpec::default(),
             stop: StopSpec::default(),
             speed_kmh: Some(speed_kmh),
+        };
+        if calibration == Calibration::Paper {
+            crate::calibration::apply_paper(&mut s);
         }
+        s
     }
 
     /// Checks every value; the error names the dotted key and the allowed range.

@@ -163,7 +163,8 @@ impl Simulation {
         let lead_pp = flc_core::PurePursuitParams {
             base_lookahead: 6.0,
             lookahead_gain: 0.8,
-            law: flc_core::PursuitLaw::Standard { wheelbase: ll.wheelbase },
+            law: flc_core::PursuitLaw::Standard,
+            wheelbase: ll.wheelbase,
             max_steer: ll.max_steer,
         };
         let active = match s.controller {
@@ -301,8 +302,13 @@ impl Simulation {
         let steer = self.pursuit.step(lead_pos, fs.speed);
         self.steer_cmd = steer.steer;
         self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
-        // Path curvature for the detector's corridor: kinematic bicycle, kappa = tan(delta) / L.
-        self.path_curvature = steer.steer.tan() / self.scenario.follower.vehicle.wheelbase;
+        // Path for the detector's corridor on the next scan: the arc from the sensor through the
+        // lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight without one.
+        self.path_curvature = detection.map_or(0.0, |d| {
+            let (x, y) = (d.position.x, d.position.y);
+            let r2 = x * x + y * y;
+            if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
+        });
         let dt = self.last_tick_t.map_or(1.0 / self.scenario.lidar.rate_hz, |p| t - p);
         self.last_tick_t = Some(t);
         let msg = self.mailbox.take();
@@ -333,7 +339,11 @@ impl Simulation {
     fn record(&mut self, gap: f64, ls: &VehicleState, fs: &VehicleState) {
         let proj = self.track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
-        let desired = self.scenario.flc.desired_distance(fs.speed) + self.scenario.flc.f_shift(fs.speed);
+        // The desired gap of the controller that drives.
+        let desired = match self.active {
+            ActiveController::Pid => self.scenario.pid.desired_distance(fs.speed),
+            ActiveController::Flc => self.scenario.flc.desired_distance(fs.speed) + self.scenario.flc.f_shift(fs.speed),
+        };
         self.series.push(StepRecord {
             t: self.t,
             lead_x: ls.x,

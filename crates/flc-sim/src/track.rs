@@ -171,9 +171,10 @@ impl Track {
 
     /// Signed curvature at `s`, 1/m (+ left), from the heading change over the neighbouring segments.
     pub fn curvature_at(&self, s: f64) -> f64 {
-        let (_, _, h0) = self.pose_at(s - 2.0);
-        let (_, _, h1) = self.pose_at(s + 2.0);
-        wrap(h1 - h0) / 4.0
+        // Over +-10 m, so that the polyline's piecewise-constant heading averages out.
+        let (_, _, h0) = self.pose_at(s - 10.0);
+        let (_, _, h1) = self.pose_at(s + 10.0);
+        wrap(h1 - h0) / 20.0
     }
 
     fn project_segment(&self, i: usize, x: f64, y: f64) -> (f64, Projection) {
@@ -239,15 +240,15 @@ impl Track {
         Self::new("straight", vec![[0.0, 0.0], [length, 0.0]], lw, objects)
     }
 
-    /// A route with curves like the paper's Fig. 3a: straights joined by arcs of radius 60-120 m,
-    /// sampled every 2 m, guard rails on both sides.
+    /// A route with curves like the paper's Fig. 3a: straights joined by arcs of radius 120-250 m
+    /// (rural-road radii for 50-90 km/h), sampled every 2 m, guard rails on both sides.
     pub fn curvy() -> Self {
         // (straight length m, arc radius m, arc angle rad, + left)
         let plan: [(f64, f64, f64); 5] = [
-            (200.0, 100.0, std::f64::consts::FRAC_PI_2),
-            (150.0, 80.0, -std::f64::consts::FRAC_PI_2),
-            (200.0, 120.0, std::f64::consts::FRAC_PI_3),
-            (100.0, 60.0, -std::f64::consts::FRAC_PI_3),
+            (200.0, 200.0, std::f64::consts::FRAC_PI_2),
+            (150.0, 150.0, -std::f64::consts::FRAC_PI_2),
+            (200.0, 250.0, std::f64::consts::FRAC_PI_3),
+            (100.0, 120.0, -std::f64::consts::FRAC_PI_3),
             (400.0, 1.0, 0.0),
         ];
         let step = 2.0;
@@ -315,14 +316,14 @@ mod tests {
     fn curvy_track_geometry() {
         let t = Track::curvy();
         assert!(t.validate().is_ok());
-        // Length: straights 1050 m + arcs 100 pi/2 + 80 pi/2 + 120 pi/3 + 60 pi/3 = 1050 + 282.7 + 188.5.
-        let expected = 1050.0 + 180.0 * std::f64::consts::FRAC_PI_2 + 180.0 * std::f64::consts::FRAC_PI_3;
+        // Length: straights 1050 m + arcs 200 pi/2 + 150 pi/2 + 250 pi/3 + 120 pi/3.
+        let expected = 1050.0 + 350.0 * std::f64::consts::FRAC_PI_2 + 370.0 * std::f64::consts::FRAC_PI_3;
         assert!((t.length() - expected).abs() < 0.1, "{}", t.length());
-        // In the middle of the first arc (radius 100 m, left) the curvature is 1/100.
-        let s_mid = 200.0 + 100.0 * std::f64::consts::FRAC_PI_4;
-        assert!((t.curvature_at(s_mid) - 0.01).abs() < 5e-4, "{}", t.curvature_at(s_mid));
+        // In the middle of the first arc (radius 200 m, left) the curvature is 1/200.
+        let s_mid = 200.0 + 200.0 * std::f64::consts::FRAC_PI_4;
+        assert!((t.curvature_at(s_mid) - 0.005).abs() < 6e-4, "{}", t.curvature_at(s_mid));
         // Points on the centreline project onto themselves.
-        for s in [10.0, 250.0, 700.0, 1200.0] {
+        for s in [10.0, 250.0, 700.0, 1200.0, 1700.0] {
             let (x, y, h) = t.pose_at(s);
             let p = t.project(x, y);
             assert!((p.s - s).abs() < 1e-6 && p.lateral_offset.abs() < 1e-6);

@@ -30,8 +30,33 @@ impl Contact {
     }
 }
 
-/// Length of the pieces guard rails are built from, m.
-const RAIL_PIECE: f64 = 10.0;
+/// Longest straight guard-rail piece, m (fewer, longer pieces make ray casts cheaper).
+const RAIL_PIECE_MAX: f64 = 200.0;
+/// Guard rails along curves are split at least every this many metres.
+const RAIL_PIECE_CURVED: f64 = 6.0;
+
+/// Splits `[from_s, to_s]` into pieces along which the centreline is straight (merged up to
+/// [`RAIL_PIECE_MAX`]) or short enough to follow a curve ([`RAIL_PIECE_CURVED`]).
+fn rail_pieces(track: &Track, from_s: f64, to_s: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut s0 = from_s;
+    while s0 < to_s {
+        let (_, _, h0) = track.pose_at(s0);
+        let mut s1 = (s0 + RAIL_PIECE_CURVED).min(to_s);
+        // Extend while the heading stays the same.
+        while s1 < to_s && s1 - s0 < RAIL_PIECE_MAX {
+            let next = (s1 + 1.0).min(to_s);
+            let (_, _, h) = track.pose_at(next - 1e-6);
+            if (crate::track::wrap(h - h0)).abs() > 1e-9 {
+                break;
+            }
+            s1 = next;
+        }
+        out.push((s0, s1));
+        s0 = s1;
+    }
+    out
+}
 
 fn pose(x: f64, y: f64, yaw: f64) -> Pose {
     Pose::new(Vector::new(x as f32, y as f32), yaw as f32)
@@ -57,18 +82,15 @@ impl World {
         for o in &track.objects {
             match *o {
                 RoadsideObject::GuardRail { offset, from_s, to_s } => {
-                    let mut s = from_s;
-                    while s < to_s {
-                        let e = (s + RAIL_PIECE).min(to_s);
-                        let (x0, y0, _) = place(s, offset);
-                        let (x1, y1, _) = place(e, offset);
+                    for (s0, s1) in rail_pieces(track, from_s, to_s) {
+                        let (x0, y0, _) = place(s0, offset);
+                        let (x1, y1, _) = place(s1, offset);
                         let len = (x1 - x0).hypot(y1 - y0);
                         if len > 1e-3 {
                             let c = ColliderBuilder::cuboid((len / 2.0 + 0.05) as f32, 0.1)
                                 .position(pose((x0 + x1) / 2.0, (y0 + y1) / 2.0, (y1 - y0).atan2(x1 - x0)));
                             pw.insert_collider(c, None);
                         }
-                        s = e;
                     }
                 }
                 RoadsideObject::Post { s, offset, radius } => {
@@ -147,16 +169,48 @@ impl World {
         self.pw.cast_ray(&ray, max_range as f32, true, filter).map(|(_, toi)| f64::from(toi))
     }
 
-    /// Casts many rays from one origin (one query pipeline for all of them); `hits[i]` receives the
-    /// distance of ray `dirs[i]` or `None`.
-    pub fn cast_rays(&self, origin: [f64; 2], dirs: &[[f64; 2]], max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+    /// Casts a fan of rays from one origin: ray `i` points at `base + angles[i]` (world frame,
+    /// `angles` ascending, `unit[i]` its world-frame unit vector); `hits[i]` receives the nearest
+    /// hit distance or `None`.
+    ///
+    /// Rapier's query pipeline gathers the colliders within `max_range` (ego excluded); each is
+    /// then ray-cast by parry only for the rays inside its angular extent, which makes a scan cost
+    /// about one shape test per ray instead of a BVH descent per ray.
+    pub fn cast_fan(&self, origin: [f64; 2], base: f64, angles: &[f64], unit: &[[f64; 2]], max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+        use rapier2d::parry::bounding_volume::Aabb;
         hits.clear();
+        hits.resize(angles.len(), None);
         let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
         let qp = self.pw.query_pipeline_with_filter(filter);
         let o = Vector::new(origin[0] as f32, origin[1] as f32);
-        for d in dirs {
-            let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
-            hits.push(qp.cast_ray(&ray, max_range as f32, true).map(|(_, toi)| f64::from(toi)));
+        let r = max_range as f32;
+        let region = Aabb::new(o - Vector::splat(r), o + Vector::splat(r));
+        for (_, co) in qp.intersect_aabb_conservative(region) {
+            let bb = co.compute_aabb();
+            let inside = bb.mins.x <= o.x && bb.mins.y <= o.y && bb.maxs.x >= o.x && bb.maxs.y >= o.y;
+            let corners = [[bb.mins.x, bb.mins.y], [bb.maxs.x, bb.mins.y], [bb.mins.x, bb.maxs.y], [bb.maxs.x, bb.maxs.y]];
+            let rel = |c: &[f32; 2]| crate::track::wrap((f64::from(c[1]) - origin[1]).atan2(f64::from(c[0]) - origin[0]) - base);
+            let (lo, hi) = if inside {
+                (-std::f64::consts::PI, std::f64::consts::PI)
+            } else {
+                // An AABB seen from outside spans less than pi: unwrap around the first corner.
+                let a0 = rel(&corners[0]);
+                corners.iter().map(|c| a0 + crate::track::wrap(rel(c) - a0)).fold((a0, a0), |(l, h), a| (l.min(a), h.max(a)))
+            };
+            let tau = std::f64::consts::TAU;
+            for shift in [-tau, 0.0, tau] {
+                let (l, h) = (lo + shift - 1e-6, hi + shift + 1e-6);
+                let first = angles.partition_point(|&a| a < l);
+                let last = angles.partition_point(|&a| a <= h);
+                for i in first..last {
+                    let (Some(d), Some(slot)) = (unit.get(i), hits.get_mut(i)) else { continue };
+                    let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
+                    let best = slot.map_or(r, |b| b as f32);
+                    if let Some(toi) = co.shape().cast_ray(co.position(), &ray, best, true) {
+                        *slot = Some(f64::from(toi));
+                    }
+                }
+            }
         }
     }
 }

@@ -1,0 +1,68 @@
+//! The `scenario` binary: exit codes, one-line errors naming file / key / problem, JSON fields.
+
+use std::process::Command;
+
+fn scenario() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_scenario"))
+}
+
+fn write(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    p
+}
+
+fn tmpdir(tag: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("flc-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("mkdir");
+    d
+}
+
+#[test]
+fn bad_scenarios_exit_2_with_one_line_naming_file_and_key() {
+    let d = tmpdir("bad");
+    let cases = [
+        ("range.toml", "[lidar]\nrate_hz = 0.0\n", "lidar.rate_hz"),
+        ("unknown.toml", "[lidar]\nrate_hz = 10.0\nfrobnicate = 1\n", "frobnicate"),
+        ("type.toml", "duration = \"long\"\n", "duration"),
+        ("phase.toml", "[[lead.phases]]\nkind = \"brake\"\ndecel = -6.0\n", "lead.phases[0].decel"),
+        ("syntax.toml", "duration = = 3\n", "syntax.toml"),
+    ];
+    for (name, text, key) in cases {
+        let f = write(&d, name, text);
+        let out_dir = d.join(format!("out-{name}"));
+        let out = scenario().arg("--config").arg(&f).arg("--out").arg(&out_dir).output().expect("run");
+        assert_eq!(out.status.code(), Some(2), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(key), "{name}: {err}");
+        assert!(out.stdout.is_empty(), "{name}: partial output");
+        assert!(!out_dir.exists(), "{name}: output directory written");
+    }
+    let out = scenario().arg("--speeds").arg("abc").output().expect("run");
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn json_records_have_the_documented_fields_and_collision_exit_code() {
+    let d = tmpdir("json");
+    let f = write(
+        &d,
+        "crash.toml",
+        "name = \"crash\"\ncontroller = \"flc\"\nduration = 40.0\n[follower]\ninitial_speed = 20.0\ninitial_gap = 8.0\n[follower.speed_controller]\nmax_decel = 1.0\n[lead]\ninitial_speed = 20.0\n[[lead.phases]]\nkind = \"brake\"\ndecel = 8.0\n[v2v]\nenabled = false\n",
+    );
+    let out = scenario().args(["--json", "--fail-on-collision", "--config"]).arg(&f).output().expect("run");
+    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
+    let line = String::from_utf8_lossy(&out.stdout);
+    let v: serde_json::Value = serde_json::from_str(line.trim()).expect("json");
+    for k in ["scenario", "controller", "speed_kmh", "collision", "impact_speed", "min_gap", "final_clearance", "min_ttc", "max_decel", "max_jerk"] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(v["collision"], true);
+    assert_eq!(v["controller"], "flc");
+    assert!(v["impact_speed"].as_f64().expect("number") > 0.0);
+    // Without the flag a collision is still a successful run.
+    let out = scenario().args(["--json", "--config"]).arg(&f).output().expect("run");
+    assert_eq!(out.status.code(), Some(0));
+}

@@ -1,0 +1,124 @@
+//! Closed-loop integration tests of the simulator (issue: simulator acceptance).
+
+use flc_sim::scenario::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{run, run_batch};
+
+fn paper(speed: f64, c: ControllerKind, cal: Calibration) -> flc_sim::metrics::Metrics {
+    run(&Scenario::paper_experiment(speed, c, cal)).expect("run").metrics
+}
+
+/// The paper's outcome pattern with the paper preset: FLC stops at 30/50/70 and collides at 90
+/// (less violently than the PID); the PID stops at 30/50 and collides at 70/90.
+#[test]
+fn paper_preset_reproduces_the_paper_pattern() {
+    use ControllerKind::{Flc, Pid};
+    let cal = Calibration::Paper;
+    for speed in [30.0, 50.0, 70.0] {
+        let m = paper(speed, Flc, cal);
+        assert!(!m.collision, "FLC collided at {speed} km/h");
+        let c = m.final_clearance.expect("FLC stopped");
+        assert!(c > 0.5 && c < 6.0, "FLC clearance {c} at {speed}");
+    }
+    for speed in [30.0, 50.0] {
+        let m = paper(speed, Pid, cal);
+        assert!(!m.collision, "PID collided at {speed} km/h");
+    }
+    for speed in [70.0, 90.0] {
+        assert!(paper(speed, Pid, cal).collision, "PID did not collide at {speed} km/h");
+    }
+    let flc90 = paper(90.0, Flc, cal);
+    let pid90 = paper(90.0, Pid, cal);
+    assert!(flc90.collision, "FLC did not collide at 90 km/h");
+    assert!(flc90.impact_speed < pid90.impact_speed, "FLC impact {} vs PID {}", flc90.impact_speed, pid90.impact_speed);
+}
+
+/// With the realistic vehicle (8 m/s² brakes, full brake authority) the FLC stops safely at all
+/// four speeds.
+#[test]
+fn realistic_preset_flc_stops_at_all_paper_speeds() {
+    for speed in [30.0, 50.0, 70.0, 90.0] {
+        let m = paper(speed, ControllerKind::Flc, Calibration::Realistic);
+        assert!(!m.collision && m.final_clearance.is_some(), "{speed}: {m:?}");
+    }
+}
+
+fn steady(controller: ControllerKind) -> Scenario {
+    let mut s = Scenario { name: "steady".into(), controller, duration: 90.0, ..Default::default() };
+    s.lead.phases = vec![
+        Phase::Accelerate { accel: 1.5, speed: Some(20.0), speed_kmh: None },
+        Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None },
+    ];
+    s.v2v.enabled = controller != ControllerKind::Flc;
+    s
+}
+
+/// A lead that never brakes is followed at the FLC's desired gap D_d + F_shift (Eqs. (2)-(4))
+/// within 1 m.
+#[test]
+fn flc_follows_at_its_desired_gap() {
+    let r = run(&steady(ControllerKind::Flc)).expect("run");
+    let s = &r.series;
+    let n = s.len();
+    let (gap, v) = (s.gap[n - 1], s.follower_speed[n - 1]);
+    let desired = r.scenario.flc.desired_distance(v) + r.scenario.flc.f_shift(v);
+    assert!((v - 20.0).abs() < 0.3, "speed {v}");
+    assert!((gap - desired).abs() < 1.0, "gap {gap} vs desired {desired}");
+    assert!(!r.metrics.collision);
+}
+
+/// A V2V outage switches the pipeline to the FLC and back, and the counts are reported.
+#[test]
+fn v2v_outage_switches_to_flc_and_back() {
+    let mut s = steady(ControllerKind::Pipeline);
+    s.duration = 60.0;
+    s.v2v.outages = vec![flc_sim::v2v::Outage { start: 30.0, end: 35.0 }];
+    let r = run(&s).expect("run");
+    let m = &r.metrics;
+    // Starts on the FLC (no V2V yet) -> PID after 5 messages -> FLC in the outage -> PID again.
+    assert_eq!(m.switches, 3, "{m:?}");
+    assert!(m.time_flc > 5.0 && m.time_flc < 7.5, "time_flc {}", m.time_flc);
+    assert!((m.time_pid + m.time_flc - m.duration).abs() < 0.02);
+    // During the outage the FLC drives (active code 0 = FLC, see metrics docs).
+    let i = r.series.t.iter().position(|&t| t > 33.0).expect("t");
+    assert_eq!(r.series.active[i], 0);
+    let j = r.series.t.iter().position(|&t| t > 40.0).expect("t");
+    assert_eq!(r.series.active[j], 1);
+}
+
+/// Same seed: bit-identical metrics and series, repeated and on 1 or 2 threads.
+#[test]
+fn deterministic_across_runs_and_thread_counts() {
+    let mut s = Scenario::paper_experiment(50.0, ControllerKind::Pipeline, Calibration::Realistic);
+    s.lidar.range_noise_std = 0.05;
+    s.lidar.dropout_prob = 0.1;
+    s.lidar.jitter = 0.2;
+    s.v2v.loss_prob = 0.2;
+    let scenarios = vec![s.clone(), s.clone(), s];
+    let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("pool");
+    let one = pool(1).install(|| run_batch(&scenarios, false));
+    let two = pool(2).install(|| run_batch(&scenarios, false));
+    let key = |r: &Result<flc_sim::RunResult, flc_sim::SimError>| {
+        let r = r.as_ref().expect("run");
+        (serde_json::to_string(&r.metrics).expect("json"), r.series.gap.iter().map(|g| g.to_bits()).collect::<Vec<_>>())
+    };
+    let k0 = key(&one[0]);
+    for r in one.iter().chain(&two) {
+        assert_eq!(key(r), k0);
+    }
+    // A different seed changes the noisy run.
+    let mut other = scenarios[0].clone();
+    other.seed = 2;
+    assert_ne!(key(&run(&other)), k0);
+}
+
+/// On the curved track the FLC-driven follower stays within 0.5 m of the lane centre on average.
+#[test]
+fn curved_track_tracking_error() {
+    let s = Scenario::from_file(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/curvy-follow.toml"))).expect("scenario");
+    assert!(matches!(s.track, TrackSpec::Curvy));
+    let m = run(&s).expect("run").metrics;
+    assert!(!m.collision);
+    let e = m.trans_error_m.expect("tracking error");
+    assert!(e < 0.5, "translational error {e} m");
+    assert!(m.final_clearance.is_some(), "follower did not reach the lead's stop: {m:?}");
+}
