@@ -18,3 +18,16 @@ cargo clippy --locked --all-targets -- -D warnings
 
 echo "== Rust: tests"
 cargo test --locked
+
+echo "== Python: build the package from source and install it with its test dependencies"
+VENV="${FLC_VENV:-target/ci-venv}"
+python3 -m venv "$VENV"
+"$VENV/bin/python" -m pip install --quiet --upgrade pip
+"$VENV/bin/python" -m pip install --quiet ".[test]"
+
+echo "== Python: stubs match the built module"
+"$VENV/bin/python" -m mypy.stubtest flc._flc --ignore-missing-stub
+"$VENV/bin/python" -m mypy python/flc --ignore-missing-imports
+
+echo "== Python: tests"
+"$VENV/bin/python" -m pytest -q tests/python
