@@ -100,7 +100,11 @@ pub struct Scan {
 /// The LiDAR: schedule, ray casting and impairments.
 pub struct Lidar {
     params: LidarParams,
-    rng: ChaCha8Rng,
+    /// Independent streams per impairment, so that enabling one never reshuffles another and a
+    /// disabled one costs nothing.
+    rng_noise: ChaCha8Rng,
+    rng_dropout: ChaCha8Rng,
+    rng_scan: ChaCha8Rng,
     noise: Option<Normal<f64>>,
     next_t: f64,
     queue: VecDeque<Option<Scan>>,
@@ -121,7 +125,12 @@ impl Lidar {
         let angles: Vec<f64> = (0..n).map(|i| -half + step * i as f64).collect();
         let unit = angles.iter().map(|a| [a.cos(), a.sin()]).collect();
         let noise = if params.range_noise_std > 0.0 { Normal::new(0.0, params.range_noise_std).ok() } else { None };
-        Self { params, rng: ChaCha8Rng::seed_from_u64(seed), noise, next_t: 0.0, queue: VecDeque::new(), angles, unit, dirs: Vec::with_capacity(n), hits: Vec::with_capacity(n) }
+        let stream = |k: u64| {
+            let mut r = ChaCha8Rng::seed_from_u64(seed);
+            r.set_stream(k);
+            r
+        };
+        Self { params, rng_noise: stream(1), rng_dropout: stream(2), rng_scan: stream(3), noise, next_t: 0.0, queue: VecDeque::new(), angles, unit, dirs: Vec::with_capacity(n), hits: Vec::with_capacity(n) }
     }
 
     /// The parameters.
@@ -135,9 +144,9 @@ impl Lidar {
         if t + 1e-9 < self.next_t {
             return None;
         }
-        let j = if self.params.jitter > 0.0 { self.rng.random_range(-self.params.jitter..=self.params.jitter) } else { 0.0 };
+        let j = if self.params.jitter > 0.0 { self.rng_scan.random_range(-self.params.jitter..=self.params.jitter) } else { 0.0 };
         self.next_t += (1.0 + j) / self.params.rate_hz;
-        let dropped = self.params.scan_drop_prob > 0.0 && self.rng.random::<f64>() < self.params.scan_drop_prob;
+        let dropped = self.params.scan_drop_prob > 0.0 && self.rng_scan.random::<f64>() < self.params.scan_drop_prob;
         let scan = self.capture(t, world, ego, pose);
         self.queue.push_back((!dropped).then_some(scan));
         if self.queue.len() > self.params.latency_frames as usize { self.queue.pop_front().flatten() } else { None }
@@ -155,9 +164,10 @@ impl Lidar {
         world.cast_fan(origin, base, &self.angles, &self.dirs, p.max_range, ego, &mut self.hits);
         let mut points = Vec::with_capacity(self.hits.len() / 4);
         for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
-            // Draw for every ray, hit or not, so that one impairment does not reshuffle another.
-            let drop = self.rng.random::<f64>() < p.dropout_prob;
-            let n = self.noise.map_or(0.0, |d| d.sample(&mut self.rng));
+            // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
+            // what the other rays hit.
+            let drop = p.dropout_prob > 0.0 && self.rng_dropout.random::<f64>() < p.dropout_prob;
+            let n = self.noise.map_or(0.0, |d| d.sample(&mut self.rng_noise));
             if let Some(r) = hit {
                 if !drop {
                     let r = (r + n).max(0.0);

@@ -53,8 +53,11 @@ pub struct Projection {
 }
 
 /// A track: centreline polyline + lane width + road-side objects.
+///
+/// Deserialising (e.g. `[track] kind = "custom"` in a scenario file) computes the length table,
+/// so a track read from a file is ready to use; [`Track::validate`] checks its geometry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, from = "TrackFile")]
 pub struct Track {
     /// Name.
     #[serde(default)]
@@ -74,6 +77,25 @@ pub struct Track {
 
 fn default_lane_width() -> f64 {
     3.5
+}
+
+/// The serialised form of [`Track`] (everything but the computed length table).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TrackFile {
+    #[serde(default)]
+    name: String,
+    centerline: Vec<[f64; 2]>,
+    #[serde(default = "default_lane_width")]
+    lane_width: f64,
+    #[serde(default)]
+    objects: Vec<RoadsideObject>,
+}
+
+impl From<TrackFile> for Track {
+    fn from(f: TrackFile) -> Self {
+        Track::new(&f.name, f.centerline, f.lane_width, f.objects)
+    }
 }
 
 impl Track {
@@ -97,7 +119,7 @@ impl Track {
         self.cum = cum;
     }
 
-    /// A copy with the length table computed (for tracks read from files).
+    /// A copy with the length table recomputed (deserialised tracks already have it).
     pub fn prepared(&self) -> Self {
         let mut t = self.clone();
         t.prepare();
@@ -334,10 +356,62 @@ mod tests {
     }
 
     #[test]
+    fn pose_on_an_arc_matches_the_circle() {
+        // The curvy track's first arc: radius 200 m to the left, starting at (200, 0) heading +x,
+        // centre (200, 200).
+        let t = Track::curvy();
+        let r = 200.0;
+        for phi in [0.1, 0.5, 1.0, 1.5] {
+            let (x, y, h) = t.pose_at(200.0 + r * phi);
+            let (ex, ey) = (200.0 + r * f64::sin(phi), r * (1.0 - f64::cos(phi)));
+            // Chords of <= 2 m deviate from the circle by at most 2²/(8 r) = 2.5 mm.
+            assert!((x - ex).hypot(y - ey) < 0.01, "phi {phi}: ({x}, {y}) vs ({ex}, {ey})");
+            // Heading of the chord: within half a sub-arc angle (2 m / 200 m / 2) of the tangent.
+            assert!(wrap(h - phi).abs() < 0.006, "phi {phi}: heading {h}");
+            // And back: the point projects onto itself.
+            let p = t.project(x, y);
+            assert!((p.s - (200.0 + r * phi)).abs() < 1e-6 && p.lateral_offset.abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn toml_round_trip_computes_the_length_table() {
+        let src = r#"
+            name = "l"
+            centerline = [[0.0, 0.0], [100.0, 0.0], [100.0, 50.0]]
+            objects = [
+                { kind = "guard_rail", offset = -3.0, from_s = 0.0, to_s = 150.0 },
+                { kind = "post", s = 20.0, offset = 3.0, radius = 0.1 },
+                { kind = "parked_car", s = 120.0, offset = 3.5 },
+            ]
+        "#;
+        let t: Track = toml::from_str(src).expect("parse");
+        assert!(t.validate().is_ok());
+        assert_eq!(t.lane_width, 3.5);
+        assert_eq!(t.length(), 150.0);
+        assert_eq!(t.pose_at(125.0), (100.0, 25.0, std::f64::consts::FRAC_PI_2));
+        let again: Track = toml::from_str(&toml::to_string(&t).expect("serialise")).expect("parse");
+        assert_eq!(again, t);
+        // Unknown keys are rejected.
+        assert!(toml::from_str::<Track>("centerline = [[0.0, 0.0], [1.0, 0.0]]\nlane_widht = 3.0").is_err());
+        // As a scenario's `[track]` table.
+        let spec: crate::scenario::TrackSpec = toml::from_str(&format!("kind = \"custom\"\n{src}")).expect("track spec");
+        let built = spec.build().expect("valid");
+        assert_eq!(built, t);
+        assert!(toml::from_str::<crate::scenario::TrackSpec>("kind = \"custom\"\ncenterline = [[0.0, 0.0], [1.0, 0.0]]\nfoo = 1").is_err());
+    }
+
+    #[test]
     fn validation_names_the_key() {
         let t = Track::new("bad", vec![[0.0, 0.0], [0.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
         let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 3.5, vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0 }]);
         assert_eq!(t.validate().unwrap_err().key, "objects[0].radius");
+        let t = Track::new("bad", vec![[0.0, 0.0]], 3.5, vec![]);
+        assert_eq!(t.validate().unwrap_err().key, "centerline");
+        let t = Track::new("bad", vec![[0.0, 0.0], [f64::NAN, 0.0]], 3.5, vec![]);
+        assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
+        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 9.0, vec![]);
+        assert_eq!(t.validate().unwrap_err().key, "lane_width");
     }
 }

@@ -14,11 +14,23 @@ pub struct Body {
     collider: ColliderHandle,
 }
 
-/// Two colliders touching (penetration depth >= 0) after a step.
+/// One side of a [`Contact`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Party {
+    /// A vehicle added with [`World::add_vehicle`].
+    Vehicle(Body),
+    /// A road-side object: index into the track's `objects`.
+    Static(usize),
+}
+
+/// Two colliders touching (penetration depth >= 0) after a step, as reported by rapier's narrow
+/// phase. At least one side is a vehicle (`a` for vehicle-object contacts).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Contact {
-    a: ColliderHandle,
-    b: ColliderHandle,
+    /// First side (always a vehicle).
+    pub a: Party,
+    /// Second side.
+    pub b: Party,
     /// Penetration depth, m (>= 0).
     pub depth: f64,
 }
@@ -26,7 +38,7 @@ pub struct Contact {
 impl Contact {
     /// `true` if `body` is one of the two.
     pub fn involves(&self, body: Body) -> bool {
-        self.a == body.collider || self.b == body.collider
+        self.a == Party::Vehicle(body) || self.b == Party::Vehicle(body)
     }
 }
 
@@ -79,7 +91,9 @@ impl World {
             let (x, y, h) = track.pose_at(s);
             (x - offset * h.sin(), y + offset * h.cos(), h)
         };
-        for o in &track.objects {
+        for (index, o) in track.objects.iter().enumerate() {
+            // The object's index travels with its colliders (reported in contacts).
+            let tag = index as u128;
             match *o {
                 RoadsideObject::GuardRail { offset, from_s, to_s } => {
                     for (s0, s1) in rail_pieces(track, from_s, to_s) {
@@ -88,18 +102,19 @@ impl World {
                         let len = (x1 - x0).hypot(y1 - y0);
                         if len > 1e-3 {
                             let c = ColliderBuilder::cuboid((len / 2.0 + 0.05) as f32, 0.1)
-                                .position(pose((x0 + x1) / 2.0, (y0 + y1) / 2.0, (y1 - y0).atan2(x1 - x0)));
+                                .position(pose((x0 + x1) / 2.0, (y0 + y1) / 2.0, (y1 - y0).atan2(x1 - x0)))
+                                .user_data(tag);
                             pw.insert_collider(c, None);
                         }
                     }
                 }
                 RoadsideObject::Post { s, offset, radius } => {
                     let (x, y, _) = place(s, offset);
-                    pw.insert_collider(ColliderBuilder::ball(radius as f32).position(pose(x, y, 0.0)), None);
+                    pw.insert_collider(ColliderBuilder::ball(radius as f32).position(pose(x, y, 0.0)).user_data(tag), None);
                 }
                 RoadsideObject::ParkedCar { s, offset, heading_offset } => {
                     let (x, y, h) = place(s, offset);
-                    pw.insert_collider(ColliderBuilder::cuboid(2.35, 0.9).position(pose(x, y, h + heading_offset)), None);
+                    pw.insert_collider(ColliderBuilder::cuboid(2.35, 0.9).position(pose(x, y, h + heading_offset)).user_data(tag), None);
                 }
             }
         }
@@ -135,30 +150,35 @@ impl World {
         for (i, v) in self.vehicles.iter().enumerate() {
             // Vehicle-vehicle pairs (each once) ...
             for w in self.vehicles.iter().skip(i + 1) {
-                if let Some(c) = self.touching(v.collider, w.collider) {
-                    out.push(c);
+                if let Some(depth) = self.penetration(v.collider, w.collider) {
+                    out.push(Contact { a: Party::Vehicle(*v), b: Party::Vehicle(*w), depth });
                 }
             }
         }
         // ... and vehicle-clutter pairs.
+        let vehicle = |h: ColliderHandle| self.vehicles.iter().find(|v| v.collider == h).copied();
         for pair in self.pw.narrow_phase.contact_pairs() {
-            let is_vehicle = |h: ColliderHandle| self.vehicles.iter().any(|v| v.collider == h);
             let (a, b) = (pair.collider1, pair.collider2);
-            if is_vehicle(a) != is_vehicle(b) {
-                if let Some((_, c)) = pair.find_deepest_contact() {
-                    if c.dist <= 0.0 {
-                        out.push(Contact { a, b, depth: -f64::from(c.dist) });
-                    }
+            let (v, other) = match (vehicle(a), vehicle(b)) {
+                (Some(v), None) => (v, b),
+                (None, Some(v)) => (v, a),
+                _ => continue,
+            };
+            if let Some((_, c)) = pair.find_deepest_contact() {
+                if c.dist <= 0.0 {
+                    let object = self.pw.colliders.get(other).map_or(usize::MAX, |co| co.user_data as usize);
+                    out.push(Contact { a: Party::Vehicle(v), b: Party::Static(object), depth: -f64::from(c.dist) });
                 }
             }
         }
         out
     }
 
-    fn touching(&self, a: ColliderHandle, b: ColliderHandle) -> Option<Contact> {
+    /// Penetration depth of two colliders if rapier's narrow phase has them touching.
+    fn penetration(&self, a: ColliderHandle, b: ColliderHandle) -> Option<f64> {
         let pair = self.pw.narrow_phase.contact_pair(a, b)?;
         let (_, c) = pair.find_deepest_contact()?;
-        (c.dist <= 0.0).then(|| Contact { a, b, depth: -f64::from(c.dist) })
+        (c.dist <= 0.0).then(|| -f64::from(c.dist))
     }
 
     /// Casts a ray from `origin` along the unit vector `dir` (world frame) up to `max_range`,
@@ -245,6 +265,48 @@ mod tests {
         }
         let k = first.expect("no collision reported");
         assert!((509..=511).contains(&k), "collision at step {k}");
+    }
+
+    #[test]
+    fn vehicle_driven_into_the_guard_rail_touches_it_at_the_right_step() {
+        // Straight track: objects[0] is the right guard rail at -3.25 m (0.1 m half thickness,
+        // face at y = -3.15); posts at x = 25, 75, ...; the body (half width 0.95 m) at x = 50
+        // moves right by 1 cm per step: contact when y <= -2.2, at step 220.
+        let track = Track::straight(500.0);
+        let mut w = World::new(&track);
+        let p = VehicleParams::default();
+        let v = w.add_vehicle(&p, &VehicleState { x: 50.0, ..Default::default() });
+        let mut first = None;
+        for k in 1..=300 {
+            w.set_pose(v, &VehicleState { x: 50.0, y: -0.01 * k as f64, ..Default::default() });
+            let contacts = w.step(0.01);
+            if let Some(c) = contacts.first() {
+                assert!(c.involves(v));
+                assert_eq!(c.b, Party::Static(0));
+                assert!(matches!(track.objects[0], RoadsideObject::GuardRail { offset, .. } if offset < 0.0));
+                first = Some(k);
+                break;
+            }
+        }
+        let k = first.expect("no contact with the guard rail");
+        assert!((219..=221).contains(&k), "contact at step {k}");
+    }
+
+    #[test]
+    fn rays_hit_roadside_objects_where_the_track_places_them() {
+        let track = Track::straight(1000.0);
+        let mut w = World::new(&track);
+        let ego = w.add_vehicle(&VehicleParams::default(), &VehicleState { x: 280.0, y: 3.5, ..Default::default() });
+        w.step(0.01);
+        // Parked car at s = 300 in the left lane (offset 3.5 m), 4.7 m long: rear face at 297.65.
+        let r = w.cast_ray([290.0, 3.5], [1.0, 0.0], 100.0, ego).expect("parked car");
+        assert!((r - 7.65).abs() < 1e-3, "{r}");
+        // Straight down from the lane centre: the right guard rail's face at y = -3.15.
+        let r = w.cast_ray([290.0, 0.0], [0.0, -1.0], 100.0, ego).expect("guard rail");
+        assert!((r - 3.15).abs() < 1e-3, "{r}");
+        // Nothing along the road within 100 m from x = 500 in the right lane (next parked car at
+        // s = 900 is in the left lane).
+        assert_eq!(w.cast_ray([500.0, 0.0], [1.0, 0.0], 100.0, ego), None);
     }
 
     #[test]
