@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
 use crate::vehicle::VehicleState;
-use crate::world::{Body, World};
+use crate::world::{Body, RayFan, World};
 
 /// LiDAR parameters. `Default`: 20 Hz (the paper's), 120 deg forward field of view at 0.125 deg
 /// (961 rays), 100 m range, 2 cm range noise.
@@ -138,6 +138,12 @@ impl Lidar {
         &self.params
     }
 
+    /// Time of the next capture, s: [`Lidar::tick`] captures at the first call with
+    /// `t >= next_scan_time()` and then advances it by one (jittered) frame interval.
+    pub fn next_scan_time(&self) -> f64 {
+        self.next_t
+    }
+
     /// Called every physics step at time `t`: captures a scan when one is due and returns the
     /// scan due for delivery now (after latency; `None` if none is due or it was dropped).
     pub fn tick(&mut self, t: f64, world: &World, ego: Body, pose: &VehicleState) -> Option<Scan> {
@@ -161,7 +167,7 @@ impl Lidar {
         self.dirs.clear();
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
-        world.cast_fan(origin, base, &self.angles, &self.dirs, p.max_range, ego, &mut self.hits);
+        world.cast_fan(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
         let mut points = Vec::with_capacity(self.hits.len() / 4);
         for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
             // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
@@ -244,6 +250,85 @@ mod tests {
         assert!(delivered.iter().all(|(t, c)| (t - c - 0.1).abs() < 1e-9));
         let mut l = Lidar::new(LidarParams { scan_drop_prob: 1.0, ..Default::default() }, 1);
         assert!((0..100).all(|k| l.tick(k as f64 * 0.01, &w, ego, &VehicleState::default()).is_none()));
+    }
+
+    #[test]
+    fn jittered_intervals_stay_within_bounds_and_keep_the_mean_rate() {
+        let (w, ego) = scene(15.0);
+        let mut l = Lidar::new(LidarParams { jitter: 0.3, ..Default::default() }, 3);
+        let dt = 0.001;
+        let mut captures = Vec::new();
+        for k in 0..100_000 {
+            let t = k as f64 * dt;
+            let due = l.next_scan_time();
+            if let Some(s) = l.tick(t, &w, ego, &VehicleState::default()) {
+                assert!(t >= due - 1e-9 && t < due + dt + 1e-9);
+                captures.push(s.t_captured);
+            }
+        }
+        // Intervals in [0.7, 1.3] / 20 Hz (+- one step of quantisation), mean 1 / 20 Hz.
+        let iv: Vec<f64> = captures.windows(2).map(|c| c[1] - c[0]).collect();
+        assert!(iv.iter().all(|&d| d > 0.035 - dt - 1e-9 && d < 0.065 + dt + 1e-9));
+        let mean = iv.iter().sum::<f64>() / iv.len() as f64;
+        assert!((mean - 0.05).abs() < 0.001, "{mean}");
+        assert!(iv.iter().any(|&d| d < 0.04) && iv.iter().any(|&d| d > 0.06));
+    }
+
+    #[test]
+    fn ego_box_around_the_sensor_gives_no_returns() {
+        // The sensor sits inside the ego's own box (mount_x 2.0 < half length 2.45); with a
+        // 360 deg field of view and nothing else around, every ray would hit the ego if it were
+        // not excluded.
+        let mut w = World::new(&Track::new("t", vec![[0.0, 0.0], [1000.0, 0.0]], 3.5, vec![]));
+        let ego = w.add_vehicle(&VehicleParams::default(), &VehicleState::default());
+        w.step(0.01);
+        let params = LidarParams { fov_deg: 359.0, resolution_deg: 0.5, ..Default::default() };
+        let scan = Lidar::new(params, 1).capture(0.0, &w, ego, &VehicleState::default());
+        assert!(scan.points.is_empty(), "{:?}", &scan.points[..scan.points.len().min(5)]);
+    }
+
+    /// Micro-measurement of the ray-casting rate (not a timed test):
+    /// `cargo test --release -p flc-sim --lib lidar::tests::ray_rate -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "measurement; run in release with --nocapture"]
+    fn ray_rate() {
+        let track = Track::straight(2000.0);
+        let mut w = World::new(&track);
+        let p = VehicleParams::default();
+        let ego_state = VehicleState { x: 280.0, ..Default::default() };
+        let ego = w.add_vehicle(&p, &ego_state);
+        w.add_vehicle(&p, &VehicleState { x: 300.0, ..Default::default() });
+        w.step(0.01);
+        let mut l = Lidar::new(LidarParams::default(), 1);
+        let scans = 20_000;
+        let start = std::time::Instant::now();
+        let mut points = 0;
+        for _ in 0..scans {
+            points += l.capture(0.0, &w, ego, &ego_state).points.len();
+        }
+        let s = start.elapsed().as_secs_f64();
+        let rays = (scans * l.params().rays()) as f64;
+        println!(
+            "{} scans x {} rays in {s:.3} s: {:.1} M rays/s, {:.1} us/scan, {} returns/scan; \
+             default LiDAR budget: {:.0}x real time for the scans alone",
+            scans,
+            l.params().rays(),
+            rays / s / 1e6,
+            s / scans as f64 * 1e6,
+            points / scans,
+            scans as f64 / 20.0 / s
+        );
+        // For comparison: one BVH descent per ray through rapier's query pipeline.
+        let start = std::time::Instant::now();
+        let mut hits = 0usize;
+        let origin = [ego_state.x + 2.0, ego_state.y];
+        for _ in 0..scans / 10 {
+            for [c, s] in &l.unit {
+                hits += usize::from(w.cast_ray(origin, [*c, *s], 100.0, ego).is_some());
+            }
+        }
+        let s = start.elapsed().as_secs_f64();
+        println!("per-ray query pipeline: {:.1} M rays/s ({} returns/scan)", rays / 10.0 / s / 1e6, hits / (scans / 10));
     }
 
     #[test]

@@ -74,6 +74,19 @@ fn pose(x: f64, y: f64, yaw: f64) -> Pose {
     Pose::new(Vector::new(x as f32, y as f32), yaw as f32)
 }
 
+/// A fan of rays from one origin (see [`World::cast_fan`]).
+#[derive(Debug, Clone, Copy)]
+pub struct RayFan<'a> {
+    /// Origin, world frame, m.
+    pub origin: [f64; 2],
+    /// Angle the ray angles are relative to (world frame), rad.
+    pub base: f64,
+    /// Ray angles relative to `base`, ascending, rad.
+    pub angles: &'a [f64],
+    /// World-frame unit vector of each ray.
+    pub unit: &'a [[f64; 2]],
+}
+
 /// The physics world.
 pub struct World {
     pw: PhysicsWorld,
@@ -196,7 +209,8 @@ impl World {
     /// Rapier's query pipeline gathers the colliders within `max_range` (ego excluded); each is
     /// then ray-cast by parry only for the rays inside its angular extent, which makes a scan cost
     /// about one shape test per ray instead of a BVH descent per ray.
-    pub fn cast_fan(&self, origin: [f64; 2], base: f64, angles: &[f64], unit: &[[f64; 2]], max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+    pub fn cast_fan(&self, fan: &RayFan<'_>, max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+        let RayFan { origin, base, angles, unit } = *fan;
         use rapier2d::parry::bounding_volume::Aabb;
         hits.clear();
         hits.resize(angles.len(), None);
@@ -307,6 +321,45 @@ mod tests {
         // Nothing along the road within 100 m from x = 500 in the right lane (next parked car at
         // s = 900 is in the left lane).
         assert_eq!(w.cast_ray([500.0, 0.0], [1.0, 0.0], 100.0, ego), None);
+    }
+
+    #[test]
+    fn fan_casting_equals_one_ray_cast_per_ray() {
+        // Curvy track (rails in short pieces along the arcs, posts) plus a lead and the ego, at
+        // several poses, forward fans and a full circle: the fan must give exactly what casting
+        // each ray through the query pipeline gives.
+        let track = Track::curvy();
+        let mut w = World::new(&track);
+        let p = VehicleParams::default();
+        let ego_state = VehicleState::default();
+        let ego = w.add_vehicle(&p, &ego_state);
+        let lead = w.add_vehicle(&p, &ego_state);
+        let mut hits = Vec::new();
+        for s in [5.0, 230.0, 420.0, 700.0, 1100.0, 1500.0] {
+            let (x, y, h) = track.pose_at(s);
+            let (lx, ly, lh) = track.pose_at(s + 25.0);
+            w.set_pose(ego, &VehicleState { x, y, yaw: h, ..Default::default() });
+            w.set_pose(lead, &VehicleState { x: lx, y: ly, yaw: lh, ..Default::default() });
+            w.step(0.01);
+            for (fov, n) in [(120f64.to_radians(), 961), (std::f64::consts::TAU - 1e-3, 2001)] {
+                let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
+                let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(h + a).cos(), (h + a).sin()]).collect();
+                let origin = [x + 2.0 * h.cos(), y + 2.0 * h.sin()];
+                w.cast_fan(&RayFan { origin, base: h, angles: &angles, unit: &unit }, 100.0, ego, &mut hits);
+                assert_eq!(hits.len(), n);
+                let mut seen = 0;
+                for (d, hit) in unit.iter().zip(&hits) {
+                    let single = w.cast_ray(origin, *d, 100.0, ego);
+                    match (hit, single) {
+                        (Some(a), Some(b)) => assert!((a - b).abs() < 1e-4, "s {s}: {a} vs {b}"),
+                        (None, None) => {}
+                        other => panic!("s {s}: fan {:?} vs single {:?}", other.0, other.1),
+                    }
+                    seen += usize::from(hit.is_some());
+                }
+                assert!(seen > 0, "s {s}: nothing in view");
+            }
+        }
     }
 
     #[test]
