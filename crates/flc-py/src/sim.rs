@@ -86,11 +86,30 @@ fn sweep<'py>(py: Python<'py>, scenarios_json: Vec<String>, threads: Option<usiz
     results.into_iter().map(|r| result_to_py(py, r.map_err(scenario_err)?)).collect()
 }
 
+/// Benchmark helper: the best wall time (s) of `repeats` runs of the scenario in Rust alone (no
+/// conversion to Python objects), to compare with `flc.run` (docs/benchmarks.md).
+#[pyfunction]
+fn bench_rust_run(py: Python<'_>, scenario_json: &str, repeats: usize) -> PyResult<f64> {
+    let s = parse_scenario(scenario_json)?;
+    py.detach(|| {
+        let mut best = f64::INFINITY;
+        for _ in 0..repeats.max(1) {
+            let t0 = std::time::Instant::now();
+            let r = flc_sim::run(&s);
+            let dt = t0.elapsed().as_secs_f64();
+            std::hint::black_box(r).map_err(scenario_err)?;
+            best = best.min(dt);
+        }
+        Ok(best)
+    })
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(check_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(bench_rust_run, m)?)?;
     Ok(())
 }
