@@ -73,7 +73,14 @@ pub struct Track {
     /// Cumulative length at each point (computed).
     #[serde(skip)]
     cum: Vec<f64>,
+    /// Bounding boxes `[min_x, min_y, max_x, max_y]` of [`CHUNK`] consecutive segments each
+    /// (computed), so that [`Track::project`] only looks at the segments near the point.
+    #[serde(skip)]
+    chunks: Vec<[f64; 4]>,
 }
+
+/// Segments per bounding box of the projection index.
+const CHUNK: usize = 16;
 
 fn default_lane_width() -> f64 {
     3.5
@@ -101,7 +108,7 @@ impl From<TrackFile> for Track {
 impl Track {
     /// Builds a track and its length table.
     pub fn new(name: &str, centerline: Vec<[f64; 2]>, lane_width: f64, objects: Vec<RoadsideObject>) -> Self {
-        let mut t = Self { name: name.to_string(), centerline, lane_width, objects, cum: Vec::new() };
+        let mut t = Self { name: name.to_string(), centerline, lane_width, objects, cum: Vec::new(), chunks: Vec::new() };
         t.prepare();
         t
     }
@@ -117,6 +124,15 @@ impl Track {
             cum.push(acc);
         }
         self.cum = cum;
+        let nseg = self.centerline.len().saturating_sub(1);
+        self.chunks = (0..nseg.div_ceil(CHUNK))
+            .map(|c| {
+                let pts = &self.centerline[c * CHUNK..=((c + 1) * CHUNK).min(nseg)];
+                pts.iter().fold([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY], |b, p| {
+                    [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])]
+                })
+            })
+            .collect();
     }
 
     /// A copy with the length table recomputed (deserialised tracks already have it).
@@ -199,25 +215,71 @@ impl Track {
         wrap(h1 - h0) / 20.0
     }
 
-    fn project_segment(&self, i: usize, x: f64, y: f64) -> (f64, Projection) {
+    /// Squared distance from `(x, y)` to segment `i` and the parameter `u` of the nearest point
+    /// (the first and last segments are extended beyond the ends).
+    fn segment_d2(&self, i: usize, x: f64, y: f64) -> (f64, f64) {
         let (p, q) = (self.centerline[i], self.centerline[i + 1]);
         let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
         let len2 = (dx * dx + dy * dy).max(1e-12);
         let n = self.centerline.len();
-        // Extrapolate beyond the first and last segments.
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.0 };
         let hi = if i + 2 == n { f64::INFINITY } else { 1.0 };
         let u = (((x - p[0]) * dx + (y - p[1]) * dy) / len2).clamp(lo, hi);
         let (cx, cy) = (p[0] + u * dx, p[1] + u * dy);
-        let len = len2.sqrt();
-        let lateral = (dx * (y - p[1]) - dy * (x - p[0])) / len;
-        let d2 = (x - cx).powi(2) + (y - cy).powi(2);
-        (d2, Projection { s: self.cum[i] + u * len, lateral_offset: lateral, heading: dy.atan2(dx), segment: i })
+        ((x - cx).powi(2) + (y - cy).powi(2), u)
     }
 
-    /// Nearest point on the centreline to `(x, y)` (full search).
+    /// The projection of `(x, y)` onto segment `i` at parameter `u`.
+    fn projection_on(&self, i: usize, u: f64, x: f64, y: f64) -> Projection {
+        let (p, q) = (self.centerline[i], self.centerline[i + 1]);
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        let len = (dx * dx + dy * dy).max(1e-12).sqrt();
+        let lateral = (dx * (y - p[1]) - dy * (x - p[0])) / len;
+        Projection { s: self.cum[i] + u * len, lateral_offset: lateral, heading: dy.atan2(dx), segment: i }
+    }
+
+    /// Nearest point on the centreline to `(x, y)`: the same result as checking every segment
+    /// (ties go to the lower segment index), but only the segments whose bounding box can
+    /// contain a nearer point are checked.
     pub fn project(&self, x: f64, y: f64) -> Projection {
-        self.project_range(x, y, 0, self.centerline.len().saturating_sub(1))
+        let nseg = self.centerline.len().saturating_sub(1);
+        if self.chunks.len() <= 2 || !(x.is_finite() && y.is_finite()) {
+            return self.project_range(x, y, 0, nseg);
+        }
+        // (d2, segment, u) of the best so far.
+        let mut best = (f64::INFINITY, usize::MAX, 0.0);
+        let consider = |i: usize, best: &mut (f64, usize, f64)| {
+            let (d2, u) = self.segment_d2(i, x, y);
+            if d2 < best.0 || (d2 == best.0 && i < best.1) {
+                *best = (d2, i, u);
+            }
+        };
+        // The extended end segments are not bounded by their boxes: always checked.
+        consider(0, &mut best);
+        consider(nseg - 1, &mut best);
+        let lower_bound = |b: &[f64; 4]| {
+            let dx = (b[0] - x).max(x - b[2]).max(0.0);
+            let dy = (b[1] - y).max(y - b[3]).max(0.0);
+            dx * dx + dy * dy
+        };
+        let segments = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(nseg);
+        // Nearest box first, then every box that may still hold a nearer (or tied) segment; the
+        // margin covers rounding in the distances.
+        let first = (0..self.chunks.len()).min_by(|&a, &b| lower_bound(&self.chunks[a]).total_cmp(&lower_bound(&self.chunks[b]))).unwrap_or(0);
+        for i in segments(first) {
+            consider(i, &mut best);
+        }
+        for (c, b) in self.chunks.iter().enumerate() {
+            if c != first && lower_bound(b) <= best.0 * (1.0 + 1e-9) + 1e-12 {
+                for i in segments(c) {
+                    consider(i, &mut best);
+                }
+            }
+        }
+        if best.1 == usize::MAX {
+            return self.project_range(x, y, 0, nseg);
+        }
+        self.projection_on(best.1, best.2, x, y)
     }
 
     /// Nearest point searching only the segments within `window` of `hint` (for tracking a vehicle
@@ -230,15 +292,16 @@ impl Track {
         if (p.segment == lo && lo > 0) || (p.segment + 1 == hi && hi < nseg) { self.project(x, y) } else { p }
     }
 
+    /// Nearest point among segments `lo..hi`, checking each (first of equals wins).
     fn project_range(&self, x: f64, y: f64, lo: usize, hi: usize) -> Projection {
-        let mut best: Option<(f64, Projection)> = None;
+        let mut best: Option<(f64, usize, f64)> = None;
         for i in lo..hi {
-            let (d2, p) = self.project_segment(i, x, y);
-            if best.as_ref().is_none_or(|(b, _)| d2 < *b) {
-                best = Some((d2, p));
+            let (d2, u) = self.segment_d2(i, x, y);
+            if best.is_none_or(|(b, _, _)| d2 < b) {
+                best = Some((d2, i, u));
             }
         }
-        best.map_or(Projection { s: 0.0, lateral_offset: 0.0, heading: 0.0, segment: 0 }, |(_, p)| p)
+        best.map_or(Projection { s: 0.0, lateral_offset: 0.0, heading: 0.0, segment: 0 }, |(_, i, u)| self.projection_on(i, u, x, y))
     }
 
     /// The paper's straight run: one lane of `length` m along +x, a second lane to the left,
@@ -371,6 +434,35 @@ mod tests {
             // And back: the point projects onto itself.
             let p = t.project(x, y);
             assert!((p.s - (200.0 + r * phi)).abs() < 1e-6 && p.lateral_offset.abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn indexed_projection_equals_checking_every_segment() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        // A random walk with sharp turns (the nearest segment is often far along the polyline).
+        let mut pts = vec![[0.0, 0.0]];
+        let mut h = 0.0f64;
+        for _ in 0..700 {
+            h += rng.random_range(-0.6..0.6);
+            let [x, y] = *pts.last().expect("point");
+            let step = rng.random_range(0.5..5.0);
+            pts.push([x + step * h.cos(), y + step * h.sin()]);
+        }
+        let walk = Track::new("walk", pts, 3.5, vec![]);
+        for t in [Track::curvy(), walk] {
+            let nseg = t.centerline.len() - 1;
+            let (min, max) = t.chunks.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(a, b), c| ([a[0].min(c[0]), a[1].min(c[1])], [b[0].max(c[2]), b[1].max(c[3])]));
+            for _ in 0..5000 {
+                let x = rng.random_range(min[0] - 100.0..max[0] + 100.0);
+                let y = rng.random_range(min[1] - 100.0..max[1] + 100.0);
+                assert_eq!(t.project(x, y), t.project_range(x, y, 0, nseg), "({x}, {y}) on {}", t.name);
+            }
+            // Vertices: exact ties between neighbouring segments.
+            for p in t.centerline.iter().step_by(7) {
+                assert_eq!(t.project(p[0], p[1]), t.project_range(p[0], p[1], 0, nseg));
+            }
         }
     }
 

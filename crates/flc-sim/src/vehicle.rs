@@ -249,21 +249,49 @@ mod tests {
 
     const DT: f64 = 0.01;
 
-    #[test]
-    fn full_braking_distance_matches_friction_limit_plus_actuator_delay() {
-        let p = VehicleParams::default();
-        let mut v = Vehicle::new(p, VehicleState { speed: 20.0, ..Default::default() });
+    /// Stopping distance from `v0` under a full brake demand `cmd` (< -max_brake) for dead time
+    /// `td`, lag `tau` and friction limit `a`, without drag: travel at `v0` for `td`; then the lag
+    /// ramps the deceleration `|cmd| (1 - exp(-t / tau))` up to `a` at
+    /// `t1 = -tau ln(1 - a / |cmd|)`; then constant `a` to standstill.
+    fn analytic_stopping_distance(v0: f64, cmd: f64, td: f64, tau: f64, a: f64) -> f64 {
+        let c = cmd.abs();
+        let t1 = -tau * (1.0 - a / c).ln();
+        let e = (-t1 / tau).exp();
+        // Speed lost and distance covered during the ramp (integrals of the ramp deceleration).
+        let dv = c * (t1 - tau * (1.0 - e));
+        let dx = v0 * t1 - c * (t1 * t1 / 2.0 - tau * (t1 - tau * (1.0 - e)));
+        let v1 = v0 - dv;
+        v0 * td + dx + v1 * v1 / (2.0 * a)
+    }
+
+    fn stopping_distance(p: VehicleParams, v0: f64, cmd: f64) -> f64 {
+        let mut v = Vehicle::new(p, VehicleState { speed: v0, ..Default::default() });
         let mut steps = 0;
-        while v.state().speed > 0.0 && steps < 10_000 {
-            v.step(-20.0, 0.0, DT);
+        while v.state().speed > 0.0 && steps < 100_000 {
+            v.step(cmd, 0.0, DT);
             steps += 1;
         }
-        // Ideal: v²/(2 a) = 400 / 16 = 25 m; plus 20 m/s x dead time 0.1 s = 2 m; plus the lag
-        // ramp: the -20 demand reaches the -8 limit after -0.2 ln(1 - 8/20) = 0.10 s at about
-        // half the deceleration, ~1 m; drag and rolling resistance shorten it a little.
-        let x = v.state().x;
-        assert!(x > 26.5 && x < 28.5, "stopping distance {x}");
         assert_eq!(v.state().speed, 0.0);
+        v.state().x
+    }
+
+    #[test]
+    fn full_braking_distance_matches_friction_limit_plus_actuator_delay() {
+        // Without resistances: the analytic value (25 m of v²/(2a) from 20 m/s at 8 m/s², + 2 m
+        // of dead time, + ~0.9 m while the lag builds up the deceleration), within the error
+        // of the 10 ms discretisation (about v0 dt = 0.2 m).
+        let ideal = VehicleParams { drag_cd: 0.0, rolling_resistance: 0.0, ..Default::default() };
+        for (v0, cmd) in [(20.0, -20.0), (30.0, -12.0), (10.0, -9.0)] {
+            let expected = analytic_stopping_distance(v0, cmd, ideal.dead_time, ideal.lag, ideal.max_brake);
+            let x = stopping_distance(ideal, v0, cmd);
+            assert!((x - expected).abs() < v0 * DT, "v0 {v0}, cmd {cmd}: {x} m vs analytic {expected} m");
+        }
+        let expected = analytic_stopping_distance(20.0, -20.0, 0.1, 0.2, 8.0);
+        assert!((expected - 27.93).abs() < 0.01, "{expected}");
+        // Drag and rolling resistance add to the brakes: a little shorter, by at most their share
+        // (<= 0.33 m/s² of 8.3 at 20 m/s).
+        let x = stopping_distance(VehicleParams::default(), 20.0, -20.0);
+        assert!(x < expected && x > expected * (1.0 - 0.33 / 8.33) - 0.2, "{x}");
     }
 
     #[test]
@@ -304,6 +332,26 @@ mod tests {
             v.step(0.0, 0.2, DT);
         }
         assert!(v.state().y > 0.0 && v.state().yaw > 0.0);
+    }
+
+    #[test]
+    fn constant_steer_drives_the_bicycle_circle() {
+        // Body-centre kinematic bicycle, l_r = L/2: slip beta = atan(tan(delta)/2), the centre
+        // moves on a circle of radius l_r / sin(beta) at yaw rate v sin(beta) / l_r.
+        let p = VehicleParams { drag_cd: 0.0, rolling_resistance: 0.0, ..Default::default() };
+        let delta: f64 = 0.1;
+        let mut v = Vehicle::new(p, VehicleState { speed: 10.0, steer: delta, ..Default::default() });
+        let beta = (delta.tan() / 2.0).atan();
+        let radius = p.wheelbase / 2.0 / beta.sin();
+        // Initial velocity direction is yaw + beta = beta: the centre is to its left.
+        let (cx, cy) = (-radius * beta.sin(), radius * beta.cos());
+        for _ in 0..1000 {
+            v.step(0.0, delta, DT);
+            let s = v.state();
+            assert!(((s.x - cx).hypot(s.y - cy) - radius).abs() < 0.01 * radius);
+        }
+        let expected_yaw = 10.0 * beta.sin() / (p.wheelbase / 2.0) * 10.0;
+        assert!((v.state().yaw - expected_yaw).abs() < 1e-6 * expected_yaw.abs().max(1.0), "{} vs {expected_yaw}", v.state().yaw);
     }
 
     #[test]

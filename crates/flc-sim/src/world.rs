@@ -203,37 +203,48 @@ impl World {
     }
 
     /// Casts a fan of rays from one origin: ray `i` points at `base + angles[i]` (world frame,
-    /// `angles` ascending, `unit[i]` its world-frame unit vector); `hits[i]` receives the nearest
-    /// hit distance or `None`.
+    /// `angles` ascending within [-pi, pi], `unit[i]` its world-frame unit vector); `hits[i]`
+    /// receives the nearest hit distance or `None`. Same result as [`World::cast_ray`] per ray.
     ///
-    /// Rapier's query pipeline gathers the colliders within `max_range` (ego excluded); each is
-    /// then ray-cast by parry only for the rays inside its angular extent, which makes a scan cost
-    /// about one shape test per ray instead of a BVH descent per ray.
+    /// Rapier's query pipeline (BVH) gathers the colliders whose boxes meet the fan's sector (ego
+    /// excluded); each is then ray-cast by parry only for the rays inside its angular extent (exact
+    /// for cuboids and balls), which makes a scan cost about one shape test per ray instead of a
+    /// BVH descent per ray.
     pub fn cast_fan(&self, fan: &RayFan<'_>, max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
-        let RayFan { origin, base, angles, unit } = *fan;
+        use std::f64::consts::{FRAC_PI_2, TAU};
         use rapier2d::parry::bounding_volume::Aabb;
+        let RayFan { origin, base, angles, unit } = *fan;
         hits.clear();
         hits.resize(angles.len(), None);
+        let (Some(&a_first), Some(&a_last)) = (angles.first(), angles.last()) else { return };
         let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
         let qp = self.pw.query_pipeline_with_filter(filter);
         let o = Vector::new(origin[0] as f32, origin[1] as f32);
         let r = max_range as f32;
-        let region = Aabb::new(o - Vector::splat(r), o + Vector::splat(r));
+        // Bounding box of the sector: origin, both edge rays' ends and the axis directions inside.
+        let (mut lo, mut hi) = (o, o);
+        let mut include = |a: f64| {
+            let p = o + Vector::new((a.cos() * max_range) as f32, (a.sin() * max_range) as f32);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        };
+        include(base + a_first);
+        include(base + a_last);
+        for k in 0..4 {
+            let axis = f64::from(k) * FRAC_PI_2;
+            let rel = crate::track::wrap(axis - base);
+            if [rel - TAU, rel, rel + TAU].iter().any(|a| (a_first..=a_last).contains(a)) {
+                include(axis);
+            }
+        }
+        let region = Aabb::new(lo - Vector::splat(0.01), hi + Vector::splat(0.01));
         for (_, co) in qp.intersect_aabb_conservative(region) {
-            let bb = co.compute_aabb();
-            let inside = bb.mins.x <= o.x && bb.mins.y <= o.y && bb.maxs.x >= o.x && bb.maxs.y >= o.y;
-            let corners = [[bb.mins.x, bb.mins.y], [bb.maxs.x, bb.mins.y], [bb.mins.x, bb.maxs.y], [bb.maxs.x, bb.maxs.y]];
-            let rel = |c: &[f32; 2]| crate::track::wrap((f64::from(c[1]) - origin[1]).atan2(f64::from(c[0]) - origin[0]) - base);
-            let (lo, hi) = if inside {
-                (-std::f64::consts::PI, std::f64::consts::PI)
-            } else {
-                // An AABB seen from outside spans less than pi: unwrap around the first corner.
-                let a0 = rel(&corners[0]);
-                corners.iter().map(|c| a0 + crate::track::wrap(rel(c) - a0)).fold((a0, a0), |(l, h), a| (l.min(a), h.max(a)))
-            };
-            let tau = std::f64::consts::TAU;
-            for shift in [-tau, 0.0, tau] {
-                let (l, h) = (lo + shift - 1e-6, hi + shift + 1e-6);
+            let (lo, hi) = angular_extent(co, origin, base);
+            for shift in [-TAU, 0.0, TAU] {
+                let (l, h) = (lo + shift - ANGLE_SLACK, hi + shift + ANGLE_SLACK);
+                if h < a_first || l > a_last {
+                    continue;
+                }
                 let first = angles.partition_point(|&a| a < l);
                 let last = angles.partition_point(|&a| a <= h);
                 for i in first..last {
@@ -247,6 +258,41 @@ impl World {
             }
         }
     }
+}
+
+/// Angular margin added to each collider's extent in [`World::cast_fan`], rad: covers f32
+/// rounding of the shapes (1e-4 m at 1 km from the origin is 1e-7 rad at 1 m range).
+const ANGLE_SLACK: f64 = 2e-4;
+
+/// Directions (relative to `base`, rad, `lo <= hi`, `hi - lo < pi` unless the whole circle) under
+/// which a collider is seen from `origin`: exact for cuboids and balls, the bounding box's for
+/// other shapes, the whole circle when the origin is inside or within 1 cm of the shape.
+fn angular_extent(co: &Collider, origin: [f64; 2], base: f64) -> (f64, f64) {
+    use std::f64::consts::PI;
+    let pos = co.position();
+    let shape = co.shape();
+    let o = Vector::new(origin[0] as f32, origin[1] as f32);
+    if shape.distance_to_point(pos, o, true) < 0.01 {
+        return (-PI, PI);
+    }
+    let rel = |x: f32, y: f32| crate::track::wrap((f64::from(y) - origin[1]).atan2(f64::from(x) - origin[0]) - base);
+    if let Some(ball) = shape.as_ball() {
+        let c = pos.translation;
+        let d = (f64::from(c.x) - origin[0]).hypot(f64::from(c.y) - origin[1]);
+        let half = (f64::from(ball.radius) / d).min(1.0).asin();
+        let a = rel(c.x, c.y);
+        return (a - half, a + half);
+    }
+    let corners = if let Some(cuboid) = shape.as_cuboid() {
+        let h = cuboid.half_extents;
+        [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)].map(|(x, y)| pos.transform_point(Vector::new(x, y)))
+    } else {
+        let bb = co.compute_aabb();
+        [bb.mins, Vector::new(bb.maxs.x, bb.mins.y), bb.maxs, Vector::new(bb.mins.x, bb.maxs.y)]
+    };
+    // A convex shape seen from outside spans less than pi: unwrap around the first corner.
+    let a0 = rel(corners[0].x, corners[0].y);
+    corners.iter().map(|c| a0 + crate::track::wrap(rel(c.x, c.y) - a0)).fold((a0, a0), |(l, h), a| (l.min(a), h.max(a)))
 }
 
 #[cfg(test)]
@@ -358,6 +404,45 @@ mod tests {
                     seen += usize::from(hit.is_some());
                 }
                 assert!(seen > 0, "s {s}: nothing in view");
+            }
+        }
+    }
+
+    #[test]
+    fn fan_casting_equals_one_ray_cast_per_ray_at_random_poses() {
+        // Random origins on and beside both preset tracks (also just behind rails, next to posts
+        // and parked cars), random headings and fields of view.
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for track in [Track::straight(2000.0), Track::curvy()] {
+            let mut w = World::new(&track);
+            let p = VehicleParams::default();
+            let ego = w.add_vehicle(&p, &VehicleState::default());
+            let lead = w.add_vehicle(&p, &VehicleState::default());
+            let mut hits = Vec::new();
+            for _ in 0..150 {
+                let s = rng.random_range(0.0..track.length());
+                let (x, y, h) = track.pose_at(s);
+                let off = rng.random_range(-8.0..8.0);
+                let (ox, oy) = (x - off * h.sin(), y + off * h.cos());
+                let (lx, ly, lh) = track.pose_at(s + rng.random_range(3.0..60.0));
+                w.set_pose(ego, &VehicleState { x: ox, y: oy, yaw: h, ..Default::default() });
+                w.set_pose(lead, &VehicleState { x: lx, y: ly, yaw: lh, ..Default::default() });
+                w.step(0.01);
+                let base = h + rng.random_range(-3.0..3.0);
+                let fov: f64 = rng.random_range(0.1..std::f64::consts::TAU);
+                let n = 721;
+                let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
+                let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(base + a).cos(), (base + a).sin()]).collect();
+                w.cast_fan(&RayFan { origin: [ox, oy], base, angles: &angles, unit: &unit }, 100.0, ego, &mut hits);
+                for (d, hit) in unit.iter().zip(&hits) {
+                    let single = w.cast_ray([ox, oy], *d, 100.0, ego);
+                    match (hit, single) {
+                        (Some(a), Some(b)) => assert!((a - b).abs() < 1e-4, "s {s} off {off}: {a} vs {b}"),
+                        (None, None) => {}
+                        other => panic!("s {s} off {off}: fan {:?} vs single {:?}", other.0, other.1),
+                    }
+                }
             }
         }
     }
