@@ -62,3 +62,32 @@ def test_scenario_pickles():
 
     s = flc.Scenario.paper(speed_kmh=50)
     assert pickle.loads(pickle.dumps(s)) == s
+
+
+def test_paper_preset_outcome_table():
+    """The paper preset from Python gives the simulator's (and the paper's) outcome pattern."""
+    speeds = (30, 50, 70, 90)
+    scs = [flc.Scenario.paper(speed_kmh=v, controller=c, preset="paper") for v in speeds for c in ("flc", "pid")]
+    res = {(r.scenario.speed_kmh, r.scenario.controller): r.metrics for r in flc.sweep(scs)}
+    assert [res[(v, "flc")]["collision"] for v in speeds] == [False, False, False, True]
+    assert [res[(v, "pid")]["collision"] for v in speeds] == [False, False, True, True]
+    assert res[(90, "flc")]["impact_speed"] < res[(90, "pid")]["impact_speed"]
+    for v in (30, 50, 70):
+        assert res[(v, "flc")]["final_clearance"] > 0.5
+
+
+def test_sweep_equals_sequential_runs():
+    scs = [flc.Scenario.paper(speed_kmh=v, controller=c, duration=30.0, seed=7) for v in (30, 70) for c in ("flc", "pipeline")]
+    swept = flc.sweep(scs)
+    for s, r in zip(scs, swept):
+        one = flc.run(s)
+        assert one.metrics == r.metrics
+        for k in one.series:
+            np.testing.assert_array_equal(one.series[k], r.series[k])
+
+
+def test_to_pandas_when_available():
+    pd = pytest.importorskip("pandas")
+    r = flc.run(flc.Scenario.paper(speed_kmh=30, duration=5.0))
+    df = r.to_pandas()
+    assert isinstance(df, pd.DataFrame) and list(df["gap"]) == list(r.gap)
