@@ -13,6 +13,7 @@ pub mod metrics;
 pub mod report;
 pub mod scenario;
 pub mod sim;
+pub mod sweep;
 pub mod track;
 pub mod v2v;
 pub mod vehicle;

@@ -83,7 +83,7 @@ pub fn run_batch(scenarios: &[Scenario], progress: bool) -> Vec<Result<RunResult
 
 /// Seeds of the random processes, derived from the scenario seed (SplitMix64 steps), so that each
 /// process has its own stream and changing one impairment does not reshuffle another.
-fn sub_seed(seed: u64, stream: u64) -> u64 {
+pub(crate) fn sub_seed(seed: u64, stream: u64) -> u64 {
     let mut z = seed.wrapping_add(stream.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

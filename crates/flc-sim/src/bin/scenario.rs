@@ -21,6 +21,8 @@ use flc_sim::{SimError, run_batch};
 #[derive(Debug, Parser)]
 #[command(name = "scenario", version, about, long_about)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Scenario file(s) (TOML, schema in docs/scenarios.md). Repeat or list several.
     #[arg(long = "config", value_name = "FILE", num_args = 1..)]
     config: Vec<PathBuf>,
@@ -43,11 +45,47 @@ struct Cli {
     #[arg(long)]
     seed: Option<u64>,
     /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long)]
+    #[arg(long, global = true)]
     threads: Option<usize>,
     /// Exit with status 1 when any run collided.
     #[arg(long)]
     fail_on_collision: bool,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Command {
+    /// Run a sweep file (grid or random sample over scenario fields; docs/safety-envelope.md) in
+    /// parallel, streaming one CSV row per finished run; re-running skips finished rows.
+    Sweep {
+        /// The sweep file (TOML).
+        file: PathBuf,
+        /// Output CSV (default: the sweep file's name with `.csv`).
+        #[arg(long, value_name = "CSV")]
+        out: Option<PathBuf>,
+    },
+}
+
+fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+    use flc_sim::sweep::{SweepSpec, run_sweep};
+    let (spec, dir) = match SweepSpec::from_file(file) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let points = match spec.points(dir.as_deref()) {
+        Ok(p) => p,
+        Err(e) => return bad_input(format!("{}: {e}", file.display())),
+    };
+    let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
+    match run_sweep(&spec, &points, &out, true) {
+        Ok(n) => {
+            eprintln!("{n} runs done ({} in the sweep), rows in {}", points.len(), out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn bad_input(msg: impl std::fmt::Display) -> ExitCode {
@@ -95,10 +133,6 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let list = match scenarios(&cli) {
-        Ok(l) => l,
-        Err(e) => return bad_input(e),
-    };
     if let Some(n) = cli.threads {
         if n == 0 {
             return bad_input("`--threads`: must be >= 1");
@@ -107,6 +141,13 @@ fn main() -> ExitCode {
             return bad_input(format!("`--threads`: {e}"));
         }
     }
+    if let Some(Command::Sweep { file, out }) = &cli.command {
+        return sweep(file, out.as_deref());
+    }
+    let list = match scenarios(&cli) {
+        Ok(l) => l,
+        Err(e) => return bad_input(e),
+    };
     if let Some(dir) = &cli.out {
         if let Err(e) = std::fs::create_dir_all(dir) {
             return bad_input(format!("`--out` {}: {e}", dir.display()));

@@ -1,0 +1,360 @@
+//! The sweep engine: a grid or a random sample over any scenario fields, run in parallel
+//! (rayon), deterministic per run, streamed to CSV as runs finish, resumable.
+//!
+//! A sweep file (TOML, `docs/safety-envelope.md`):
+//!
+//! ```toml
+//! family = "paper"            # base = the paper experiment (or `base = "file.toml"`)
+//! calibration = "realistic"
+//! mode = "grid"               # or "random" with `samples = N`
+//! seed = 1
+//! [[axes]]
+//! key = "speed_kmh"           # paper family: rebuilds the experiment at this speed
+//! values = [30, 50, 70, 90]
+//! [[axes]]
+//! key = "lead_decel"          # the brake phase's deceleration, m/s²
+//! from = 2.0
+//! to = 9.0
+//! steps = 8
+//! [[axes]]
+//! key = "lidar.latency_frames"   # any dotted scenario key, `[i]` for list items
+//! values = [0, 1, 2]
+//! ```
+
+use std::collections::HashSet;
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::error::{ConfigError, SimError};
+use crate::scenario::{Calibration, ControllerKind, Scenario};
+
+/// One axis of the sweep.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Dotted scenario key (`lidar.rate_hz`, `lead.phases[2].decel`) or one of the family keys
+    /// `speed_kmh`, `lead_decel`, `controller`.
+    pub key: String,
+    /// Explicit values (numbers, or strings for `controller`).
+    #[serde(default)]
+    pub values: Option<Vec<Value>>,
+    /// Grid: `steps` values from `from` to `to` inclusive. Random: uniform in `[from, to]`.
+    #[serde(default)]
+    pub from: Option<f64>,
+    /// See `from`.
+    #[serde(default)]
+    pub to: Option<f64>,
+    /// Number of grid values (grid mode with `from`/`to`).
+    #[serde(default)]
+    pub steps: Option<usize>,
+}
+
+/// How points are chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Every combination of the axes' values.
+    Grid,
+    /// `samples` points, each axis drawn independently (uniform or from `values`).
+    Random,
+}
+
+/// A sweep definition.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    /// `"paper"`: the base is the paper experiment (enables `speed_kmh`, `lead_decel`, `controller`).
+    #[serde(default)]
+    pub family: Option<String>,
+    /// Calibration of the paper family.
+    #[serde(default = "default_calibration")]
+    pub calibration: Calibration,
+    /// A scenario file as the base (instead of a family), relative to the sweep file.
+    #[serde(default)]
+    pub base: Option<PathBuf>,
+    /// Grid or random.
+    #[serde(default = "default_mode")]
+    pub mode: Mode,
+    /// Number of random samples.
+    #[serde(default)]
+    pub samples: Option<usize>,
+    /// Seed of the sampling and of the runs (run `i` gets a seed derived from it and `i`).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// The axes.
+    pub axes: Vec<Axis>,
+}
+
+fn default_calibration() -> Calibration {
+    Calibration::Realistic
+}
+fn default_mode() -> Mode {
+    Mode::Grid
+}
+fn default_seed() -> u64 {
+    1
+}
+
+/// One point of a sweep: its index, the axis values and the scenario.
+#[derive(Debug, Clone)]
+pub struct SweepPoint {
+    /// Index in the expanded sweep (stable: the row key for resuming).
+    pub id: usize,
+    /// `(key, value)` per axis.
+    pub values: Vec<(String, Value)>,
+    /// The scenario to run.
+    pub scenario: Scenario,
+}
+
+impl SweepSpec {
+    /// Reads a sweep file.
+    pub fn from_file(path: &Path) -> Result<(Self, Option<PathBuf>), SimError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
+        let de = toml::Deserializer::parse(&text).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
+        let spec: SweepSpec = serde_path_to_error::deserialize(de)
+            .map_err(|e| {
+            let key = e.path().to_string();
+            SimError::File { path: origin.clone(), message: format!("`{key}`: {}", e.into_inner()) }
+        })?;
+        let dir = path.parent().map(Path::to_path_buf);
+        Ok((spec, dir))
+    }
+
+    fn axis_values(&self, i: usize, a: &Axis) -> Result<Vec<Value>, ConfigError> {
+        let key = format!("axes[{i}]");
+        if let Some(v) = &a.values {
+            if v.is_empty() {
+                return Err(ConfigError::new(format!("{key}.values"), "must not be empty"));
+            }
+            return Ok(v.clone());
+        }
+        match (a.from, a.to, a.steps) {
+            (Some(lo), Some(hi), Some(n)) if n >= 1 && lo.is_finite() && hi.is_finite() => Ok((0..n)
+                .map(|k| {
+                    let x = if n == 1 { lo } else { lo + (hi - lo) * k as f64 / (n - 1) as f64 };
+                    Value::from(x)
+                })
+                .collect()),
+            _ => Err(ConfigError::new(key, "give `values = [...]`, or `from`, `to` and `steps >= 1`")),
+        }
+    }
+
+    /// Expands the sweep into its points (validated scenarios).
+    pub fn points(&self, base_dir: Option<&Path>) -> Result<Vec<SweepPoint>, SimError> {
+        if self.axes.is_empty() {
+            return Err(ConfigError::new("axes", "give at least one axis").into());
+        }
+        let base = match (&self.family, &self.base) {
+            (Some(f), None) if f == "paper" => None,
+            (Some(f), _) => return Err(ConfigError::new("family", format!("must be \"paper\", got `{f}`")).into()),
+            (None, Some(p)) => {
+                let path = base_dir.map_or(p.clone(), |d| d.join(p));
+                Some(Scenario::from_file(&path)?)
+            }
+            (None, None) => return Err(ConfigError::new("family", "give `family = \"paper\"` or `base = \"scenario.toml\"`").into()),
+        };
+        let combos: Vec<Vec<(String, Value)>> = match self.mode {
+            Mode::Grid => {
+                let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
+                for (i, a) in self.axes.iter().enumerate() {
+                    let vals = self.axis_values(i, a)?;
+                    combos = combos
+                        .into_iter()
+                        .flat_map(|c| vals.iter().map(move |v| c.iter().cloned().chain([(a.key.clone(), v.clone())]).collect()))
+                        .collect();
+                }
+                combos
+            }
+            Mode::Random => {
+                use rand::{Rng, SeedableRng};
+                let n = self.samples.ok_or_else(|| ConfigError::new("samples", "random mode needs `samples`"))?;
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
+                let mut out = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let mut c = Vec::new();
+                    for (i, a) in self.axes.iter().enumerate() {
+                        let v = match (&a.values, a.from, a.to) {
+                            (Some(vals), _, _) if !vals.is_empty() => vals.get(rng.random_range(0..vals.len())).cloned().unwrap_or(Value::Null),
+                            (_, Some(lo), Some(hi)) if lo <= hi => Value::from(rng.random_range(lo..=hi)),
+                            _ => return Err(ConfigError::new(format!("axes[{i}]"), "random mode needs `values` or `from` <= `to`").into()),
+                        };
+                        c.push((a.key.clone(), v));
+                    }
+                    out.push(c);
+                }
+                out
+            }
+        };
+        combos
+            .into_iter()
+            .enumerate()
+            .map(|(id, values)| {
+                let scenario = self.build(base.as_ref(), id, &values)?;
+                Ok(SweepPoint { id, values, scenario })
+            })
+            .collect()
+    }
+
+    fn build(&self, base: Option<&Scenario>, id: usize, values: &[(String, Value)]) -> Result<Scenario, SimError> {
+        let num = |k: &str, v: &Value| v.as_f64().ok_or_else(|| ConfigError::new(k, format!("must be a number, got {v}")));
+        let mut s = match base {
+            Some(b) => b.clone(),
+            None => {
+                let speed = values.iter().find(|(k, _)| k == "speed_kmh").map(|(k, v)| num(k, v)).transpose()?.unwrap_or(50.0);
+                let controller = match values.iter().find(|(k, _)| k == "controller") {
+                    Some((_, v)) => ControllerKind::parse(v.as_str().unwrap_or_default())?,
+                    None => ControllerKind::Flc,
+                };
+                Scenario::paper_experiment(speed, controller, self.calibration)
+            }
+        };
+        let mut json = serde_json::to_value(&s).map_err(|e| SimError::File { path: "sweep".into(), message: e.to_string() })?;
+        for (k, v) in values {
+            match k.as_str() {
+                "speed_kmh" | "controller" if base.is_none() => {}
+                "lead_decel" => {
+                    let d = num(k, v)?;
+                    let phases = json.pointer_mut("/lead/phases").and_then(Value::as_array_mut);
+                    let brake = phases.and_then(|p| p.iter_mut().find(|ph| ph.get("kind").and_then(Value::as_str) == Some("brake")));
+                    match brake {
+                        Some(b) => b["decel"] = Value::from(d),
+                        None => return Err(ConfigError::new(k, "the base scenario has no brake phase").into()),
+                    }
+                }
+                _ => set_path(&mut json, k, v.clone())?,
+            }
+        }
+        s = serde_path_to_error::deserialize(json).map_err(|e| {
+            let key = e.path().to_string();
+            ConfigError::new(key, e.into_inner().to_string())
+        })?;
+        s.seed = crate::sim::sub_seed(self.seed, id as u64 + 1000);
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+/// Sets a dotted key (`a.b[2].c`) in a JSON value; every segment must already exist, so a typo
+/// is an error naming the key.
+fn set_path(root: &mut Value, key: &str, v: Value) -> Result<(), ConfigError> {
+    let mut node = root;
+    for part in key.split('.') {
+        let (name, index) = match part.split_once('[') {
+            Some((n, rest)) => (n, Some(rest.trim_end_matches(']').parse::<usize>().map_err(|_| ConfigError::new(key, "bad list index"))?)),
+            None => (part, None),
+        };
+        node = node.get_mut(name).ok_or_else(|| ConfigError::new(key, format!("unknown scenario key `{name}`")))?;
+        if let Some(i) = index {
+            node = node.get_mut(i).ok_or_else(|| ConfigError::new(key, format!("index {i} out of range")))?;
+        }
+    }
+    *node = v;
+    Ok(())
+}
+
+/// Metric columns of a sweep row, in order (the names of `scenario --json`).
+pub const METRIC_COLUMNS: [&str; 16] = [
+    "collision",
+    "impact_speed",
+    "collision_time",
+    "min_gap",
+    "final_clearance",
+    "min_ttc",
+    "max_decel",
+    "max_jerk",
+    "gap_error_rms",
+    "steady_time",
+    "rot_error_deg",
+    "trans_error_m",
+    "time_pid",
+    "time_flc",
+    "switches",
+    "duration",
+];
+
+fn csv_field(v: &Value) -> String {
+    match v {
+        Value::Null => String::new(),
+        Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// One finished row: `run_id, <axes...>, controller, seed, <metrics...>`.
+fn row(point: &SweepPoint, metrics: &crate::metrics::Metrics) -> String {
+    let m = serde_json::to_value(metrics).unwrap_or(Value::Null);
+    let mut f = vec![point.id.to_string()];
+    f.extend(point.values.iter().map(|(_, v)| csv_field(v)));
+    if !point.values.iter().any(|(k, _)| k == "controller") {
+        f.push(point.scenario.controller.as_str().to_string());
+    }
+    f.push(point.scenario.seed.to_string());
+    f.extend(METRIC_COLUMNS.iter().map(|k| m.get(*k).map(csv_field).unwrap_or_default()));
+    f.join(",")
+}
+
+/// The CSV header for a sweep.
+pub fn header(spec: &SweepSpec) -> String {
+    let mut h = vec!["run_id".to_string()];
+    h.extend(spec.axes.iter().map(|a| a.key.clone()));
+    if !spec.axes.iter().any(|a| a.key == "controller") {
+        h.push("controller".into());
+    }
+    h.push("seed".into());
+    h.extend(METRIC_COLUMNS.iter().map(|s| s.to_string()));
+    h.join(",")
+}
+
+/// Ids already present in an existing output file (for resuming).
+pub fn finished_ids(out: &Path) -> HashSet<usize> {
+    let Ok(f) = std::fs::File::open(out) else { return HashSet::new() };
+    std::io::BufReader::new(f)
+        .lines()
+        .skip(1)
+        .map_while(Result::ok)
+        // A line is complete only if it ends with all its fields (interrupted writes are redone).
+        .filter(|l| l.split(',').count() >= 2 + METRIC_COLUMNS.len())
+        .filter_map(|l| l.split(',').next().and_then(|id| id.parse().ok()))
+        .collect()
+}
+
+/// Runs the points not yet in `out`, appending one CSV row per finished run (flushed as it
+/// finishes). Returns the number of runs done now.
+pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
+    use rayon::prelude::*;
+    let done = finished_ids(out);
+    let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
+    let fresh = done.is_empty() || !out.exists();
+    let mut file = std::fs::OpenOptions::new().create(true).append(true).open(out)?;
+    if fresh {
+        // Rewrite from scratch (an existing file without finished rows is replaced).
+        file = std::fs::File::create(out)?;
+        writeln!(file, "{}", header(spec))?;
+    }
+    let writer = Mutex::new(std::io::BufWriter::new(file));
+    let bar = progress.then(|| indicatif::ProgressBar::new(todo.len() as u64));
+    let results: Vec<Result<(), SimError>> = todo
+        .par_iter()
+        .map(|p| {
+            let r = crate::sim::run(&p.scenario)?;
+            let line = row(p, &r.metrics);
+            let mut w = writer.lock().map_err(|_| SimError::File { path: out.display().to_string(), message: "writer poisoned".into() })?;
+            writeln!(w, "{line}")?;
+            w.flush()?;
+            if let Some(b) = &bar {
+                b.inc(1);
+            }
+            Ok(())
+        })
+        .collect();
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    Ok(todo.len())
+}
