@@ -342,6 +342,11 @@ pub struct Metrics {
     pub min_ttc: Option<f64>,
     /// Strongest braking of the follower, m/s² (positive; 0 if it never braked).
     pub max_decel: f64,
+    /// Largest deceleration rate to avoid a crash, `DRAC = (v_follower - v_lead)² / (2 gap)`,
+    /// over the closing samples with a positive gap, m/s² (0 if never closing).
+    pub max_drac: f64,
+    /// Time the follower braked harder than 3.5 m/s² (the comfort limit), s.
+    pub time_hard_braking: f64,
     /// Largest absolute jerk of the follower over a `jerk_window` (0.1 s), m/s³.
     pub max_jerk: f64,
     /// RMS of `gap - desired_gap` during steady following, m (`None` if never steady).
@@ -382,10 +387,14 @@ impl Metrics {
         // Gap, TTC.
         let min_gap = s.gap[..n].iter().copied().filter(|g| g.is_finite()).fold(f64::NAN, f64::min);
         let mut min_ttc: Option<f64> = None;
+        let mut max_drac: f64 = 0.0;
         for i in 0..n {
             let (gap, closing) = (s.gap[i], s.follower_speed[i] - s.lead_speed[i]);
             if !gap.is_finite() || !closing.is_finite() {
                 continue;
+            }
+            if gap > 0.0 && closing > p.ttc_min_closing {
+                max_drac = max_drac.max(closing * closing / (2.0 * gap));
             }
             let ttc = if gap <= 0.0 {
                 0.0
@@ -410,6 +419,7 @@ impl Metrics {
         let accel = &s.follower_accel[..n];
         let max_decel = accel.iter().copied().filter(|a| a.is_finite()).fold(0.0, |m: f64, a| m.max(-a));
         let max_jerk = max_abs_jerk(t, accel, p.jerk_window);
+        let time_hard_braking = accel.iter().zip(&dts).filter(|(a, _)| **a < -HARD_BRAKING).fold(0.0, |acc, (_, d)| acc + d);
 
         // Steady following.
         let mut run_start: Option<f64> = None;
@@ -458,6 +468,8 @@ impl Metrics {
             final_clearance,
             min_ttc,
             max_decel,
+            max_drac,
+            time_hard_braking,
             max_jerk,
             gap_error_rms,
             steady_time,
@@ -470,6 +482,9 @@ impl Metrics {
         }
     }
 }
+
+/// Braking harder than this is uncomfortable (`time_hard_braking`), m/s².
+pub const HARD_BRAKING: f64 = 3.5;
 
 fn finite_or(x: f64, fallback: f64) -> f64 {
     if x.is_finite() { x } else { fallback }
@@ -591,6 +606,20 @@ mod tests {
             r.gap = 20.0 + 5.0 * t;
         });
         assert_eq!(Metrics::compute(&s, None).min_ttc, None);
+    }
+
+    #[test]
+    fn drac_and_hard_braking_time() {
+        // Closing at 5 m/s down to a 5 m gap: DRAC = 25 / (2 * 5) = 2.5 m/s².
+        let s = series(900, |t, r| {
+            r.follower_speed = 15.0;
+            r.gap = 50.0 - 5.0 * t;
+            // Braking at 4 m/s² (beyond the 3.5 comfort limit) from 2 s to 5 s.
+            r.follower_accel = if (2.0..5.0).contains(&t) { -4.0 } else { -1.0 };
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.max_drac, 2.5, 1e-9), "{}", m.max_drac);
+        assert!(close(m.time_hard_braking, 3.0, 0.011), "{}", m.time_hard_braking);
     }
 
     #[test]

@@ -258,7 +258,7 @@ fn set_path(root: &mut Value, key: &str, v: Value) -> Result<(), ConfigError> {
 }
 
 /// Metric columns of a sweep row, in order (the names of `scenario --json`).
-pub const METRIC_COLUMNS: [&str; 16] = [
+pub const METRIC_COLUMNS: [&str; 18] = [
     "collision",
     "impact_speed",
     "collision_time",
@@ -266,6 +266,8 @@ pub const METRIC_COLUMNS: [&str; 16] = [
     "final_clearance",
     "min_ttc",
     "max_decel",
+    "max_drac",
+    "time_hard_braking",
     "max_jerk",
     "gap_error_rms",
     "steady_time",
