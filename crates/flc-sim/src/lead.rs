@@ -6,7 +6,7 @@ use crate::scenario::Phase;
 /// Gain of the speed-holding loop (hold phases, end of accelerate / brake), 1/s.
 const HOLD_GAIN: f64 = 3.0;
 /// The accelerate phase blends into its target over the last `1 / ACCEL_BLEND` m/s.
-const ACCEL_BLEND: f64 = 1.0;
+const ACCEL_BLEND: f64 = 10.0;
 
 /// Output of the lead driver for one physics step.
 #[derive(Debug, Clone, Copy, PartialEq)]
