@@ -9,12 +9,21 @@ cargo build --locked -p flc-core --no-default-features
 if rustup target list --installed 2>/dev/null | grep -q thumbv7em-none-eabihf; then
   echo "== Rust: cross build of flc-core for thumbv7em-none-eabihf"
   cargo build --locked -p flc-core --no-default-features --target thumbv7em-none-eabihf
+  cargo build --locked -p flc-core --no-default-features --features capi --target thumbv7em-none-eabihf
 else
   echo "== Rust: thumbv7em-none-eabihf not installed, cross build skipped (host no_std build ran)"
 fi
 
 echo "== Rust: clippy"
-cargo clippy --locked --all-targets -- -D warnings
+cargo clippy --locked --workspace --all-targets -- -D warnings
+
+echo "== Rust: flc-core C interface (feature capi): no_std build, clippy, C API == Rust API properties"
+cargo build --locked -p flc-core --no-default-features --features capi
+cargo clippy --locked -p flc-core --all-targets --features capi -- -D warnings
+cargo test --locked -p flc-core --features capi --test capi_properties
+
+echo "== Rust: flc-core firmware checks (header up to date, C example == Rust, no panic path, no alloc, stack bounds)"
+cargo test --locked -p flc-core --test c_header --test c_api
 
 echo "== Rust: tests"
 cargo test --locked

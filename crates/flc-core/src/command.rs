@@ -61,6 +61,20 @@ impl core::fmt::Display for Status {
     }
 }
 
+/// `v` limited to `[lo, hi]`: the same result as `f64::clamp` for `lo <= hi` (NaN stays NaN), but
+/// without `f64::clamp`'s panic on `lo > hi` or NaN bounds. The bounds come from parameters that the
+/// compiler cannot see are validated, so `f64::clamp` would leave a panic path in every step
+/// function; the release library is checked to contain none (`tests/c_api.rs`).
+pub(crate) fn clamp(v: f64, lo: f64, hi: f64) -> f64 {
+    if v < lo {
+        lo
+    } else if v > hi {
+        hi
+    } else {
+        v
+    }
+}
+
 /// Checks a measured speed: finite and within `[-max_reverse, max]`.
 pub(crate) fn valid_speed(v: f64, max: f64) -> bool {
     v.is_finite() && v >= -1.0 && v <= max

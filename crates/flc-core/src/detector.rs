@@ -25,6 +25,7 @@
 //! the points. The thresholds and the grid resolution, which the paper leaves open, are the fields
 //! of [`DetectorParams`]; see `docs/detector.md`.
 
+use crate::command::clamp;
 use crate::params::{check_positive, check_range, ParamError};
 use nalgebra::Point2;
 
@@ -231,7 +232,7 @@ pub struct ClusterInfo {
 }
 
 impl ClusterInfo {
-    const EMPTY: Self = Self {
+    pub(crate) const EMPTY: Self = Self {
         x_min: f64::INFINITY,
         x_max: f64::NEG_INFINITY,
         y_min: f64::INFINITY,
@@ -316,14 +317,14 @@ pub struct DetectorOutput {
 
 /// A maximal vertical run of dilated cells in one grid column.
 #[derive(Debug, Clone, Copy)]
-struct Run {
+pub(crate) struct Run {
     y0: u8,
     y1: u8,
     cluster: u16,
 }
 
 impl Run {
-    const EMPTY: Self = Self { y0: 0, y1: 0, cluster: NO_CLUSTER };
+    pub(crate) const EMPTY: Self = Self { y0: 0, y1: 0, cluster: NO_CLUSTER };
 }
 
 /// Grid geometry in metres.
@@ -362,18 +363,20 @@ impl Geometry {
 /// angle brackets select the default grid size).
 #[derive(Debug, Clone)]
 pub struct LeadDetector<const NX: usize = 350, const NY: usize = 60> {
-    params: DetectorParams,
-    occupied: [u64; NX],
-    edges: [u64; NX],
-    dilated: [u64; NX],
-    runs: [Run; RUN_CAPACITY],
-    parent: [u16; RUN_CAPACITY],
-    n_runs: usize,
+    // The fields are crate-visible only so that the C interface (`capi`) can initialise a detector
+    // in caller-owned memory field by field, without a whole-detector temporary on the stack.
+    pub(crate) params: DetectorParams,
+    pub(crate) occupied: [u64; NX],
+    pub(crate) edges: [u64; NX],
+    pub(crate) dilated: [u64; NX],
+    pub(crate) runs: [Run; RUN_CAPACITY],
+    pub(crate) parent: [u16; RUN_CAPACITY],
+    pub(crate) n_runs: usize,
     /// Index of the first run of each column and the number of runs in it (for O(1) lookups).
-    col_first: [u16; NX],
-    col_len: [u8; NX],
-    clusters: [ClusterInfo; CLUSTER_CAPACITY],
-    n_clusters: usize,
+    pub(crate) col_first: [u16; NX],
+    pub(crate) col_len: [u8; NX],
+    pub(crate) clusters: [ClusterInfo; CLUSTER_CAPACITY],
+    pub(crate) n_clusters: usize,
 }
 
 impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
@@ -402,6 +405,33 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     /// The parameters in use.
     pub fn params(&self) -> &DetectorParams {
         &self.params
+    }
+
+    /// Validates `params` and re-initialises this detector in place with them (the same state as
+    /// [`LeadDetector::new`]). Unlike `new`, which returns the whole detector by value (tens of KiB
+    /// that may pass through the stack), this needs only a few bytes of stack: use it on small
+    /// stacks, e.g. on a detector kept in a `static`. On error nothing is changed.
+    pub fn reinit(&mut self, params: DetectorParams) -> Result<(), ParamError> {
+        params.validate()?;
+        self.params = params;
+        self.reset();
+        Ok(())
+    }
+
+    /// Clears the grids, runs and clusters of the last scan (the parameters stay). Each
+    /// [`LeadDetector::detect`] starts from scratch anyway, so this only clears what the
+    /// diagnostic accessors ([`LeadDetector::clusters`], [`LeadDetector::is_occupied`], ...) show.
+    pub fn reset(&mut self) {
+        self.occupied.fill(0);
+        self.edges.fill(0);
+        self.dilated.fill(0);
+        self.runs.fill(Run::EMPTY);
+        self.parent.fill(0);
+        self.n_runs = 0;
+        self.col_first.fill(0);
+        self.col_len.fill(0);
+        self.clusters.fill(ClusterInfo::EMPTY);
+        self.n_clusters = 0;
     }
 
     /// Grid size in cells, `(NX, NY)`.
@@ -745,7 +775,7 @@ fn reproject(c: &ClusterInfo, p: &DetectorParams, g: &Geometry) -> Detection {
         width,
         depth: c.depth(),
         points: c.points,
-        confidence: (point_term * width_term).clamp(0.0, 1.0),
+        confidence: clamp(point_term * width_term, 0.0, 1.0),
     }
 }
 

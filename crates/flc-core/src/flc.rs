@@ -22,7 +22,7 @@
 //! The choices the paper leaves open are the named fields of [`FlcParams`]; each is discussed in
 //! `docs/paper-notes.md`.
 
-use crate::command::{safe_brake, valid_speed, LongitudinalCommand, Status};
+use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
 use crate::params::{check_positive, check_range, ParamError};
 
 /// How the "`dist_s` is overridden to be -3" rule of Sec. III-B is applied in the fast-braking
@@ -275,7 +275,7 @@ impl FallbackController {
         let scale_f = scale_factor(p.scale_gain, p.scale_cap, p.c, own_speed);
         let f_shift = own_speed.max(0.0) * scale_f;
         let dist_s_raw = d - d_d - f_shift;
-        let mut dist_s = if p.clip_dist_s { dist_s_raw.clamp(-p.bound_t, p.bound_t) } else { dist_s_raw };
+        let mut dist_s = if p.clip_dist_s { clamp(dist_s_raw, -p.bound_t, p.bound_t) } else { dist_s_raw };
         // Eq. (5)
         let braking_branch = delta_d <= p.brake_threshold;
         let mut overridden = false;
@@ -293,7 +293,7 @@ impl FallbackController {
         };
         let a_law = truncated_cosine(dist_s, shift, p.bound_t);
         let a = if a_law < 0.0 { a_law * p.negative_multiplier } else { a_law };
-        let speed = (own_speed + p.command_gain * a).clamp(0.0, p.max_speed);
+        let speed = clamp(own_speed + p.command_gain * a, 0.0, p.max_speed);
         self.terms = FlcTerms { tau_d, d_d, scale_f, f_shift, delta_d, dist_s_raw, dist_s, braking_branch, overridden, a_law, a };
         // `a` is finite: every term is finite (validated inputs and parameters, clipped or bounded
         // by max_distance/max_speed); guard anyway so that no NaN can ever leave the core.

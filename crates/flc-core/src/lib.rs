@@ -33,6 +33,8 @@
 #[cfg(any(feature = "std", test))]
 extern crate std;
 
+#[cfg(feature = "capi")]
+pub mod capi;
 pub mod command;
 pub mod detector;
 pub mod flc;

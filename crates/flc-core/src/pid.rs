@@ -16,7 +16,7 @@
 //! saturates in the direction that would grow it (conditional integration).
 //! Unlike the FLC this controller uses `dt`: it is the time-dependent baseline.
 
-use crate::command::{safe_brake, valid_speed, LongitudinalCommand, Status};
+use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
 use crate::flc::{desired_distance, f_shift};
 use crate::params::{check_positive, check_range, ParamError};
 
@@ -194,11 +194,11 @@ impl PidController {
         let proportional = g.kp * self.terms.error + g.kd * self.terms.error_rate;
         if speed_command.is_finite() && own_speed.is_finite() {
             let wanted = (speed_command - own_speed) / p.command_gain - proportional;
-            self.integral = wanted.clamp(-p.integral_limit, p.integral_limit);
+            self.integral = clamp(wanted, -p.integral_limit, p.integral_limit);
         }
         self.terms.integral = self.integral;
         self.terms.u = proportional + self.integral;
-        (own_speed + p.command_gain * self.terms.u).clamp(0.0, p.max_speed)
+        clamp(own_speed + p.command_gain * self.terms.u, 0.0, p.max_speed)
     }
 
     /// One step. `lead_speed` is `S_L` from V2V, `own_speed` `S_F`, `distance` the gap in m
@@ -221,7 +221,7 @@ impl PidController {
         let error = d - desired;
         let error_rate = lead_speed - own_speed;
         let (gains, g) = if d < desired + p.near_margin { (GainSet::Near, p.near) } else { (GainSet::Far, p.far) };
-        let candidate = (self.integral + g.ki * error * dt).clamp(-p.integral_limit, p.integral_limit);
+        let candidate = clamp(self.integral + g.ki * error * dt, -p.integral_limit, p.integral_limit);
         let u_of = |i: f64| g.kp * error + i + g.kd * error_rate;
         let raw = own_speed + p.command_gain * u_of(candidate);
         // Conditional integration: do not integrate further into a saturated command.
@@ -231,7 +231,7 @@ impl PidController {
             self.integral = candidate;
         }
         let u = u_of(self.integral);
-        let speed = (own_speed + p.command_gain * u).clamp(0.0, p.max_speed);
+        let speed = clamp(own_speed + p.command_gain * u, 0.0, p.max_speed);
         self.terms = PidTerms { desired, error, error_rate, integral: self.integral, gains, u };
         if !speed.is_finite() {
             return safe_brake(own_speed, speed_ok, p.fault_brake_step, Status::InvalidDistance);

@@ -10,7 +10,7 @@
 //! `alpha = atan2(delta_y, delta_x)` the relative angle (quadrant-correct arc tangent, as the paper
 //! requires). Positive steering turns left. Time-independent: no `dt`.
 
-use crate::command::Status;
+use crate::command::{clamp, Status};
 use crate::params::{check_positive, check_range, ParamError};
 use nalgebra::Point2;
 
@@ -117,7 +117,7 @@ impl PurePursuit {
             PursuitLaw::Paper => libm::atan(p.wheelbase * 2.0 * dy / (lookahead * lookahead + dx * dx)),
             PursuitLaw::Standard => libm::atan(2.0 * p.wheelbase * libm::sin(alpha) / lookahead),
         };
-        let steer = if raw.is_finite() { raw.clamp(-p.max_steer, p.max_steer) } else { 0.0 };
+        let steer = if raw.is_finite() { clamp(raw, -p.max_steer, p.max_steer) } else { 0.0 };
         let lookahead_point = Point2::new(lookahead * libm::cos(alpha), lookahead * libm::sin(alpha));
         SteeringCommand { steer, lookahead, alpha, lookahead_point, status: Status::Ok }
     }

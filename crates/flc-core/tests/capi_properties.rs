@@ -1,0 +1,196 @@
+//! The C interface called from Rust (feature `capi`): for arbitrary parameter structs (invalid
+//! enum values and NaNs included) `*_init` accepts exactly what the Rust constructors accept, and
+//! every step gives bit-identical outputs to the Rust API. Run by `tests/run_all.sh`:
+//! `cargo test -p flc-core --features capi --test capi_properties`.
+#![cfg(feature = "capi")]
+#![allow(unsafe_code)]
+
+use flc_core::capi::*;
+use flc_core::{
+    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
+    Supervisor, SupervisorParams, V2vMessage,
+};
+use proptest::prelude::*;
+use std::mem::MaybeUninit;
+use std::ptr::{null, null_mut};
+
+fn num(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    prop_oneof![6 => lo..hi, 1 => proptest::num::f64::ANY, 1 => Just(f64::NAN)]
+}
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits()
+}
+
+fn same_cmd(c: FlcLongitudinalCommand, r: flc_core::LongitudinalCommand) -> bool {
+    same(c.speed, r.speed) && same(c.accel, r.accel) && c.status as u8 == r.status as u8
+}
+
+/// A C parameter struct near the defaults with a few fields perturbed (possibly invalid).
+fn c_flc_params() -> impl Strategy<Value = FlcFallbackParams> {
+    (num(-0.5, 11.0), num(-1.0, 1100.0), num(-1.0, 110.0), 0u8..4, 0u8..3, any::<bool>(), num(-1.0, 110.0)).prop_map(
+        |(time_gap, bound_t, negative_multiplier, dist_override, first_frame, clip_dist_s, max_speed)| FlcFallbackParams {
+            time_gap,
+            bound_t,
+            negative_multiplier,
+            dist_override,
+            first_frame,
+            clip_dist_s,
+            max_speed,
+            ..flc_fallback_params_default()
+        },
+    )
+}
+
+#[test]
+fn defaults_mirror_rust() {
+    assert_eq!(flc_fallback_params_default(), FlcParams::default().into());
+    assert_eq!(flc_pid_params_default(), PidParams::default().into());
+    assert_eq!(flc_supervisor_params_default(), SupervisorParams::default().into());
+    assert_eq!(flc_pursuit_params_default(), PurePursuitParams::default().into());
+    assert_eq!(flc_detector_params_default(), DetectorParams::default().into());
+    assert_eq!(FlcParams::try_from(flc_fallback_params_default()), Ok(FlcParams::default()));
+    assert_eq!(DetectorParams::try_from(flc_detector_params_default()), Ok(DetectorParams::default()));
+}
+
+#[test]
+fn storage_sizes_and_alignment() {
+    assert!(size_of::<FlcFallback>() >= 8 + size_of::<FallbackController>());
+    assert!(size_of::<FlcPid>() >= 8 + size_of::<PidController>());
+    assert!(size_of::<FlcSupervisor>() >= 8 + size_of::<Supervisor>());
+    assert!(size_of::<FlcPursuit>() >= 8 + size_of::<PurePursuit>());
+    assert!(size_of::<FlcDetector>() >= 8 + size_of::<LeadDetector>());
+    assert!(size_of::<FlcDetector>() <= 64 * 1024, "detector storage above 64 KiB");
+    assert_eq!(align_of::<FlcDetector>(), 8);
+}
+
+#[test]
+fn detector_init_in_place_equals_new() {
+    let mut storage = Box::new(MaybeUninit::<FlcDetector>::uninit());
+    let p = flc_detector_params_default();
+    // SAFETY: valid pointers.
+    assert_eq!(unsafe { flc_detector_init(storage.as_mut_ptr(), &p, null_mut()) }, FlcResult::Ok);
+    let mut rust = Box::new(<LeadDetector>::new(DetectorParams::default()).unwrap());
+    let mut pts = Vec::new();
+    for i in 0..40 {
+        pts.push([20.0, -0.95 + 0.05 * f64::from(i)]);
+    }
+    let r = rust.detect(&pts, 0.0);
+    let mut out = MaybeUninit::uninit();
+    // SAFETY: initialised storage, valid points and output.
+    assert_eq!(unsafe { flc_detector_detect(storage.as_mut_ptr(), pts.as_ptr().cast(), pts.len(), 0.0, out.as_mut_ptr()) }, FlcResult::Ok);
+    // SAFETY: written on Ok.
+    let out = unsafe { out.assume_init() };
+    assert!(out.has_detection && same(out.detection.distance, r.detection.unwrap().distance));
+    // SAFETY: valid pointer; reset keeps it initialised.
+    assert_eq!(unsafe { flc_detector_reset(storage.as_mut_ptr()) }, FlcResult::Ok);
+    let mut out = MaybeUninit::<FlcDetectorOutput>::uninit();
+    // SAFETY: initialised storage; NULL points with a zero count is allowed.
+    assert_eq!(unsafe { flc_detector_detect(storage.as_mut_ptr(), null(), 0, 0.0, out.as_mut_ptr()) }, FlcResult::Ok);
+    // SAFETY: written on Ok.
+    let out = unsafe { out.assume_init() };
+    assert_eq!(out.status, FlcDetectorStatus::EmptyScan);
+    assert!(!out.has_detection);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1024))]
+
+    #[test]
+    fn fallback_c_equals_rust(
+        cp in c_flc_params(),
+        seq in prop::collection::vec((any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0)), 0..48),
+    ) {
+        let mut s = MaybeUninit::<FlcFallback>::uninit();
+        let mut err = MaybeUninit::<FlcParamError>::uninit();
+        // SAFETY: valid pointers to local memory.
+        let r = unsafe { flc_fallback_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
+        let rust = FlcParams::try_from(cp).and_then(FallbackController::new);
+        let mut c = match rust {
+            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
+            Err(e) => {
+                prop_assert_eq!(r, FlcResult::InvalidParams);
+                // SAFETY: written on InvalidParams.
+                let err = unsafe { err.assume_init() };
+                // SAFETY: NUL-terminated by construction.
+                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) };
+                prop_assert_eq!(field.to_str().unwrap(), e.field);
+                return Ok(());
+            }
+        };
+        for (has, d, v) in seq {
+            let mut out = MaybeUninit::uninit();
+            // SAFETY: initialised storage, valid output.
+            prop_assert_eq!(unsafe { flc_fallback_step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let got = unsafe { out.assume_init() };
+            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
+        }
+    }
+
+    #[test]
+    fn pid_and_supervisor_c_equal_rust(
+        kp in num(-0.5, 2.0),
+        return_after in 0u32..6,
+        seq in prop::collection::vec((any::<bool>(), num(0.0, 40.0), 0u32..30, any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0), num(0.0, 0.2)), 0..64),
+    ) {
+        let mut pp = flc_pid_params_default();
+        pp.far.kp = kp;
+        let mut sp = flc_supervisor_params_default();
+        sp.return_after = return_after;
+        sp.pid = pp;
+        let mut pid_s = MaybeUninit::<FlcPid>::uninit();
+        let mut sup_s = MaybeUninit::<FlcSupervisor>::uninit();
+        // SAFETY: valid pointers (the error struct is optional).
+        let rp = unsafe { flc_pid_init(pid_s.as_mut_ptr(), &pp, null_mut()) };
+        // SAFETY: as above.
+        let rs = unsafe { flc_supervisor_init(sup_s.as_mut_ptr(), &sp, null_mut()) };
+        let pid = PidController::new(pp.into());
+        let sup = SupervisorParams::try_from(sp).and_then(Supervisor::new);
+        prop_assert_eq!(rp == FlcResult::Ok, pid.is_ok());
+        prop_assert_eq!(rs == FlcResult::Ok, sup.is_ok());
+        let (Ok(mut pid), Ok(mut sup)) = (pid, sup) else { return Ok(()) };
+        for (has_v2v, lead, seq_no, has_d, d, v, dt) in seq {
+            let mut out = MaybeUninit::uninit();
+            // SAFETY: initialised storage, valid output.
+            prop_assert_eq!(unsafe { flc_pid_step(pid_s.as_mut_ptr(), lead, v, has_d, d, dt, out.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let got = unsafe { out.assume_init() };
+            prop_assert!(same_cmd(got, pid.step(lead, v, has_d.then_some(d), dt)));
+            let mut so = MaybeUninit::uninit();
+            let m = FlcV2vMessage { lead_speed: lead, seq: seq_no };
+            // SAFETY: initialised storage, valid output.
+            prop_assert_eq!(unsafe { flc_supervisor_step(sup_s.as_mut_ptr(), has_v2v, m, has_d, d, v, dt, so.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let so = unsafe { so.assume_init() };
+            let ro = sup.step(has_v2v.then_some(V2vMessage { lead_speed: lead, seq: seq_no }), has_d.then_some(d), v, dt);
+            prop_assert!(same_cmd(so.command, ro.command) && same_cmd(so.flc, ro.flc) && same_cmd(so.pid, ro.pid));
+            prop_assert_eq!((so.active as u8, so.reason as u8, so.switched, so.v2v_age_ticks, so.fresh_count), (ro.active as u8, ro.reason as u8, ro.switched, ro.v2v_age_ticks, ro.fresh_count));
+        }
+    }
+
+    #[test]
+    fn pursuit_c_equals_rust(
+        law in 0u8..3,
+        seq in prop::collection::vec((any::<bool>(), num(-10.0, 100.0), num(-20.0, 20.0), num(-2.0, 40.0)), 0..32),
+    ) {
+        let mut p = flc_pursuit_params_default();
+        p.law = law;
+        let mut s = MaybeUninit::<FlcPursuit>::uninit();
+        // SAFETY: valid pointers.
+        let r = unsafe { flc_pursuit_init(s.as_mut_ptr(), &p, null_mut()) };
+        let Ok(pp) = PurePursuitParams::try_from(p).and_then(PurePursuit::new) else {
+            prop_assert_eq!(r, FlcResult::InvalidParams);
+            return Ok(());
+        };
+        for (has, x, y, v) in seq {
+            let mut out = MaybeUninit::uninit();
+            // SAFETY: initialised storage, valid output.
+            prop_assert_eq!(unsafe { flc_pursuit_step(s.as_ptr(), has, x, y, v, out.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let c = unsafe { out.assume_init() };
+            let rr = pp.step(has.then(|| Point2::new(x, y)), v);
+            prop_assert!(same(c.steer, rr.steer) && same(c.alpha, rr.alpha) && c.status as u8 == rr.status as u8);
+        }
+    }
+}
