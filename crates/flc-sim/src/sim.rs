@@ -47,7 +47,10 @@ pub fn run(scenario: &Scenario) -> Result<RunResult, SimError> {
 /// Runs a scenario; with `record`, also writes an MCAP recording into that directory.
 pub fn run_with(scenario: &Scenario, record: Option<&Path>) -> Result<RunResult, SimError> {
     scenario.validate()?;
-    let _ = record;
+    if let Some(dir) = record {
+        // MCAP recording (issue 4) is not implemented yet: refuse rather than silently ignore.
+        return Err(SimError::File { path: dir.display().to_string(), message: "recording runs (MCAP) is not implemented yet".into() });
+    }
     let mut sim = Simulation::new(scenario)?;
     while sim.step()? {}
     Ok(sim.finish())
