@@ -49,7 +49,8 @@ def _result(scenario: Scenario, raw: tuple[str, dict[str, Any]]) -> RunResult:
 
 
 def run(scenario: Union[Scenario, Mapping[str, Any]], record: Optional[str] = None) -> RunResult:
-    """Run one scenario in Rust (GIL released). ``record``: directory for an MCAP recording."""
+    """Run one scenario in Rust (GIL released). ``record`` (a directory for an MCAP recording) is
+    not implemented yet and raises an error."""
     sc = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
     return _result(sc, _flc.run(sc.to_json(), record))
 
