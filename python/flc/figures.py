@@ -4,94 +4,126 @@
 * :func:`fig_truncated_cosine` — Fig. 2: the acceleration law of Eq. (5) for both Delta_d branches;
 * :func:`fig_lyapunov` — Sec. III-C: phase portrait of Eq. (7) and the sign of dV/dt for Eq. (8).
 
-``python -m flc figures --out DIR`` writes all three as PNG.
+Each returns a ``matplotlib.figure.Figure``. With ``out`` the figure is drawn on its own Agg canvas
+(headless, pyplot's global state untouched) and saved there; without it, it is a pyplot figure
+(``plt.show()``, notebooks). ``python -m flc figures --out DIR`` writes all three as PNG; the data
+behind each figure is available without matplotlib (``*_data`` / :func:`following_runs`).
 """
 from __future__ import annotations
 
 import math
 import os
 from pathlib import Path
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 
 from ._controllers import FallbackController
 from ._params import defaults
-from ._run import sweep
+from ._run import RunResult, sweep
 from ._scenario import Scenario
 
 PathLike = Union[str, "os.PathLike[str]"]
+DPI = 120
 
 
-def _plt(headless: bool) -> Any:
+def _figure(save: bool, figsize: tuple[float, float]) -> Any:
+    """A constrained-layout figure: on an Agg canvas when saving, else a pyplot figure."""
     try:
-        import matplotlib
+        if save:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
 
-        if headless:
-            matplotlib.use("Agg")
+            fig = Figure(figsize=figsize, layout="constrained")
+            FigureCanvasAgg(fig)
+            return fig
         import matplotlib.pyplot as plt
     except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError("flc figures need matplotlib: pip install 'flc[plot]'") from e
-    return plt
+        raise ImportError("flc.figures needs matplotlib: pip install 'flc[plot]'") from e
+    return plt.figure(figsize=figsize, layout="constrained")
 
 
-def truncated_cosine_data(n: int = 201) -> dict[str, np.ndarray]:
-    """Eq. (5) evaluated by the Rust FLC: ``dist_s`` over [-bound_t, bound_t] and ``a`` for the
-    normal branch (Delta_d > -0.3, shift 1) and the braking branch (Delta_d <= -0.3, shift 1.5,
-    override ``min(dist_s, -3)``), before (``*_law``) and after the negative multiplier."""
-    p = defaults("flc")
-    bound = float(p["bound_t"])
-    # At own speed 10 m/s every dist_s in [-bound_t, bound_t] is a valid (positive) distance.
-    v = 10.0
-    base = float(p["time_gap"]) * v + float(p["base_gap"]) + v * min(float(p["scale_cap"]), float(p["scale_gain"]) * v / float(p["c"]))
+def _save(fig: Any, out: Optional[PathLike]) -> Any:
+    if out is not None:
+        fig.savefig(out, dpi=DPI)
+    return fig
+
+
+# ---------------------------------------------------------------------------------------------
+# Fig. 2: the truncated cosine, Eq. (5)
+
+
+def truncated_cosine_data(n: int = 221) -> dict[str, np.ndarray]:
+    """Eq. (5) as computed by the Rust FLC, for ``dist_s`` over [-bound_t, bound_t].
+
+    Own speed 0 makes ``D_d = B_gap`` and ``F_shift = 0`` (Eqs. (2)-(4)), so ``dist_s = LF_dist -
+    B_gap``; ``B_gap`` is set to ``bound_t`` so that every ``dist_s`` is a valid (non-negative)
+    distance. The branch is chosen by the previous frame: none (``Delta_d = 0`` -> shift 1) or a
+    distance 1 m larger (``Delta_d = -1 <= -0.3`` -> shift 1.5). Keys: ``dist_s``;
+    ``normal_law`` / ``normal`` (shift 1, before / after the negative multiplier);
+    ``braking_law`` / ``braking`` (shift 1.5 with the default override ``min(dist_s, -3)``);
+    ``braking_no_override`` (shift 1.5, override off: the bare law).
+    """
+    bound = float(defaults("flc")["bound_t"])
     dist_s = np.linspace(-bound, bound, n)
-    out: dict[str, list[float]] = {k: [] for k in ("normal_law", "normal", "braking_law", "braking")}
+    cols: dict[str, list[float]] = {k: [] for k in ("normal_law", "normal", "braking_law", "braking", "braking_no_override")}
+    runs = (("normal", "min", None), ("braking", "min", 1.0), ("braking_no_override", "off", 1.0))
     for ds in dist_s:
-        # LF_dist = dist_s + D_d + F_shift (Eqs. (2)-(4)).
-        d = float(ds) + base
-        c = FallbackController()
-        c.step(d, v)  # first frame: Delta_d = 0 -> normal branch
-        t = c.terms()
-        out["normal_law"].append(t["a_law"])
-        out["normal"].append(t["a"])
-        c = FallbackController()
-        c.step(d + 1.0, v)
-        c.step(d, v)  # Delta_d = -1 <= -0.3 -> braking branch
-        t = c.terms()
-        out["braking_law"].append(t["a_law"])
-        out["braking"].append(t["a"])
-    data = {k: np.array(v) for k, v in out.items()}
+        d = float(ds) + bound
+        for key, override, prev in runs:
+            c = FallbackController(base_gap=bound, dist_override=override)
+            if prev is not None:
+                c.step(d + prev, 0.0)
+            c.step(d, 0.0)
+            t = c.terms()
+            if abs(t["dist_s_raw"] - ds) > 1e-9 or t["braking_branch"] != (prev is not None):
+                raise AssertionError(f"FLC terms do not match the intended input: {t}")
+            if key == "braking_no_override":
+                cols[key].append(t["a_law"])
+            else:
+                cols[key + "_law"].append(t["a_law"])
+                cols[key].append(t["a"])
+    data = {k: np.array(v) for k, v in cols.items()}
     data["dist_s"] = dist_s
     return data
 
 
 def fig_truncated_cosine(out: Optional[PathLike] = None) -> Any:
-    """The paper's Fig. 2: the truncated-cosine acceleration law for both Delta_d branches."""
-    plt = _plt(out is not None)
+    """The paper's Fig. 2: the truncated-cosine acceleration law of Eq. (5), both Delta_d branches,
+    with the negative multiplier (dashed) and the override point ``dist_s = -3``. Lines carry a
+    ``gid`` equal to their key in :func:`truncated_cosine_data`."""
     d = truncated_cosine_data()
     p = defaults("flc")
-    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
-    ax.plot(d["dist_s"], d["normal_law"], label="Δd > −0.3 m: dist_s·(1 − cos(π dist_s / bound_t))")
-    ax.plot(d["dist_s"], d["normal"], "--", color="C0", alpha=0.6, label=f"… with negative multiplier ×{p['negative_multiplier']:g}")
-    ax.plot(d["dist_s"], d["braking_law"], label="Δd ≤ −0.3 m: shift 1.5, dist_s → min(dist_s, −3)")
-    ax.plot(d["dist_s"], d["braking"], "--", color="C1", alpha=0.6, label="… with negative multiplier")
-    ov = float(p["override_dist"])
-    a_ov = ov * (float(p["shift_brake"]) - math.cos(math.pi * ov / float(p["bound_t"])))
-    ax.plot([ov], [a_ov], "ko", label=f"override dist_s = {ov:g} m")
+    bound, mult, ov = float(p["bound_t"]), float(p["negative_multiplier"]), float(p["override_dist"])
+    fig = _figure(out is not None, (8, 5))
+    ax = fig.subplots()
+    x = d["dist_s"]
+    ax.plot(x, d["normal_law"], "C0", lw=2, gid="normal_law", label=f"Δd > −0.3 m: dist_s·(1 − cos(π·dist_s/{bound:g}))  [Fig. 2]")
+    ax.plot(x, d["normal"], "C0--", alpha=0.7, gid="normal", label=f"  … negative side × {mult:g} (multiplier)")
+    ax.plot(x, d["braking_no_override"], "C1:", lw=1.5, gid="braking_no_override", label="Δd ≤ −0.3 m: dist_s·(1.5 − cos(…)), no override")
+    ax.plot(x, d["braking_law"], "C1", lw=2, gid="braking_law", label=f"Δd ≤ −0.3 m with override dist_s → min(dist_s, {ov:g})")
+    ax.plot(x, d["braking"], "C1--", alpha=0.7, gid="braking", label=f"  … × {mult:g} (multiplier)")
+    a_ov = ov * (float(p["shift_brake"]) - math.cos(math.pi * ov / bound))
+    ax.plot([ov, ov], [a_ov, mult * a_ov], "ko", ms=5)
+    ax.annotate(f"override dist_s = {ov:g} m\na = {a_ov:.2f} (× {mult:g} = {mult * a_ov:.2f})", (ov, mult * a_ov), xytext=(ov + 1.5, -20),
+                arrowprops={"arrowstyle": "->", "lw": 0.8}, fontsize=8)
     ax.axhline(0, color="grey", lw=0.5)
     ax.axvline(0, color="grey", lw=0.5)
-    ax.set_xlabel("dist_s (m)")
-    ax.set_ylabel("a (m/s², added to the speed command over 1 s)")
-    ax.set_title("FLC acceleration law, Eq. (5) (bound_t = 11 m)")
-    ax.legend(fontsize=8)
-    if out is not None:
-        fig.savefig(out, dpi=120)
-    return fig
+    ax.set_xlim(-bound, bound)
+    ax.set_xlabel(f"dist_s = LF_dist − D_d − F_shift (m), clipped to ±bound_t = ±{bound:g} m")
+    ax.set_ylabel("a (m/s²); speed command = S_F + 1 s · a")
+    ax.set_title("FLC truncated-cosine law, Eq. (5), computed by the Rust FallbackController")
+    ax.legend(fontsize=8, loc="upper left")
+    return _save(fig, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Sec. III-C: Lyapunov analysis, Eqs. (7)-(9)
 
 
 def lyapunov_field(x1: np.ndarray, x2: np.ndarray, s_l: float = 10.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Eq. (7) with x1 = S_F − S_L, x2 = dist_s, Z = 0.1 / C: returns (dx1/dt, dx2/dt, dV/dt) for
-    V = (x1² + x2²) / 2 (Eq. (8))."""
+    """Eq. (7) with x1 = S_F − S_L, x2 = dist_s, Z = 0.1 / C (FLC defaults: T_G = 1, bound_t = 11,
+    C = 5/3.6): returns (dx1/dt, dx2/dt, dV/dt) for V = (x1² + x2²) / 2 (Eq. (8))."""
     p = defaults("flc")
     bound, tg, z = float(p["bound_t"]), float(p["time_gap"]), float(p["scale_gain"]) / float(p["c"])
     g = x2 * (1.0 - np.cos(np.pi * x2 / bound))
@@ -100,100 +132,143 @@ def lyapunov_field(x1: np.ndarray, x2: np.ndarray, s_l: float = 10.0) -> tuple[n
     return dx1, dx2, x1 * dx1 + x2 * dx2
 
 
-def fig_lyapunov(s_l: float = 10.0, out: Optional[PathLike] = None) -> Any:
-    """Phase portrait of Eq. (7) in (x1, x2) with the sign regions of dV/dt (Eq. (8))."""
-    plt = _plt(out is not None)
-    lim1, lim2 = 6.0, 11.0
-    x1, x2 = np.meshgrid(np.linspace(-lim1, lim1, 241), np.linspace(-lim2, lim2, 241))
+def lyapunov_data(s_l: float = 10.0, lim1: float = 6.0, lim2: float = 11.0, n: int = 241) -> dict[str, np.ndarray]:
+    """The grid behind :func:`fig_lyapunov`: ``x1``, ``x2`` (n × n, x1 in ±lim1 m/s, x2 in ±lim2
+    m), ``dx1``, ``dx2`` (Eq. (7)) and ``dv`` (dV/dt)."""
+    x1, x2 = np.meshgrid(np.linspace(-lim1, lim1, n), np.linspace(-lim2, lim2, n))
     dx1, dx2, dv = lyapunov_field(x1, x2, s_l)
-    fig, ax = plt.subplots(figsize=(7, 5.5), constrained_layout=True)
-    ax.contourf(x1, x2, np.sign(dv), levels=[-1.5, 0, 1.5], colors=["#cfe8cf", "#f4cccc"], alpha=0.8)
-    ax.contour(x1, x2, dv, levels=[0], colors="k", linewidths=0.8)
-    ax.streamplot(x1, x2, dx1, dx2, density=1.1, color="grey", linewidth=0.6)
-    # A few trajectories (RK4).
-    for start in [(-4.0, 8.0), (4.0, -8.0), (-5.0, -4.0), (5.0, 6.0), (2.0, 2.0)]:
-        xs = [np.array(start)]
-        h = 0.02
-        for _ in range(3000):
-            def f(v: np.ndarray) -> np.ndarray:
-                a, b, _ = lyapunov_field(np.array(v[0]), np.array(v[1]), s_l)
-                return np.array([float(a), float(b)])
+    return {"x1": x1, "x2": x2, "dx1": dx1, "dx2": dx2, "dv": dv}
 
-            y = xs[-1]
-            k1 = f(y)
-            k2 = f(y + h / 2 * k1)
-            k3 = f(y + h / 2 * k2)
-            k4 = f(y + h * k3)
-            nxt = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            if not np.all(np.isfinite(nxt)) or abs(nxt[0]) > 3 * lim1 or abs(nxt[1]) > 3 * lim2:
-                break
-            xs.append(nxt)
-        tr = np.array(xs)
-        ax.plot(tr[:, 0], tr[:, 1], lw=1.5)
-        ax.plot(*start, "o", ms=4)
+
+def lyapunov_trajectory(start: tuple[float, float], s_l: float = 10.0, h: float = 0.02, steps: int = 3000) -> np.ndarray:
+    """Eq. (7) integrated from ``start`` = (x1, x2) with classic RK4 (step ``h`` s); (k, 2) array."""
+
+    def f(y: np.ndarray) -> np.ndarray:
+        a, b, _ = lyapunov_field(y[0], y[1], s_l)
+        return np.array([a, b], dtype=float)
+
+    ys = [np.asarray(start, dtype=float)]
+    for _ in range(steps):
+        y = ys[-1]
+        k1 = f(y)
+        k2 = f(y + h / 2 * k1)
+        k3 = f(y + h / 2 * k2)
+        k4 = f(y + h * k3)
+        nxt = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if not np.all(np.isfinite(nxt)) or np.max(np.abs(nxt)) > 100.0:
+            break
+        ys.append(nxt)
+    return np.array(ys)
+
+
+def fig_lyapunov(s_l: float = 10.0, out: Optional[PathLike] = None) -> Any:
+    """Phase portrait of Eq. (7) in (x1, x2) = (S_F − S_L, dist_s) with RK4 trajectories, the sign
+    of dV/dt (V of Eq. (8)) shaded, the contour dV/dt = 0, and the quadrants the paper calls stable."""
+    lim1, lim2 = 6.0, 11.0
+    g = lyapunov_data(s_l, lim1, lim2)
+    fig = _figure(out is not None, (8, 6.5))
+    ax = fig.subplots()
+    ax.contourf(g["x1"], g["x2"], np.sign(g["dv"]), levels=[-1.5, 0, 1.5], colors=["#cfe8cf", "#f4cccc"], alpha=0.8)
+    ax.contour(g["x1"], g["x2"], g["dv"], levels=[0], colors="k", linewidths=0.8)
+    ax.streamplot(g["x1"], g["x2"], g["dx1"], g["dx2"], density=1.0, color="grey", linewidth=0.5, arrowsize=0.8)
+    for i, start in enumerate([(-4.0, 8.0), (4.0, -8.0), (-5.0, -4.0), (5.0, 6.0), (2.0, 2.0)]):
+        tr = lyapunov_trajectory(start, s_l)
+        ax.plot(tr[:, 0], tr[:, 1], color=f"C{i}", lw=1.6)
+        ax.plot(*start, "o", color=f"C{i}", ms=5)
+    box = {"boxstyle": "round", "fc": "white", "alpha": 0.85, "lw": 0.5}
+    ax.text(3.0, 8.5, "x1 > 0, x2 > 0: faster than the lead,\nfarther than desired: stable (paper)\n"
+            "−x1·x2 < 0", ha="center", fontsize=8, bbox=box)
+    ax.text(-3.0, -9.5, "x1 < 0, x2 < 0: slower than the lead,\ncloser than desired: stable (paper)\n"
+            "−x1·x2 < 0", ha="center", fontsize=8, bbox=box)
+    ax.text(-3.0, 1.0, "dV/dt ≈ −x1·x2 > 0\n(x1 < 0, x2 > 0)", ha="center", fontsize=8, bbox=box)
+    ax.text(3.0, -1.8, "dV/dt ≈ −x1·x2 > 0\n(x1 > 0, x2 < 0)", ha="center", fontsize=8, bbox=box)
     ax.set_xlim(-lim1, lim1)
     ax.set_ylim(-lim2, lim2)
     ax.set_xlabel("x1 = S_F − S_L (m/s)")
     ax.set_ylabel("x2 = dist_s (m)")
-    ax.set_title(f"Eq. (7) phase portrait, S_L = {s_l:g} m/s; green: dV/dt < 0, red: dV/dt > 0")
-    if out is not None:
-        fig.savefig(out, dpi=120)
-    return fig
+    ax.set_title(f"Eq. (7), S_L = {s_l:g} m/s, V = (x1² + x2²)/2: green dV/dt < 0, red dV/dt > 0,\n"
+                 "black dV/dt = 0; grey streamlines, coloured RK4 trajectories from the dots", fontsize=10)
+    return _save(fig, out)
 
 
-def following_runs(speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = "paper") -> dict[tuple[float, str], Any]:
-    """The runs behind Fig. 4: for each speed, the FLC and the PID (``flc.sweep``)."""
-    scs = [Scenario.paper(speed_kmh=v, controller=c, preset=preset) for v in speeds_kmh for c in ("flc", "pid")]
-    return {(float(s.speed_kmh or 0.0), s.controller): r for s, r in zip(scs, sweep(scs))}
+# ---------------------------------------------------------------------------------------------
+# Fig. 4: the following experiment
+
+
+def following_runs(speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = "paper") -> dict[tuple[float, str], RunResult]:
+    """The runs behind Fig. 4, keyed (speed km/h, "flc" | "pid"), run in parallel by ``flc.sweep``."""
+    keys = [(float(v), c) for v in speeds_kmh for c in ("flc", "pid")]
+    results = sweep([Scenario.paper(speed_kmh=v, controller=c, preset=preset) for v, c in keys])
+    return dict(zip(keys, results))
+
+
+def outcome(r: RunResult) -> str:
+    """'collision at X m/s' or 'stopped, clearance X m' for a run."""
+    m = r.metrics
+    if m["collision"]:
+        return f"collision at {m['impact_speed']:.1f} m/s"
+    clear = m["final_clearance"] if m["final_clearance"] is not None else m["min_gap"]
+    return f"stopped, clearance {clear:.1f} m"
 
 
 def fig_following(speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = "paper", out: Optional[PathLike] = None) -> Any:
-    """The paper's Fig. 4: per speed, trajectories (lead, FLC and PID followers), gap over time per
-    controller (collisions marked) and the lead's speed profile."""
-    plt = _plt(out is not None)
+    """The paper's Fig. 4, one row per max speed: (a) x-y trajectories of the lead and the FLC and PID
+    followers, (b) gap over time per controller (collisions marked ×, outcome in the legend),
+    (c) the lead's speed profile in km/h."""
     runs = following_runs(speeds_kmh, preset)
-    fig, axes = plt.subplots(len(speeds_kmh), 3, figsize=(14, 3.0 * len(speeds_kmh)), squeeze=False, constrained_layout=True)
+    fig = _figure(out is not None, (15, 2.9 * len(speeds_kmh) + 0.6))
+    axes = fig.subplots(len(speeds_kmh), 3, squeeze=False)
+    ctrl = (("flc", "FLC", "C0", "--"), ("pid", "PID", "C1", ":"))
     for row, v in zip(axes, speeds_kmh):
-        flc_r, pid_r = runs[(float(v), "flc")], runs[(float(v), "pid")]
+        rs = {c: runs[(float(v), c)] for c, *_ in ctrl}
         ax = row[0]
-        ax.plot(flc_r.lead_x, flc_r.lead_y, "k-", lw=2, label="lead")
-        ax.plot(flc_r.follower_x, flc_r.follower_y, "C0--", label="follower (FLC)")
-        ax.plot(pid_r.follower_x, pid_r.follower_y, "C1:", label="follower (PID)")
-        ax.set_ylim(-2, 2)
+        lead = rs["flc"]
+        ax.plot(lead.lead_x, lead.lead_y, "k-", lw=3, alpha=0.5, label="lead")
+        ymax = 0.05
+        for c, name, color, ls in ctrl:
+            r = rs[c]
+            ax.plot(r.follower_x, r.follower_y, color=color, ls=ls, lw=1.5, label=f"follower ({name})")
+            ax.plot(r.follower_x[-1], r.follower_y[-1], "x" if r.metrics["collision"] else "o", color=color, ms=8, mew=2)
+            ymax = max(ymax, 1.3 * float(np.max(np.abs(r.follower_y))))
+        ax.plot(lead.lead_x[-1], lead.lead_y[-1], "ks", ms=6)
+        ax.set_ylim(-ymax, ymax)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-        ax.set_title(f"{v:g} km/h: trajectories")
-        ax.legend(fontsize=7)
+        ax.set_title(f"(a) {v:g} km/h: trajectories, y exaggerated (end: ■ lead, ● stop, × collision)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower left")
         ax = row[1]
-        for r, name, color in ((flc_r, "FLC", "C0"), (pid_r, "PID", "C1")):
-            m = r.metrics
-            lab = f"{name}: collision {m['impact_speed']:.1f} m/s" if m["collision"] else f"{name}: stop, {m['final_clearance'] or m['min_gap']:.1f} m"
-            ax.plot(r.t, r.gap, color=color, label=lab)
-            if m["collision"]:
-                ax.plot([m["collision_time"]], [0.0], "x", color="red", ms=10, mew=2)
+        for c, name, color, _ in ctrl:
+            r = rs[c]
+            ax.plot(r.t, r.gap, color=color, label=f"{name}: {outcome(r)}")
+            if r.metrics["collision"]:
+                tc = float(r.metrics["collision_time"])
+                ax.plot([tc], [float(np.interp(tc, r.t, r.gap))], "x", color="red", ms=11, mew=2.5)
+        ax.axhline(0, color="grey", lw=0.5)
         ax.set_xlabel("t (s)")
         ax.set_ylabel("gap (m)")
-        ax.set_title("gap distance")
-        ax.legend(fontsize=7)
+        ax.set_title(f"(b) {v:g} km/h: gap distance (separate runs)", fontsize=9)
+        ax.legend(fontsize=8, loc="lower center")
         ax = row[2]
-        ax.plot(flc_r.t, flc_r.lead_speed * 3.6, "k-", label="lead (FLC run)")
-        ax.plot(pid_r.t, pid_r.lead_speed * 3.6, "k:", label="lead (PID run)")
+        for c, name, color, ls in ctrl:
+            ax.plot(rs[c].t, rs[c].lead_speed * 3.6, color="k" if c == "flc" else color, ls="-" if c == "flc" else ls, label=f"lead, {name} run")
         ax.set_xlabel("t (s)")
         ax.set_ylabel("lead speed (km/h)")
-        ax.set_title("lead speed profile")
-        ax.legend(fontsize=7)
-    fig.suptitle(f"Paper experiment, {preset} preset: lead brakes at −6 m/s² after ~650 m")
-    if out is not None:
-        fig.savefig(out, dpi=100)
-    return fig
+        ax.set_title(f"(c) {v:g} km/h: lead vehicle speed profile", fontsize=9)
+        ax.legend(fontsize=7, loc="lower center")
+    fig.suptitle(f"Fig. 4 reproduction ({preset} preset): lead accelerates, cruises ~650 m, brakes at −6 m/s²; FLC vs V2V PID")
+    return _save(fig, out)
 
 
 def make_all(out_dir: PathLike, speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = "paper") -> list[Path]:
-    """Writes ``following.png``, ``truncated_cosine.png`` and ``lyapunov.png`` into ``out_dir``."""
+    """Writes ``following.png``, ``truncated_cosine.png`` and ``lyapunov.png`` into ``out_dir``
+    (created if needed); returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "following.png", out / "truncated_cosine.png", out / "lyapunov.png"]
-    fig_following(speeds_kmh, preset, paths[0])
-    fig_truncated_cosine(paths[1])
-    fig_lyapunov(out=paths[2])
-    return paths
+    jobs: list[tuple[str, Callable[[Path], Any]]] = [
+        ("following.png", lambda p: fig_following(speeds_kmh, preset, p)),
+        ("truncated_cosine.png", lambda p: fig_truncated_cosine(p)),
+        ("lyapunov.png", lambda p: fig_lyapunov(out=p)),
+    ]
+    for name, make in jobs:
+        make(out / name)
+    return [out / name for name, _ in jobs]

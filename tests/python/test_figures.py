@@ -4,47 +4,120 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
-from flc import figures
+pytest.importorskip("matplotlib")
+
+from flc import figures  # noqa: E402
+
+B = 11.0  # bound_t
+
+
+def law(ds, shift):
+    return ds * (shift - np.cos(np.pi * ds / B))
 
 
 def test_truncated_cosine_data_equals_eq5():
     d = figures.truncated_cosine_data(41)
     ds = d["dist_s"]
-    normal = ds * (1 - np.cos(np.pi * ds / 11))
-    np.testing.assert_allclose(d["normal_law"], normal, atol=1e-9)
-    np.testing.assert_allclose(d["normal"], np.where(normal < 0, 2 * normal, normal), atol=1e-9)
-    over = np.minimum(ds, -3.0)
-    braking = over * (1.5 - np.cos(np.pi * over / 11))
-    np.testing.assert_allclose(d["braking_law"], braking, atol=1e-9)
-    assert np.all(d["braking"] <= 0)
+    assert ds[0] == -B and ds[-1] == B
+    normal = law(ds, 1.0)
+    np.testing.assert_allclose(d["normal_law"], normal, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d["normal"], np.where(normal < 0, 2 * normal, normal), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d["braking_no_override"], law(ds, 1.5), rtol=0, atol=1e-12)
+    braking = law(np.minimum(ds, -3.0), 1.5)
+    np.testing.assert_allclose(d["braking_law"], braking, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d["braking"], 2 * braking, rtol=0, atol=1e-12)
+    # Override point: a(-3) = -3 (1.5 - cos(3 pi / 11)) ~ -2.54, flat for dist_s >= -3.
+    assert d["braking_law"][-1] == pytest.approx(-3 * (1.5 - math.cos(3 * math.pi / 11)), abs=1e-12)
+    assert d["braking_law"][-1] == pytest.approx(-2.535, abs=1e-3)
 
 
-def test_lyapunov_field_signs():
-    # Near the origin dV/dt ~ -x1 x2 (Eq. (9)): stable where x1, x2 have the same sign.
-    _, _, dv = figures.lyapunov_field(np.array([0.5, 0.5, -0.5, -0.5]), np.array([0.5, -0.5, 0.5, -0.5]))
-    assert dv[0] < 0 and dv[3] < 0 and dv[1] > 0 and dv[2] > 0
-    # Exact equation at one point by hand: x1 = 1, x2 = 2, S_L = 10, Z = 0.1 / (5/3.6) = 0.072.
+def test_truncated_cosine_plotted_lines_equal_closed_form():
+    fig = figures.fig_truncated_cosine()
+    lines = {ln.get_gid(): ln for ln in fig.axes[0].lines if ln.get_gid()}
+    assert set(lines) == {"normal_law", "normal", "braking_law", "braking", "braking_no_override"}
+    x = np.asarray(lines["normal_law"].get_xdata())
+    np.testing.assert_allclose(lines["normal_law"].get_ydata(), law(x, 1.0), atol=1e-12)
+    np.testing.assert_allclose(lines["braking_no_override"].get_ydata(), law(x, 1.5), atol=1e-12)
+    np.testing.assert_allclose(lines["braking_law"].get_ydata(), law(np.minimum(x, -3.0), 1.5), atol=1e-12)
+
+
+def test_lyapunov_near_origin_sign_is_minus_x1_x2():
+    # Eq. (9): dV/dt ~ -x1 x2 + O(x^3). On the figure's own grid, within |x1| in [0.2, 1] and
+    # 0 < |x2| <= 1, the sign of dV/dt equals the sign of -x1 x2 at every point.
+    g = figures.lyapunov_data()
+    x1, x2, dv = g["x1"], g["x2"], g["dv"]
+    near = (np.abs(x1) >= 0.2) & (np.abs(x1) <= 1.0) & (np.abs(x2) > 1e-9) & (np.abs(x2) <= 1.0)
+    assert near.sum() > 100
+    assert np.array_equal(np.sign(dv[near]), np.sign(-x1 * x2)[near])
+    # The quadrants: stable (dV/dt < 0) where x1, x2 share a sign, unstable otherwise.
+    _, _, v = figures.lyapunov_field(np.array([0.5, -0.5, 0.5, -0.5]), np.array([0.5, -0.5, -0.5, 0.5]))
+    assert v[0] < 0 and v[1] < 0
+    assert v[2] > 0 and v[3] > 0
+    # Far from the origin the O(x^3) terms win: dV/dt < 0 even at x1 < 0, x2 > 0.
+    assert float(figures.lyapunov_field(np.array(-1.0), np.array(5.0))[2]) < 0
+
+
+def test_lyapunov_field_by_hand():
+    # x1 = 1, x2 = 2, S_L = 10, Z = 0.1 / (5/3.6) = 0.072, T_G = 1.
     g = 2 * (1 - math.cos(math.pi * 2 / 11))
     dx1, dx2, v = figures.lyapunov_field(np.array(1.0), np.array(2.0), 10.0)
-    assert float(dx1) == g
-    assert abs(float(dx2) - (-1 - g - 2 * 0.072 * g * 11)) < 1e-12
-    assert abs(float(v) - (1 * g + 2 * float(dx2))) < 1e-12
+    assert float(dx1) == pytest.approx(g, abs=1e-15)
+    assert float(dx2) == pytest.approx(-1 - g - 2 * 0.072 * g * 11, abs=1e-12)
+    assert float(v) == pytest.approx(1 * g + 2 * float(dx2), abs=1e-12)
+
+
+def test_lyapunov_trajectory_approaches_origin():
+    tr = figures.lyapunov_trajectory((4.0, -8.0))
+    assert np.hypot(*tr[-1]) < 0.5 * np.hypot(4.0, -8.0)
 
 
 def test_following_runs_match_paper_pattern():
     runs = figures.following_runs((70,), "paper")
     assert runs[(70.0, "flc")].metrics["collision"] is False
     assert runs[(70.0, "pid")].metrics["collision"] is True
+    assert figures.outcome(runs[(70.0, "pid")]).startswith("collision at")
+
+
+@pytest.mark.parametrize("save", [True, False])
+def test_missing_matplotlib_message(monkeypatch, tmp_path, save):
+    for mod in ("matplotlib", "matplotlib.pyplot", "matplotlib.figure", "matplotlib.backends.backend_agg"):
+        monkeypatch.setitem(sys.modules, mod, None)
+    with pytest.raises(ImportError, match=r"pip install 'flc\[plot\]'"):
+        figures.fig_truncated_cosine(tmp_path / "t.png" if save else None)
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "flc", *args], capture_output=True, text=True)
 
 
 def test_cli_writes_three_pngs(tmp_path):
     out = tmp_path / "figs"
-    r = subprocess.run([sys.executable, "-m", "flc", "figures", "--out", str(out), "--speeds", "30"], capture_output=True, text=True)
+    r = _cli("figures", "--out", str(out), "--speeds", "30")
     assert r.returncode == 0, r.stderr
-    for name in ("following.png", "truncated_cosine.png", "lyapunov.png"):
-        p = out / name
-        assert p.stat().st_size > 10_000
-        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    bad = subprocess.run([sys.executable, "-m", "flc", "figures", "--out", str(out), "--speeds", "x"], capture_output=True, text=True)
-    assert bad.returncode == 2
+    names = ("following.png", "truncated_cosine.png", "lyapunov.png")
+    assert r.stdout.split() == [str(out / n) for n in names]
+    for name in names:
+        data = (out / name).read_bytes()
+        assert len(data) > 10_000
+        assert data[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("figures", "--out", "x", "--speeds", "x"),
+        ("figures", "--out", "x", "--speeds", ""),
+        ("figures", "--out", "x", "--speeds", "-30"),
+        ("figures", "--out", "x", "--preset", "carla"),
+        ("figures",),
+        ("plots", "--out", "x"),
+        (),
+    ],
+)
+def test_cli_bad_args_exit_2(args, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "flc", *args], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "usage:" in r.stderr
+    assert not (tmp_path / "x").exists()
