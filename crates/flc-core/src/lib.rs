@@ -33,6 +33,7 @@
 #[cfg(any(feature = "std", test))]
 extern crate std;
 
+pub mod baselines;
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod command;
@@ -43,6 +44,7 @@ pub mod pid;
 pub mod pure_pursuit;
 pub mod supervisor;
 
+pub use baselines::{Baseline, BaselineKind, NoLeadPolicy};
 pub use command::{LongitudinalCommand, Status};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};

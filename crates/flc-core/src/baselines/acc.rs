@@ -1,0 +1,467 @@
+//! An ACC after Milanés & Shladover, with SUMO's mode structure and default gains.
+//!
+//! V. Milanés, S. E. Shladover, "Modeling cooperative and autonomous adaptive cruise control
+//! dynamic responses using experimental data", *Transp. Res. Part C* 48, 285–300 (2014) (speed
+//! control `a = k1 (v_des - v)`, gap control `a = k2 e + k3 (v_lead - v)` with `e = gap - t_hw v`),
+//! and Milanés & Shladover, "Handling cut-in vehicles in strings of cooperative adaptive cruise
+//! control vehicles", *J. Intell. Transp. Syst.* 20(2), 178–191 (2016); as implemented in Eclipse
+//! SUMO's ACC car-following model (`src/microsim/cfmodels/MSCFModel_ACC.cpp`, user docs
+//! "Car-Following-Models/ACC"), which adds the gap-closing and collision-avoidance modes of Xiao,
+//! Wang & van Arem (*TRR* 2623, 2017) and the TransAID project. All numbers are SUMO's defaults:
+//!
+//! ```text
+//! gap2pred = gap - min_gap                                   (SUMO's gaps exclude minGap)
+//! mode:  gap2pred > 120 m -> speed control; gap2pred < 100 m -> gap control; else keep (hysteresis)
+//! speed control       a = speed_control_gain * (v - v_des)              (gain -0.4)
+//! gap control, with e = gap2pred - headway_time * v, dv = v_lead - v:
+//!   |e| < 0.2 m and |dv| < 0.1 m/s   gap              a = 0.07 dv + 0.23 e
+//!   else e < 0                        collision avoid. a = 0.23 dv + 0.80 e
+//!   else                              gap closing      a = 0.80 dv + 0.04 e
+//! v_cmd = v + command_gain * a, capped at v_des (SUMO caps the next speed at the desired speed)
+//! emergency override (MSCFModel_ACC::followSpeed): v_cmd = min(v_cmd, v_safe + 2 m/s)
+//! v_safe = -b tau + sqrt((b tau)^2 + 2 b (gap2pred + v_lead^2 / (2 max(b, b_lead))))
+//! ```
+//!
+//! `v_safe` is SUMO's `maximumSafeFollowSpeed` (Krauss' safe speed: stop behind a lead braking at
+//! `max(b, b_lead)` after the reaction time `tau`) in its continuous-time form (SUMO discretises
+//! it with its simulation step; the limit of its Euler formula for a vanishing step is this one;
+//! the "emergency deceleration" correction that SUMO applies only beyond `decel` is not modelled).
+//! The acceleration is finally limited to `[-max_decel, max_accel]` (SUMO's `emergencyDecel` and
+//! `accel` of the default passenger car). `v_lead` is the estimate of [`super::estimator`].
+//!
+//! One documented deviation: the gap-mode condition tests `|v_lead - v| < 0.1`, as SUMO's user
+//! documentation describes it ("speed deviation with respect to the preceding vehicle"), whereas
+//! the C++ tests `|v - v_des| < 0.1`. With the default gains the two differ only inside the
+//! 0.2 m band where the gap and collision-avoidance laws nearly coincide.
+
+use super::estimator::{EstimatorParams, RangeRateEstimator};
+use super::{Frame, NoLeadPolicy, accel_command, check_frame, lead_speed};
+use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::params::{ParamError, check_positive, check_range};
+
+/// Parameters of the ACC. `Default`: SUMO's `MSCFModel_ACC` defaults and SUMO's default passenger
+/// vehicle type, with the desired speed 130 km/h.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AccParams {
+    /// Desired (set) speed `v_des`, m/s. Default 130/3.6.
+    pub desired_speed: f64,
+    /// Desired time gap `t_hw` (SUMO: the vType's `tau`), s. SUMO default 1.0.
+    pub headway_time: f64,
+    /// Standstill gap excluded from the controlled gap (SUMO `minGap`), m. SUMO default 2.5.
+    pub min_gap: f64,
+    /// Speed-control gain on `v - v_des` (SUMO `speedControlGain`, its sign), 1/s. SUMO: -0.4.
+    pub speed_control_gain: f64,
+    /// Gap-closing gain on `v_lead - v` (SUMO `gapClosingControlGainSpeed`), 1/s. SUMO: 0.8.
+    pub gap_closing_gain_speed: f64,
+    /// Gap-closing gain on the spacing error (SUMO `gapClosingControlGainSpace`), 1/s². SUMO: 0.04.
+    pub gap_closing_gain_space: f64,
+    /// Gap-control gain on `v_lead - v` (SUMO `gapControlGainSpeed`), 1/s. SUMO: 0.07.
+    pub gap_gain_speed: f64,
+    /// Gap-control gain on the spacing error (SUMO `gapControlGainSpace`), 1/s². SUMO: 0.23.
+    pub gap_gain_space: f64,
+    /// Collision-avoidance gain on `v_lead - v` (SUMO `collisionAvoidanceGainSpeed`), 1/s. SUMO: 0.23.
+    pub collision_avoidance_gain_speed: f64,
+    /// Collision-avoidance gain on the spacing error (SUMO `collisionAvoidanceGainSpace`), 1/s².
+    /// SUMO: 0.8.
+    pub collision_avoidance_gain_space: f64,
+    /// Gap above which speed control takes over (SUMO `GAP_THRESHOLD_SPEEDCTRL`), m. SUMO: 120.
+    pub speed_control_gap: f64,
+    /// Gap below which gap control takes over (SUMO `GAP_THRESHOLD_GAPCTRL`), m. SUMO: 100.
+    pub gap_control_gap: f64,
+    /// Gap mode only within this spacing error, m. SUMO: 0.2.
+    pub gap_mode_spacing: f64,
+    /// Gap mode only within this speed difference, m/s. SUMO: 0.1.
+    pub gap_mode_speed: f64,
+    /// Apply SUMO's safe-speed override (`vSafe + 2 m/s`). Default `true` (SUMO always does).
+    pub emergency_override: bool,
+    /// Margin of the override above `v_safe` (SUMO `DEFAULT_EMERGENCY_OVERRIDE_THRESHOLD`), m/s. 2.0.
+    pub override_threshold: f64,
+    /// Own deceleration `b` of the safe speed (SUMO vType `decel`), m/s². SUMO passenger: 4.5.
+    pub decel: f64,
+    /// Assumed lead deceleration `b_lead` (SUMO: the leader's `apparentDecel` = `decel`), m/s². 4.5.
+    pub lead_decel: f64,
+    /// Acceleration limit (SUMO vType `accel`), m/s². SUMO passenger: 2.6.
+    pub max_accel: f64,
+    /// Braking limit (SUMO vType `emergencyDecel`), m/s². SUMO passenger: 9.0.
+    pub max_decel: f64,
+    /// What to do without a lead. Default [`NoLeadPolicy::Cruise`] (speed control).
+    pub no_lead: NoLeadPolicy,
+    /// The range-rate filter.
+    pub estimator: EstimatorParams,
+    /// `v_cmd = v + command_gain * a`, s. Default 1 (SUMO's default step length).
+    pub command_gain: f64,
+    /// Highest plausible own speed and highest speed command, m/s. Default 70.
+    pub max_speed: f64,
+    /// Highest plausible distance, m. Default 500.
+    pub max_distance: f64,
+    /// Safe command on invalid input: `v_cmd = v - fault_brake_step`, m/s. Default 3.
+    pub fault_brake_step: f64,
+}
+
+impl Default for AccParams {
+    fn default() -> Self {
+        Self::sumo()
+    }
+}
+
+impl AccParams {
+    /// SUMO's defaults (identical to `Default`).
+    pub const fn sumo() -> Self {
+        Self {
+            desired_speed: 130.0 / 3.6,
+            headway_time: 1.0,
+            min_gap: 2.5,
+            speed_control_gain: -0.4,
+            gap_closing_gain_speed: 0.8,
+            gap_closing_gain_space: 0.04,
+            gap_gain_speed: 0.07,
+            gap_gain_space: 0.23,
+            collision_avoidance_gain_speed: 0.23,
+            collision_avoidance_gain_space: 0.8,
+            speed_control_gap: 120.0,
+            gap_control_gap: 100.0,
+            gap_mode_spacing: 0.2,
+            gap_mode_speed: 0.1,
+            emergency_override: true,
+            override_threshold: 2.0,
+            decel: 4.5,
+            lead_decel: 4.5,
+            max_accel: 2.6,
+            max_decel: 9.0,
+            no_lead: NoLeadPolicy::Cruise,
+            estimator: EstimatorParams { alpha: 0.6, beta: 0.25, max_range_rate: 100.0 },
+            command_gain: 1.0,
+            max_speed: 70.0,
+            max_distance: 500.0,
+            fault_brake_step: 3.0,
+        }
+    }
+
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        const GAIN: &str = "must be finite and in [0, 100]";
+        check_positive("desired_speed", self.desired_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
+        check_range("headway_time", self.headway_time, 0.0, 10.0, "must be finite and in [0, 10] s")?;
+        check_range("min_gap", self.min_gap, 0.0, 100.0, "must be finite and in [0, 100] m")?;
+        check_range("speed_control_gain", self.speed_control_gain, -100.0, 0.0, "must be finite and in [-100, 0] (SUMO's sign)")?;
+        check_range("gap_closing_gain_speed", self.gap_closing_gain_speed, 0.0, 100.0, GAIN)?;
+        check_range("gap_closing_gain_space", self.gap_closing_gain_space, 0.0, 100.0, GAIN)?;
+        check_range("gap_gain_speed", self.gap_gain_speed, 0.0, 100.0, GAIN)?;
+        check_range("gap_gain_space", self.gap_gain_space, 0.0, 100.0, GAIN)?;
+        check_range("collision_avoidance_gain_speed", self.collision_avoidance_gain_speed, 0.0, 100.0, GAIN)?;
+        check_range("collision_avoidance_gain_space", self.collision_avoidance_gain_space, 0.0, 100.0, GAIN)?;
+        check_range("speed_control_gap", self.speed_control_gap, 0.0, 1.0e6, "must be finite and in [0, 1e6] m")?;
+        check_range(
+            "gap_control_gap",
+            self.gap_control_gap,
+            0.0,
+            self.speed_control_gap,
+            "must be finite and in [0, speed_control_gap] m",
+        )?;
+        check_range("gap_mode_spacing", self.gap_mode_spacing, 0.0, 100.0, "must be finite and in [0, 100] m")?;
+        check_range("gap_mode_speed", self.gap_mode_speed, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
+        check_range("override_threshold", self.override_threshold, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
+        check_positive("decel", self.decel, 50.0, "must be finite and in (0, 50] m/s²")?;
+        check_positive("lead_decel", self.lead_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
+        check_positive("max_accel", self.max_accel, 20.0, "must be finite and in (0, 20] m/s²")?;
+        check_positive("max_decel", self.max_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
+        self.estimator.validate_named(["estimator.alpha", "estimator.beta", "estimator.max_range_rate"])?;
+        check_positive("command_gain", self.command_gain, 100.0, "must be finite and in (0, 100] s")?;
+        check_positive("max_speed", self.max_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
+        check_positive("max_distance", self.max_distance, 1.0e6, "must be finite and in (0, 1e6] m")?;
+        check_range("fault_brake_step", self.fault_brake_step, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
+        Ok(())
+    }
+
+    /// Speed-control law `speed_control_gain * (v - v_des)`, m/s².
+    pub fn speed_control_accel(&self, own_speed: f64) -> f64 {
+        self.speed_control_gain * (own_speed - self.desired_speed)
+    }
+
+    /// Gap-control law (gap / collision-avoidance / gap-closing) for the bumper gap `gap`; returns
+    /// the sub-mode, the spacing error `e = gap - min_gap - headway_time * v` and the acceleration.
+    pub fn gap_control_accel(&self, gap: f64, own_speed: f64, lead_speed: f64) -> (AccMode, f64, f64) {
+        let e = gap - self.min_gap - self.headway_time * own_speed;
+        let dv = lead_speed - own_speed;
+        if e.abs() < self.gap_mode_spacing && dv.abs() < self.gap_mode_speed {
+            (AccMode::Gap, e, self.gap_gain_speed * dv + self.gap_gain_space * e)
+        } else if e < 0.0 {
+            (AccMode::CollisionAvoidance, e, self.collision_avoidance_gain_speed * dv + self.collision_avoidance_gain_space * e)
+        } else {
+            (AccMode::GapClosing, e, self.gap_closing_gain_speed * dv + self.gap_closing_gain_space * e)
+        }
+    }
+
+    /// SUMO's safe follow speed (continuous form) for the bumper gap `gap`, m/s.
+    pub fn safe_speed(&self, gap: f64, lead_speed: f64) -> f64 {
+        let g = (gap - self.min_gap).max(0.0) + lead_speed * lead_speed / (2.0 * self.decel.max(self.lead_decel));
+        let bt = self.decel * self.headway_time;
+        -bt + libm::sqrt(bt * bt + 2.0 * self.decel * g)
+    }
+}
+
+/// The ACC's active law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum AccMode {
+    /// Speed (cruise) control.
+    #[default]
+    Speed,
+    /// Gap-closing control.
+    GapClosing,
+    /// Gap (time-gap keeping) control.
+    Gap,
+    /// Collision-avoidance control.
+    CollisionAvoidance,
+}
+
+/// The terms of the last ACC step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AccTerms {
+    /// A lead was used this step.
+    pub lead: bool,
+    /// Measured bumper gap, m.
+    pub gap: f64,
+    /// Estimated range rate, m/s.
+    pub range_rate: f64,
+    /// Estimated lead speed, m/s.
+    pub lead_speed: f64,
+    /// Active law.
+    pub mode: AccMode,
+    /// Spacing error `gap - min_gap - headway_time * v`, m (0 in speed control).
+    pub spacing_error: f64,
+    /// The law's acceleration before the cap, override and limits, m/s².
+    pub law_accel: f64,
+    /// Safe speed `v_safe` (0 without a lead), m/s.
+    pub safe_speed: f64,
+    /// The emergency override set the command.
+    pub overridden: bool,
+    /// Output acceleration, m/s².
+    pub accel: f64,
+}
+
+/// The ACC follower.
+#[derive(Debug, Clone)]
+pub struct AccController {
+    params: AccParams,
+    estimator: RangeRateEstimator,
+    /// SUMO's `ACC_ControlMode`: `true` = gap control (kept between the two thresholds).
+    gap_control: bool,
+    terms: AccTerms,
+}
+
+impl AccController {
+    /// Validates `params` and builds the controller (initially in speed control, as SUMO).
+    pub fn new(params: AccParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(Self { params, estimator: RangeRateEstimator::new_unchecked(params.estimator), gap_control: false, terms: AccTerms::default() })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &AccParams {
+        &self.params
+    }
+
+    /// The terms of the last step (all zero after a fault).
+    pub fn terms(&self) -> &AccTerms {
+        &self.terms
+    }
+
+    /// Forgets the range-rate track and returns to speed control.
+    pub fn reset(&mut self) {
+        self.estimator.reset();
+        self.gap_control = false;
+        self.terms = AccTerms::default();
+    }
+
+    /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
+    /// = time since the previous frame in s.
+    pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
+        let p = self.params;
+        let gap = match check_frame(distance, own_speed, dt, p.max_speed, p.max_distance) {
+            Ok(Frame::Lead(gap)) => Some(gap),
+            Ok(Frame::NoLead) if p.no_lead == NoLeadPolicy::Cruise => None,
+            Ok(Frame::NoLead) => return self.fault(own_speed, Status::NoLead),
+            Err(status) => return self.fault(own_speed, status),
+        };
+        let cap = (p.desired_speed - own_speed) / p.command_gain;
+        let mut t = AccTerms::default();
+        match gap {
+            Some(gap) => {
+                t.lead = true;
+                t.gap = gap;
+                t.range_rate = self.estimator.update(gap, dt).range_rate;
+                t.lead_speed = lead_speed(own_speed, t.range_rate, p.max_speed);
+                let gap2pred = gap - p.min_gap;
+                if gap2pred > p.speed_control_gap {
+                    self.gap_control = false;
+                } else if gap2pred < p.gap_control_gap {
+                    self.gap_control = true;
+                }
+                if self.gap_control {
+                    (t.mode, t.spacing_error, t.law_accel) = p.gap_control_accel(gap, own_speed, t.lead_speed);
+                } else {
+                    t.mode = AccMode::Speed;
+                    t.law_accel = p.speed_control_accel(own_speed);
+                }
+                let mut accel = t.law_accel.min(cap);
+                t.safe_speed = p.safe_speed(gap, t.lead_speed);
+                if p.emergency_override && t.safe_speed + p.override_threshold < own_speed + p.command_gain * accel {
+                    t.overridden = true;
+                    accel = (t.safe_speed + p.override_threshold - own_speed) / p.command_gain;
+                }
+                t.accel = clamp(accel, -p.max_decel, p.max_accel);
+            }
+            None => {
+                // Nothing in range: SUMO's speed control (mode memory kept as SUMO does).
+                self.estimator.reset();
+                t.law_accel = p.speed_control_accel(own_speed);
+                t.accel = clamp(t.law_accel.min(cap), -p.max_decel, p.max_accel);
+            }
+        }
+        self.terms = t;
+        accel_command(own_speed, t.accel, p.command_gain, p.max_speed).unwrap_or_else(|| self.fault(own_speed, Status::InvalidDistance))
+    }
+
+    fn fault(&mut self, own_speed: f64, status: Status) -> LongitudinalCommand {
+        self.reset();
+        let p = &self.params;
+        safe_brake(own_speed, valid_speed(own_speed, p.max_speed), p.fault_brake_step, status)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn acc() -> AccController {
+        AccController::new(AccParams::default()).unwrap()
+    }
+
+    /// Two frames 0.1 s apart so that the estimate is `lead_speed` at the second frame `gap`.
+    fn two_frames(c: &mut AccController, gap: f64, own: f64, lead: f64) -> LongitudinalCommand {
+        c.step(Some(gap - (lead - own) * 0.1), own, 0.1);
+        c.step(Some(gap), own, 0.1)
+    }
+
+    #[test]
+    fn gap_closing_by_hand() {
+        let mut c = acc();
+        // v = 20, v_lead = 18, gap 40: gap2pred = 37.5 < 100 -> gap control.
+        // e = 37.5 - 1.0 * 20 = 17.5 >= 0.2 -> gap closing: 0.8 * (-2) + 0.04 * 17.5 = -0.9.
+        // v_safe = -4.5 + sqrt(4.5^2 + 2 * 4.5 * (37.5 + 18^2 / 9)) = -4.5 + sqrt(20.25 + 661.5)
+        //        = -4.5 + 26.110343 = 21.610343; +2 = 23.61 > 19.1 -> no override.
+        let out = two_frames(&mut c, 40.0, 20.0, 18.0);
+        let t = *c.terms();
+        assert_eq!(t.mode, AccMode::GapClosing);
+        assert!((t.spacing_error - 17.5).abs() < 1e-9);
+        assert!((out.accel + 0.9).abs() < 1e-9);
+        assert!((out.speed - 19.1).abs() < 1e-9);
+        assert!((t.safe_speed - 21.610343).abs() < 1e-6);
+        assert!(!t.overridden);
+    }
+
+    #[test]
+    fn collision_avoidance_by_hand() {
+        let mut c = acc();
+        // v = v_lead = 20, gap 15: e = 12.5 - 20 = -7.5 < 0 -> CA: 0.23 * 0 + 0.8 * (-7.5) = -6.
+        // v_safe = -4.5 + sqrt(20.25 + 9 * (12.5 + 400/9)) = -4.5 + 23.081378 = 18.581378;
+        // +2 = 20.58 > 14 -> no override. Command 20 - 6 = 14.
+        let out = two_frames(&mut c, 15.0, 20.0, 20.0);
+        assert_eq!(c.terms().mode, AccMode::CollisionAvoidance);
+        assert!((out.accel + 6.0).abs() < 1e-9);
+        assert!((out.speed - 14.0).abs() < 1e-9);
+        assert!((c.terms().safe_speed - 18.581378).abs() < 1e-6);
+    }
+
+    #[test]
+    fn gap_mode_by_hand() {
+        let p = AccParams::default();
+        // v = v_lead = 20, gap = 2.5 + 20 + 0.1: e = 0.1, dv = 0 -> gap mode: 0.23 * 0.1 = 0.023.
+        let (mode, e, a) = p.gap_control_accel(22.6, 20.0, 20.0);
+        assert_eq!(mode, AccMode::Gap);
+        assert!((e - 0.1).abs() < 1e-9 && (a - 0.023).abs() < 1e-9);
+        // Same spacing, dv = 0.5 -> gap closing: 0.8 * 0.5 + 0.04 * 0.1 = 0.404.
+        let (mode, _, a) = p.gap_control_accel(22.6, 20.0, 20.5);
+        assert_eq!(mode, AccMode::GapClosing);
+        assert!((a - 0.404).abs() < 1e-9);
+    }
+
+    #[test]
+    fn speed_control_hysteresis_and_override_by_hand() {
+        let mut c = acc();
+        // gap 112.5: gap2pred = 110, between 100 and 120 -> keeps the initial speed control:
+        // a = -0.4 * (36 - 36.111111) = 0.044444, command 36.044444.
+        // Lead at standstill (estimated from the two frames): v_safe = -4.5 + sqrt(20.25 + 9 * 110)
+        // = -4.5 + 31.784430 = 27.284430; +2 = 29.284430 < 36.044 -> override:
+        // v_cmd = 29.284430, a = 29.284430 - 36 = -6.715570.
+        let out = two_frames(&mut c, 112.5, 36.0, 0.0);
+        let t = *c.terms();
+        assert_eq!(t.mode, AccMode::Speed);
+        assert!((t.law_accel - 0.4 * (130.0 / 3.6 - 36.0)).abs() < 1e-9);
+        assert!(t.overridden);
+        assert!((out.speed - 29.284430).abs() < 1e-6);
+        assert!((out.accel + 6.715570).abs() < 1e-6);
+        // Below 100 m gap2pred -> gap control, and it stays so back in the band.
+        c.step(Some(95.0), 20.0, 0.1);
+        assert_ne!(c.terms().mode, AccMode::Speed);
+        c.step(Some(112.5), 20.0, 0.1);
+        assert_ne!(c.terms().mode, AccMode::Speed);
+        c.step(Some(125.0), 20.0, 0.1);
+        assert_eq!(c.terms().mode, AccMode::Speed);
+    }
+
+    #[test]
+    fn desired_speed_caps_the_command() {
+        let mut c = acc();
+        // Lead much faster and far (gap closing would give 0.8 * 10 + 0.04 * 57.5 = 10.3), own speed
+        // 35: the command is capped at v_des = 36.111 -> a = 1.111 (< max_accel 2.6).
+        let out = two_frames(&mut c, 95.0, 35.0, 45.0);
+        assert!((out.speed - 130.0 / 3.6).abs() < 1e-9);
+        // Limits: far below v_des with a faster lead -> max_accel.
+        let mut c = acc();
+        let out = two_frames(&mut c, 60.0, 10.0, 20.0);
+        assert_eq!(out.accel, 2.6);
+    }
+
+    #[test]
+    fn no_lead_and_bad_inputs() {
+        let mut c = acc();
+        // Speed control: -0.4 * (20 - 36.111111) = 6.444444, limited to 2.6.
+        let out = c.step(None, 20.0, 0.05);
+        assert_eq!((out.status, out.accel), (Status::Ok, 2.6));
+        let mut c = AccController::new(AccParams { no_lead: NoLeadPolicy::Brake, ..AccParams::default() }).unwrap();
+        assert_eq!(c.step(None, 20.0, 0.05).status, Status::NoLead);
+        assert_eq!(c.step(Some(30.0), 20.0, f64::NAN).status, Status::InvalidDt);
+        assert_eq!(c.step(Some(f64::INFINITY), 20.0, 0.05).status, Status::InvalidDistance);
+        let out = c.step(Some(30.0), 80.0, 0.05);
+        assert_eq!((out.status, out.speed), (Status::InvalidSpeed, 0.0));
+        assert_eq!(c.step(Some(30.0), 20.0, 0.05).speed, 20.0 + 1.0 * c.terms().accel);
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_field() {
+        let bad = |p: AccParams| AccController::new(p).unwrap_err().field;
+        assert_eq!(bad(AccParams { speed_control_gain: 0.4, ..Default::default() }), "speed_control_gain");
+        assert_eq!(bad(AccParams { gap_control_gap: 130.0, ..Default::default() }), "gap_control_gap");
+        assert_eq!(bad(AccParams { collision_avoidance_gain_space: f64::NAN, ..Default::default() }), "collision_avoidance_gain_space");
+        assert_eq!(bad(AccParams { decel: 0.0, ..Default::default() }), "decel");
+        let est = EstimatorParams { alpha: 0.0, ..EstimatorParams::default() };
+        assert_eq!(bad(AccParams { estimator: est, ..Default::default() }), "estimator.alpha");
+    }
+
+    proptest! {
+        #[test]
+        fn outputs_are_finite_and_bounded(
+            seq in proptest::collection::vec((proptest::option::of(proptest::num::f64::ANY), proptest::num::f64::ANY, proptest::num::f64::ANY), 1..40)
+        ) {
+            let mut c = acc();
+            for (d, v, dt) in seq {
+                let out = c.step(d, v, dt);
+                prop_assert!(out.speed.is_finite() && (0.0..=70.0).contains(&out.speed));
+                prop_assert!(out.accel.is_finite() && (-9.0..=3.0).contains(&out.accel));
+            }
+        }
+    }
+}
