@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from ._controllers import Command, FallbackController, LeadDetector, PidController, PurePursuit, Steering, Supervisor
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
+from ._mcap import read_mcap
 from ._run import RunResult, run, sweep
 from ._scenario import Scenario
 
@@ -27,6 +28,7 @@ __all__ = [
     "SimulationError",
     "Steering",
     "Supervisor",
+    "read_mcap",
     "run",
     "sweep",
 ]

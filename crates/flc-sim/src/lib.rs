@@ -3,13 +3,14 @@
 //! Closed-loop simulator for the flc pipeline (the paper's CARLA experiment, Secs. III-IV): a
 //! rapier2d world with vehicles and road-side clutter ([`world`]), a ray-cast LiDAR ([`lidar`]), a
 //! lossy V2V channel ([`v2v`]), vehicle dynamics ([`vehicle`]), tracks as data ([`track`]),
-//! scenario files ([`scenario`]), the closed loop ([`sim`]), metrics ([`metrics`]) and reports
-//! ([`report`]).
+//! scenario files ([`scenario`]), the closed loop ([`sim`]), metrics ([`metrics`]), reports
+//! ([`report`]) and MCAP recordings for Foxglove ([`record`]).
 pub mod calibration;
 pub mod error;
 pub mod lead;
 pub mod lidar;
 pub mod metrics;
+pub mod record;
 pub mod report;
 pub mod scenario;
 pub mod sim;

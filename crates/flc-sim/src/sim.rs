@@ -12,7 +12,7 @@
 //!
 //! Collisions come from rapier's contact events between the vehicle colliders.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use flc_core::{
     ActiveController, FallbackController, LeadDetector, PidController, Point2, PurePursuit, Supervisor, SwitchReason, V2vMessage,
@@ -22,6 +22,7 @@ use crate::error::SimError;
 use crate::lead::LeadDriver;
 use crate::lidar::Lidar;
 use crate::metrics::{CollisionInfo, Metrics, Series, StepRecord};
+use crate::record::Recorder;
 use crate::scenario::{ControllerKind, Scenario};
 use crate::track::Track;
 use crate::v2v::V2vChannel;
@@ -47,12 +48,12 @@ pub fn run(scenario: &Scenario) -> Result<RunResult, SimError> {
 /// Runs a scenario; with `record`, also writes an MCAP recording into that directory.
 pub fn run_with(scenario: &Scenario, record: Option<&Path>) -> Result<RunResult, SimError> {
     scenario.validate()?;
-    if let Some(dir) = record {
-        // MCAP recording (issue 4) is not implemented yet: refuse rather than silently ignore.
-        return Err(SimError::File { path: dir.display().to_string(), message: "recording runs (MCAP) is not implemented yet".into() });
-    }
     let mut sim = Simulation::new(scenario)?;
+    if let Some(dir) = record {
+        sim.record_to(dir)?;
+    }
     while sim.step()? {}
+    sim.finish_recording(true)?;
     Ok(sim.finish())
 }
 
@@ -138,6 +139,9 @@ pub struct Simulation {
     standstill_since: Option<f64>,
     collision: Option<CollisionInfo>,
     series: Series,
+    /// MCAP recording (`crate::record`); finished by `finish_recording` or, on any early exit, by
+    /// its `Drop`.
+    recorder: Option<Box<Recorder>>,
 }
 
 impl Simulation {
@@ -209,6 +213,7 @@ impl Simulation {
             standstill_since: None,
             collision: None,
             series: Series::default(),
+            recorder: None,
             track,
         })
     }
@@ -243,6 +248,9 @@ impl Simulation {
         let fs = *self.follower.state();
         if let Some(scan) = self.lidar.tick(t, &self.world, self.follower_body, &fs) {
             self.control_tick(t, &scan.points, &fs);
+            if let Some(rec) = self.recorder.as_deref_mut() {
+                rec.scan(t, &scan, self.detector.clusters(), self.detected, self.lookahead)?;
+            }
         }
 
         // 4. Low-level control and dynamics.
@@ -261,6 +269,11 @@ impl Simulation {
             self.collision = Some(CollisionInfo { time: self.t, impact_speed: (fs.speed - ls.speed).max(0.0), lead_speed: ls.speed, follower_speed: fs.speed });
         }
         self.record(gap, &ls, &fs);
+        if let (Some(rec), Some(last)) = (self.recorder.as_deref_mut(), self.series.len().checked_sub(1)) {
+            if let Some(r) = self.series.get(last) {
+                rec.step(&r, &ls, &fs)?;
+            }
+        }
 
         // Stop conditions.
         if self.collision.is_some() && self.scenario.stop.on_collision {
@@ -370,6 +383,24 @@ impl Simulation {
             lateral_offset: proj.lateral_offset,
             heading_error,
         });
+    }
+
+    /// Starts an MCAP recording of this run in `dir` (see [`crate::record`]; call it before the
+    /// first step to record the whole run). Returns the file's path.
+    pub fn record_to(&mut self, dir: &Path) -> Result<PathBuf, SimError> {
+        let rec = Recorder::create(dir, &self.scenario, &self.track, self.t, self.lead.state(), self.follower.state())?;
+        let path = rec.path().to_path_buf();
+        self.recorder = Some(Box::new(rec));
+        Ok(path)
+    }
+
+    /// Finishes the recording, if any (with the metrics of the steps so far if `with_metrics`),
+    /// and returns its path. Without this call the recording is finished when the simulation is
+    /// dropped or finished, errors ignored.
+    pub fn finish_recording(&mut self, with_metrics: bool) -> Result<Option<PathBuf>, SimError> {
+        let Some(rec) = self.recorder.take() else { return Ok(None) };
+        let metrics = with_metrics.then(|| Metrics::compute(&self.series, self.collision));
+        rec.finish(metrics.as_ref()).map(Some)
     }
 
     /// Ends the run and computes the metrics.

@@ -3,8 +3,10 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
+use flc_sim::record;
 use flc_sim::report::{self, RunRecord};
 use flc_sim::scenario::{Calibration, ControllerKind, PAPER_SPEEDS_KMH, Scenario};
 use flc_sim::{SimError, run_batch};
@@ -17,7 +19,11 @@ use flc_sim::{SimError, run_batch};
 /// lost at brake onset); once with the realistic vehicle and once with the paper-calibrated preset.
 /// Prints a table next to the paper's numbers.
 ///
-/// Exit status: 0 success, 1 a run collided and --fail-on-collision was given, 2 bad input.
+/// Exit status: 0 success, 1 a run collided and --fail-on-collision was given, 2 bad input,
+/// 130 interrupted by Ctrl-C while recording (--record).
+/// Set by the Ctrl-C handler (installed with --record only).
+static STOP: AtomicBool = AtomicBool::new(false);
+
 #[derive(Debug, Parser)]
 #[command(name = "scenario", version, about, long_about)]
 struct Cli {
@@ -32,6 +38,10 @@ struct Cli {
     /// Write each run's per-step time series as CSV into DIR (one file per run).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Record each run as an MCAP file in DIR for Foxglove (`<scenario>-<controller>[-<speed>kmh].mcap`,
+    /// docs/foxglove.md). Ctrl-C stops the runs and finishes the files (exit status 130).
+    #[arg(long, value_name = "DIR")]
+    record: Option<PathBuf>,
     /// Maximum speeds of the paper experiment, km/h, comma separated (ignored with --config).
     #[arg(long, value_name = "KMH", value_delimiter = ',', default_values_t = PAPER_SPEEDS_KMH)]
     speeds: Vec<f64>,
@@ -142,6 +152,9 @@ fn main() -> ExitCode {
         }
     }
     if let Some(Command::Sweep { file, out }) = &cli.command {
+        if cli.record.is_some() {
+            return bad_input("`--record` does not apply to `sweep`");
+        }
         return sweep(file, out.as_deref());
     }
     let list = match scenarios(&cli) {
@@ -154,7 +167,29 @@ fn main() -> ExitCode {
         }
     }
     let scenarios: Vec<Scenario> = list.iter().map(|(s, _)| s.clone()).collect();
-    let results = run_batch(&scenarios, list.len() > 1);
+    let results = match &cli.record {
+        None => run_batch(&scenarios, list.len() > 1),
+        Some(dir) => {
+            if let Err(e) = std::fs::create_dir_all(dir) {
+                return bad_input(format!("`--record` {}: {e}", dir.display()));
+            }
+            let stop = &STOP;
+            // First Ctrl-C: stop the runs at their next step and finish the recordings; second: exit.
+            if let Err(e) = ctrlc::set_handler(move || {
+                if stop.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+            }) {
+                eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted recording may be incomplete");
+            }
+            let results = record::run_batch_interruptible(&scenarios, list.len() > 1, Some(dir), stop);
+            if stop.load(Ordering::SeqCst) {
+                eprintln!("interrupted: the recordings in {} are finished up to the interrupt", dir.display());
+                return ExitCode::from(130);
+            }
+            results
+        }
+    };
     let mut records = Vec::new();
     for ((scenario, preset), result) in list.iter().zip(results) {
         let run = match result {

@@ -1,0 +1,720 @@
+//! MCAP recordings of simulated runs, readable by Foxglove with no configuration
+//! (`docs/foxglove.md`).
+//!
+//! A [`Recorder`] writes one `.mcap` file per run with the `mcap` crate: zstd-compressed chunks,
+//! message and chunk indexes, a summary with statistics. Every channel but `/flc/state` uses one of
+//! Foxglove's published well-known schemas, as the `foxglove` SDK provides them (protobuf
+//! encoding, the SDK's file descriptor sets as schema data). Log times are simulation time in
+//! nanoseconds, increasing on every channel, and every channel numbers its messages 0, 1, 2, ...
+//!
+//! | topic | schema | rate | content |
+//! |---|---|---|---|
+//! | [`TOPIC_SCAN`] `/lidar/points` | `foxglove.PointCloud` | each delivered scan | the hit points the detector saw (frame `lidar`, `x`, `y` as float32) |
+//! | [`TOPIC_DETECTOR`] `/detector` | `foxglove.SceneUpdate` | each scan | the clusters as boxes, one entity per status (`clusters/<status>`, [`CLUSTER_STATUS`]), and the accepted lead box (`lead`), frame `lidar` |
+//! | [`TOPIC_LOOKAHEAD`] `/pursuit/lookahead` | `foxglove.SceneUpdate` | each scan | the pure-pursuit lookahead point and the line to it, frame `follower` |
+//! | [`TOPIC_TF`] `/tf` | `foxglove.FrameTransforms` | start + each physics step | `world -> lead`, `world -> follower`, `follower -> lidar` |
+//! | [`TOPIC_TRACK`] `/track` | `foxglove.SceneUpdate` | once, t = 0 | centreline, lane edges, guard rails, posts, parked cars (frame `world`) |
+//! | [`TOPIC_VEHICLES`] `/vehicles` | `foxglove.SceneUpdate` | once, t = 0 | the two vehicle bodies, locked to frames `lead` / `follower` |
+//! | [`TOPIC_STATE`] `/flc/state` | `flc.State` (jsonschema, JSON) | each physics step | the run's [`StepRecord`] (NaN as `null`) plus `active_name`, `reason_name` |
+//!
+//! The file also carries two metadata records: `flc.scenario` (the scenario as JSON, at the start)
+//! and `flc.metrics` (the run's metrics as JSON, written only when the run finished).
+//!
+//! The simulation thread encodes the messages and a writer thread per recording compresses and
+//! writes them, so the compression runs alongside the simulation. The writer is finished on every
+//! exit path: [`Recorder::finish`] at the end of a run, and [`Drop`] when the run stops early (an
+//! error, a panic, a dropped [`crate::Simulation`]); [`run_interruptible`] stops a run cleanly when
+//! a flag is set (the CLI's Ctrl-C handler).
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, SyncSender};
+use std::thread::JoinHandle;
+
+use flc_core::{ActiveController, ClusterInfo, SwitchReason};
+use foxglove::Encode;
+use foxglove::messages::{
+    Color, CubePrimitive, CylinderPrimitive, FrameTransform, FrameTransforms, KeyValuePair, LinePrimitive, PackedElementField, Point3,
+    PointCloud, Pose, Quaternion, SceneEntity, SceneEntityDeletion, SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp, Vector3,
+    line_primitive, packed_element_field::NumericType, scene_entity_deletion,
+};
+use serde::Serialize;
+
+use crate::error::SimError;
+use crate::lidar::Scan;
+use crate::metrics::{Metrics, Series, StepRecord};
+use crate::report::run_file_stem;
+use crate::scenario::Scenario;
+use crate::sim::{RunResult, Simulation};
+use crate::track::{RoadsideObject, Track};
+use crate::vehicle::VehicleState;
+
+/// LiDAR hit points, `foxglove.PointCloud` in frame [`FRAME_LIDAR`].
+pub const TOPIC_SCAN: &str = "/lidar/points";
+/// Detector clusters and the accepted lead box, `foxglove.SceneUpdate` in frame [`FRAME_LIDAR`].
+pub const TOPIC_DETECTOR: &str = "/detector";
+/// Pure-pursuit lookahead point, `foxglove.SceneUpdate` in frame [`FRAME_FOLLOWER`].
+pub const TOPIC_LOOKAHEAD: &str = "/pursuit/lookahead";
+/// Vehicle poses and the LiDAR mount, `foxglove.FrameTransforms`.
+pub const TOPIC_TF: &str = "/tf";
+/// Road outline and road-side objects, `foxglove.SceneUpdate` in frame [`FRAME_WORLD`], once.
+pub const TOPIC_TRACK: &str = "/track";
+/// Vehicle bodies, `foxglove.SceneUpdate` locked to the vehicle frames, once.
+pub const TOPIC_VEHICLES: &str = "/vehicles";
+/// Per-step state (the run's [`StepRecord`]), JSON with a JSON schema named [`STATE_SCHEMA`].
+pub const TOPIC_STATE: &str = "/flc/state";
+/// Name of the JSON schema of [`TOPIC_STATE`].
+pub const STATE_SCHEMA: &str = "flc.State";
+/// Fixed frame.
+pub const FRAME_WORLD: &str = "world";
+/// The lead's body centre (x forward, y left).
+pub const FRAME_LEAD: &str = "lead";
+/// The follower's body centre (x forward, y left); pure pursuit's frame.
+pub const FRAME_FOLLOWER: &str = "follower";
+/// The follower's LiDAR (the scan's and the detector's frame).
+pub const FRAME_LIDAR: &str = "lidar";
+/// Name of the metadata record holding the scenario (key `scenario`, JSON).
+pub const METADATA_SCENARIO: &str = "flc.scenario";
+/// Name of the metadata record holding the metrics (key `metrics`, JSON), written by
+/// [`Recorder::finish`] only.
+pub const METADATA_METRICS: &str = "flc.metrics";
+
+/// File name of a run's recording: `<scenario>-<controller>[-<speed_kmh>kmh].mcap`, with
+/// characters other than ASCII letters, digits, `.`, `_` and `-` replaced by `_`.
+pub fn recording_file_name(scenario: &Scenario) -> String {
+    let mut stem = run_file_stem(scenario);
+    if let Some(v) = scenario.speed_kmh {
+        let speed: String = format!("{v}").chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect();
+        stem.push_str(&format!("-{speed}kmh"));
+    }
+    format!("{stem}.mcap")
+}
+
+/// Simulation time, s, as MCAP log time, ns (negative and non-finite times clamp to 0).
+pub fn time_ns(t: f64) -> u64 {
+    if t.is_finite() && t > 0.0 { (t * 1e9).round() as u64 } else { 0 }
+}
+
+fn stamp(ns: u64) -> Timestamp {
+    Timestamp::new((ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32)
+}
+
+/// Point coordinates as float32 on a grid of [`POINT_GRID`] m (2^-10 m, about 1 mm; the LiDAR's
+/// range noise is 2 cm by default): exact in float32 with the low mantissa bits zero, which zstd
+/// compresses well, unlike full-precision floats.
+fn quantize(v: f64) -> f32 {
+    // Round to nearest by adding and removing 1.5 * 2^52 (|v| < 2^41 m); no libm call.
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let scaled = v * (1.0 / POINT_GRID);
+    (((scaled + MAGIC) - MAGIC) * POINT_GRID) as f32
+}
+
+/// Grid of the recorded point coordinates, m.
+pub const POINT_GRID: f64 = 1.0 / 1024.0;
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> SimError {
+    SimError::File { path: path.display().to_string(), message: format!("MCAP recording: {e}") }
+}
+
+// ---------------------------------------------------------------- geometry helpers
+
+fn v3(x: f64, y: f64, z: f64) -> Vector3 {
+    Vector3 { x, y, z }
+}
+
+fn yaw_quat(yaw: f64) -> Quaternion {
+    let h = 0.5 * yaw;
+    Quaternion { x: 0.0, y: 0.0, z: h.sin(), w: h.cos() }
+}
+
+fn pose(x: f64, y: f64, z: f64, yaw: f64) -> Pose {
+    Pose { position: Some(v3(x, y, z)), orientation: Some(yaw_quat(yaw)) }
+}
+
+const fn rgba(r: f64, g: f64, b: f64, a: f64) -> Color {
+    Color { r, g, b, a }
+}
+
+const LEAD_COLOR: Color = rgba(0.95, 0.35, 0.2, 0.9);
+const FOLLOWER_COLOR: Color = rgba(0.2, 0.55, 0.95, 0.9);
+const LOOKAHEAD_COLOR: Color = rgba(1.0, 0.2, 0.9, 1.0);
+
+/// Entity names (`clusters/<name>` on [`TOPIC_DETECTOR`]) and colours of the detector's clusters:
+/// the accepted lead, the other vehicle-like clusters, then one per `flc_core::RejectReason`
+/// (named by its `as_str`).
+pub const CLUSTER_STATUS: [(&str, Color); 7] = [
+    ("lead", rgba(0.1, 0.9, 0.2, 0.6)),
+    ("candidate", rgba(0.95, 0.85, 0.1, 0.5)),
+    ("too_few_points", rgba(0.5, 0.5, 0.5, 0.25)),
+    ("too_narrow", rgba(0.3, 0.6, 0.9, 0.35)),
+    ("too_wide", rgba(0.9, 0.5, 0.2, 0.35)),
+    ("too_deep", rgba(0.7, 0.3, 0.8, 0.35)),
+    ("off_path", rgba(0.75, 0.75, 0.75, 0.35)),
+];
+
+fn line(kind: line_primitive::Type, points: Vec<Point3>, thickness: f64, color: Color) -> LinePrimitive {
+    LinePrimitive {
+        r#type: kind as i32,
+        pose: Some(pose(0.0, 0.0, 0.0, 0.0)),
+        thickness,
+        scale_invariant: false,
+        points,
+        color: Some(color),
+        ..Default::default()
+    }
+}
+
+fn entity(ns: u64, frame: &str, id: &str) -> SceneEntity {
+    SceneEntity { timestamp: Some(stamp(ns)), frame_id: frame.to_string(), id: id.to_string(), ..Default::default() }
+}
+
+fn kv(key: &str, value: impl Into<String>) -> KeyValuePair {
+    KeyValuePair { key: key.to_string(), value: value.into() }
+}
+
+/// Centreline shifted sideways by `offset` (+ left), one point per centreline point.
+fn offset_polyline(c: &[[f64; 2]], offset: f64, z: f64) -> Vec<Point3> {
+    let n = c.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (c[i.saturating_sub(1)], c[(i + 1).min(n - 1)]);
+            let h = (b[1] - a[1]).atan2(b[0] - a[0]);
+            Point3 { x: c[i][0] - offset * h.sin(), y: c[i][1] + offset * h.cos(), z }
+        })
+        .collect()
+}
+
+/// The road as a scene entity: centreline, lane edges and the road-side objects.
+fn track_entity(ns: u64, track: &Track) -> SceneEntity {
+    let mut e = entity(ns, FRAME_WORLD, "road");
+    e.metadata = vec![kv("track", track.name.clone()), kv("lane_width_m", format!("{}", track.lane_width))];
+    let c = &track.centerline;
+    if c.len() >= 2 {
+        let half = track.lane_width / 2.0;
+        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, 0.0, 0.0), 0.08, rgba(0.9, 0.9, 0.9, 0.5)));
+        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, half, 0.0), 0.15, rgba(1.0, 1.0, 1.0, 0.9)));
+        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, -half, 0.0), 0.15, rgba(1.0, 1.0, 1.0, 0.9)));
+    }
+    for o in &track.objects {
+        match *o {
+            RoadsideObject::GuardRail { offset, from_s, to_s } => {
+                let n = (((to_s - from_s) / 2.0).ceil() as usize).clamp(1, 100_000);
+                let pts = (0..=n)
+                    .map(|k| {
+                        let s = from_s + (to_s - from_s) * k as f64 / n as f64;
+                        let (x, y, h) = track.pose_at(s);
+                        Point3 { x: x - offset * h.sin(), y: y + offset * h.cos(), z: 0.5 }
+                    })
+                    .collect();
+                e.lines.push(line(line_primitive::Type::LineStrip, pts, 0.2, rgba(0.75, 0.75, 0.8, 1.0)));
+            }
+            RoadsideObject::Post { s, offset, radius } => {
+                let (x, y, h) = track.pose_at(s);
+                e.cylinders.push(CylinderPrimitive {
+                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.6, 0.0)),
+                    size: Some(v3(2.0 * radius, 2.0 * radius, 1.2)),
+                    bottom_scale: 1.0,
+                    top_scale: 1.0,
+                    color: Some(rgba(0.9, 0.9, 0.3, 1.0)),
+                });
+            }
+            RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+                let (x, y, h) = track.pose_at(s);
+                e.cubes.push(CubePrimitive {
+                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.75, h + heading_offset)),
+                    size: Some(v3(4.7, 1.8, 1.5)),
+                    color: Some(rgba(0.55, 0.55, 0.6, 1.0)),
+                });
+            }
+        }
+    }
+    e
+}
+
+fn vehicle_entity(ns: u64, frame: &str, length: f64, width: f64, color: Color) -> SceneEntity {
+    let mut e = entity(ns, frame, frame);
+    e.frame_locked = true;
+    e.cubes.push(CubePrimitive { pose: Some(pose(0.0, 0.0, 0.75, 0.0)), size: Some(v3(length, width, 1.5)), color: Some(color) });
+    e.texts.push(TextPrimitive {
+        pose: Some(pose(0.0, 0.0, 2.2, 0.0)),
+        billboard: true,
+        font_size: 14.0,
+        scale_invariant: true,
+        color: Some(rgba(1.0, 1.0, 1.0, 1.0)),
+        text: frame.to_string(),
+    });
+    e
+}
+
+fn transform(ns: u64, parent: &str, child: &str, x: f64, y: f64, yaw: f64) -> FrameTransform {
+    FrameTransform {
+        timestamp: Some(stamp(ns)),
+        parent_frame_id: parent.to_string(),
+        child_frame_id: child.to_string(),
+        translation: Some(v3(x, y, 0.0)),
+        rotation: Some(yaw_quat(yaw)),
+    }
+}
+
+fn reason_name(code: u8) -> &'static str {
+    const REASONS: [SwitchReason; 5] =
+        [SwitchReason::V2vFresh, SwitchReason::NoV2v, SwitchReason::V2vStale, SwitchReason::Recovering, SwitchReason::InvalidV2v];
+    REASONS.iter().find(|r| **r as u8 == code).map_or("unknown", |r| r.as_str())
+}
+
+fn active_name(code: u8) -> &'static str {
+    if code == ActiveController::Pid as u8 { ActiveController::Pid.as_str() } else { ActiveController::Flc.as_str() }
+}
+
+/// The JSON message of [`TOPIC_STATE`].
+#[derive(Serialize)]
+struct StateMessage<'a> {
+    #[serde(flatten)]
+    step: &'a StepRecord,
+    active_name: &'static str,
+    reason_name: &'static str,
+}
+
+/// The JSON schema of [`TOPIC_STATE`]: one property per [`Series::COLUMNS`] entry (units in the
+/// descriptions; `null` stands for NaN) plus the two names.
+pub fn state_json_schema() -> String {
+    let mut props = serde_json::Map::new();
+    for (name, unit) in Series::COLUMNS {
+        let ty = if name == "active" || name == "reason" { serde_json::json!("integer") } else { serde_json::json!(["number", "null"]) };
+        props.insert(name.to_string(), serde_json::json!({ "type": ty, "description": format!("{name}, {unit} (null = NaN)") }));
+    }
+    props
+        .insert("active_name".into(), serde_json::json!({ "type": "string", "description": "active longitudinal controller: flc or pid" }));
+    props.insert("reason_name".into(), serde_json::json!({ "type": "string", "description": "supervisor switch reason" }));
+    serde_json::json!({
+        "$schema": "http://json-schema.org/draft-07/schema#",
+        "title": STATE_SCHEMA,
+        "description": "One physics step of an flc-sim run (the run's StepRecord; docs/v2v-and-metrics.md)",
+        "type": "object",
+        "properties": props,
+    })
+    .to_string()
+}
+
+// ---------------------------------------------------------------- the recorder
+
+#[derive(Clone, Copy)]
+enum Ch {
+    Scan,
+    Detector,
+    Lookahead,
+    Tf,
+    Track,
+    Vehicles,
+    State,
+}
+
+const N_CHANNELS: usize = 7;
+
+struct Channel {
+    id: u16,
+    sequence: u32,
+}
+
+type McapWriter = mcap::Writer<BufWriter<File>>;
+
+/// What the simulation thread hands to the writer thread: encoded messages back to back in one
+/// buffer (no allocation per message; the writer thread hands emptied batches back for reuse).
+#[derive(Default)]
+struct Batch {
+    data: Vec<u8>,
+    items: Vec<Item>,
+}
+
+enum Item {
+    Message(mcap::records::MessageHeader, std::ops::Range<usize>),
+    Metadata(mcap::records::Metadata),
+}
+
+/// A batch goes to the writer thread once it holds this many messages or bytes.
+const BATCH_ITEMS: usize = 256;
+const BATCH_BYTES: usize = 256 << 10;
+/// Batches queued for the writer thread at most (then the simulation waits for it).
+const QUEUE: usize = 8;
+
+/// Writes one run as an MCAP file. Created by [`crate::Simulation::record_to`] (or
+/// [`crate::run_with`] with a directory), fed by the closed loop, finished by [`Recorder::finish`]
+/// or, if the run stops early, by [`Drop`].
+///
+/// The simulation thread encodes the messages; a writer thread of the recorder's own compresses
+/// (zstd) and writes them, so that the compression overlaps the simulation.
+pub struct Recorder {
+    tx: Option<SyncSender<Batch>>,
+    spare: Receiver<Batch>,
+    batch: Batch,
+    thread: Option<JoinHandle<mcap::McapResult<()>>>,
+    path: PathBuf,
+    channels: [Channel; N_CHANNELS],
+    mount: (f64, f64, f64),
+    fields: Vec<PackedElementField>,
+}
+
+impl std::fmt::Debug for Recorder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recorder").field("path", &self.path).field("open", &self.tx.is_some()).finish_non_exhaustive()
+    }
+}
+
+/// The writer thread: writes what arrives until the channel closes (or a write fails), then
+/// finishes the file (summary, indexes, footer) and flushes it.
+fn writer_loop(mut w: McapWriter, rx: Receiver<Batch>, spare: Sender<Batch>) -> mcap::McapResult<()> {
+    for mut batch in rx {
+        for item in batch.items.drain(..) {
+            match item {
+                Item::Message(header, range) => w.write_to_known_channel(&header, &batch.data[range])?,
+                Item::Metadata(m) => w.write_metadata(&m)?,
+            }
+        }
+        batch.data.clear();
+        let _ = spare.send(batch);
+    }
+    w.finish()?;
+    w.into_inner().flush()?;
+    Ok(())
+}
+
+fn add_channel<T: Encode>(w: &mut McapWriter, topic: &str) -> mcap::McapResult<Channel> {
+    let schema_id = match T::get_schema() {
+        Some(s) => w.add_schema(&s.name, &s.encoding, &s.data)?,
+        None => 0,
+    };
+    let id = w.add_channel(schema_id, topic, &T::get_message_encoding(), &BTreeMap::new())?;
+    Ok(Channel { id, sequence: 0 })
+}
+
+impl Recorder {
+    /// Creates `dir` if needed and starts `dir/`[`recording_file_name`]: writes the scenario
+    /// metadata, the road and the vehicle bodies, and the vehicles' poses at simulation time `t`
+    /// (0 before the first step).
+    pub fn create(
+        dir: &Path,
+        scenario: &Scenario,
+        track: &Track,
+        t: f64,
+        lead: &VehicleState,
+        follower: &VehicleState,
+    ) -> Result<Self, SimError> {
+        std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+        let path = dir.join(recording_file_name(scenario));
+        let file = File::create(&path).map_err(|e| io_err(&path, e))?;
+        // mcap's defaults (zstd, 1 MiB chunks, message and chunk indexes, statistics, summary
+        // offsets, CRCs) but zstd level 2 instead of 3 (the same size on these files, faster),
+        // compressing on the writer thread itself (no zstd worker pool).
+        let opts = mcap::WriteOptions::new()
+            .library(format!("flc-sim {} (mcap-rs)", env!("CARGO_PKG_VERSION")))
+            .compression_threads(0)
+            .compression_level(2);
+        let mut w = opts.create(BufWriter::with_capacity(1 << 16, file)).map_err(|e| io_err(&path, e))?;
+        let mut open = || -> mcap::McapResult<[Channel; N_CHANNELS]> {
+            let scan = add_channel::<PointCloud>(&mut w, TOPIC_SCAN)?;
+            let detector = add_channel::<SceneUpdate>(&mut w, TOPIC_DETECTOR)?;
+            let lookahead = add_channel::<SceneUpdate>(&mut w, TOPIC_LOOKAHEAD)?;
+            let tf = add_channel::<FrameTransforms>(&mut w, TOPIC_TF)?;
+            let track = add_channel::<SceneUpdate>(&mut w, TOPIC_TRACK)?;
+            let vehicles = add_channel::<SceneUpdate>(&mut w, TOPIC_VEHICLES)?;
+            let schema = w.add_schema(STATE_SCHEMA, "jsonschema", state_json_schema().as_bytes())?;
+            let state = Channel { id: w.add_channel(schema, TOPIC_STATE, "json", &BTreeMap::new())?, sequence: 0 };
+            let scenario_json = serde_json::to_string(scenario).unwrap_or_default();
+            let meta = BTreeMap::from([
+                ("scenario".to_string(), scenario_json),
+                ("flc_sim_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+            ]);
+            w.write_metadata(&mcap::records::Metadata { name: METADATA_SCENARIO.into(), metadata: meta })?;
+            Ok([scan, detector, lookahead, tf, track, vehicles, state])
+        };
+        let channels = open().map_err(|e| io_err(&path, e))?;
+        let l = &scenario.lidar;
+        let fields = ["x", "y"]
+            .iter()
+            .zip([0u32, 4])
+            .map(|(n, o)| PackedElementField { name: (*n).to_string(), offset: o, r#type: NumericType::Float32 as i32 })
+            .collect();
+        let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE);
+        let (spare_tx, spare) = std::sync::mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("flc-record".into())
+            .spawn(move || writer_loop(w, rx, spare_tx))
+            .map_err(|e| io_err(&path, e))?;
+        let mut rec = Self {
+            tx: Some(tx),
+            spare,
+            batch: Batch::default(),
+            thread: Some(thread),
+            path,
+            channels,
+            mount: (l.mount_x, l.mount_y, l.mount_yaw_deg.to_radians()),
+            fields,
+        };
+        let ns = time_ns(t);
+        rec.write(Ch::Track, ns, &SceneUpdate { deletions: vec![], entities: vec![track_entity(ns, track)] })?;
+        let (lv, fv) = (&scenario.lead.vehicle, &scenario.follower.vehicle);
+        let vehicles = vec![
+            vehicle_entity(ns, FRAME_LEAD, lv.length, lv.width, LEAD_COLOR),
+            vehicle_entity(ns, FRAME_FOLLOWER, fv.length, fv.width, FOLLOWER_COLOR),
+        ];
+        rec.write(Ch::Vehicles, ns, &SceneUpdate { deletions: vec![], entities: vehicles })?;
+        rec.poses(ns, lead, follower)?;
+        Ok(rec)
+    }
+
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn write<T: Encode>(&mut self, ch: Ch, log_ns: u64, msg: &T) -> Result<(), SimError> {
+        let start = self.batch.data.len();
+        if let Err(e) = msg.encode(&mut self.batch.data) {
+            self.batch.data.truncate(start);
+            return Err(io_err(&self.path, e));
+        }
+        self.push_message(ch, log_ns, start)
+    }
+
+    /// Queues the message encoded in `batch.data[start..]`.
+    fn push_message(&mut self, ch: Ch, log_ns: u64, start: usize) -> Result<(), SimError> {
+        let c = &mut self.channels[ch as usize];
+        let header = mcap::records::MessageHeader { channel_id: c.id, sequence: c.sequence, log_time: log_ns, publish_time: log_ns };
+        c.sequence += 1;
+        let end = self.batch.data.len();
+        self.push(Item::Message(header, start..end))
+    }
+
+    fn push(&mut self, item: Item) -> Result<(), SimError> {
+        if self.tx.is_none() {
+            return Err(io_err(&self.path, "the recording was already closed"));
+        }
+        self.batch.items.push(item);
+        if self.batch.items.len() >= BATCH_ITEMS || self.batch.data.len() >= BATCH_BYTES { self.flush_batch() } else { Ok(()) }
+    }
+
+    fn flush_batch(&mut self) -> Result<(), SimError> {
+        let next = self
+            .spare
+            .try_recv()
+            .unwrap_or_else(|_| Batch { data: Vec::with_capacity(BATCH_BYTES + (64 << 10)), items: Vec::with_capacity(BATCH_ITEMS) });
+        let batch = std::mem::replace(&mut self.batch, next);
+        match &self.tx {
+            Some(tx) if tx.send(batch).is_ok() => Ok(()),
+            // The writer thread stopped: report why.
+            _ => Err(self.close().err().unwrap_or_else(|| io_err(&self.path, "the recording was already closed"))),
+        }
+    }
+
+    /// Hands over what is batched, closes the queue and waits for the writer thread to finish the
+    /// file.
+    fn close(&mut self) -> Result<(), SimError> {
+        if let Some(tx) = &self.tx {
+            if !self.batch.items.is_empty() {
+                let _ = tx.send(std::mem::take(&mut self.batch));
+            }
+        }
+        drop(self.tx.take());
+        match self.thread.take().map(JoinHandle::join) {
+            None | Some(Ok(Ok(()))) => Ok(()),
+            Some(Ok(Err(e))) => Err(io_err(&self.path, e)),
+            Some(Err(_)) => Err(io_err(&self.path, "the writer thread panicked")),
+        }
+    }
+
+    fn poses(&mut self, ns: u64, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
+        let (mx, my, myaw) = self.mount;
+        let msg = FrameTransforms {
+            transforms: vec![
+                transform(ns, FRAME_WORLD, FRAME_LEAD, lead.x, lead.y, lead.yaw),
+                transform(ns, FRAME_WORLD, FRAME_FOLLOWER, follower.x, follower.y, follower.yaw),
+                transform(ns, FRAME_FOLLOWER, FRAME_LIDAR, mx, my, myaw),
+            ],
+        };
+        self.write(Ch::Tf, ns, &msg)
+    }
+
+    /// One delivered scan at simulation time `t`: the points, the detector's clusters
+    /// (`clusters[i].selected` marks the accepted lead; `detected` is the distance the controller
+    /// got, m) and the pure-pursuit lookahead point `(x, y)` in the follower's frame, m.
+    pub fn scan(
+        &mut self,
+        t: f64,
+        scan: &Scan,
+        clusters: &[ClusterInfo],
+        detected: Option<f64>,
+        lookahead: (f64, f64),
+    ) -> Result<(), SimError> {
+        let ns = time_ns(t);
+        let captured = stamp(time_ns(scan.t_captured));
+        // Points: x, y as float32, 8 bytes each.
+        let mut data = vec![0u8; scan.points.len() * 8];
+        for (p, out) in scan.points.iter().zip(data.chunks_exact_mut(8)) {
+            out[..4].copy_from_slice(&quantize(p[0]).to_le_bytes());
+            out[4..].copy_from_slice(&quantize(p[1]).to_le_bytes());
+        }
+        let cloud = PointCloud {
+            timestamp: Some(captured),
+            frame_id: FRAME_LIDAR.to_string(),
+            pose: Some(pose(0.0, 0.0, 0.0, 0.0)),
+            point_stride: 8,
+            fields: self.fields.clone(),
+            data: data.into(),
+        };
+        self.write(Ch::Scan, ns, &cloud)?;
+
+        // Clusters (replacing the previous scan's), one entity per status, and the accepted lead.
+        let mut groups: [Vec<CubePrimitive>; CLUSTER_STATUS.len()] = Default::default();
+        let mut entities = Vec::with_capacity(CLUSTER_STATUS.len() + 1);
+        for c in clusters {
+            if !(c.x_min.is_finite() && c.x_max.is_finite() && c.y_min.is_finite() && c.y_max.is_finite()) {
+                continue;
+            }
+            let (cx, cy) = (0.5 * (c.x_min + c.x_max), 0.5 * (c.y_min + c.y_max));
+            let size = v3((c.x_max - c.x_min).max(0.1), (c.y_max - c.y_min).max(0.1), 1.0);
+            let status = match (c.selected, c.rejection) {
+                (true, _) => 0,
+                (false, None) => 1,
+                (false, Some(r)) => CLUSTER_STATUS.iter().position(|(n, _)| *n == r.as_str()).unwrap_or(CLUSTER_STATUS.len() - 1),
+            };
+            let (_, color) = CLUSTER_STATUS[status];
+            groups[status].push(CubePrimitive { pose: Some(pose(cx, cy, 0.0, 0.0)), size: Some(size), color: Some(color) });
+            if c.selected {
+                let mut lead = entity(ns, FRAME_LIDAR, "lead");
+                lead.timestamp = Some(captured);
+                let d = detected.unwrap_or(f64::NAN);
+                lead.metadata = vec![kv("distance_m", format!("{d:.3}")), kv("points", c.points.to_string())];
+                let corners =
+                    [[c.x_min, c.y_min], [c.x_max, c.y_min], [c.x_max, c.y_max], [c.x_min, c.y_max]].map(|[x, y]| Point3 { x, y, z: 0.55 });
+                lead.lines.push(line(line_primitive::Type::LineLoop, corners.to_vec(), 0.12, rgba(0.1, 1.0, 0.2, 1.0)));
+                lead.texts.push(TextPrimitive {
+                    pose: Some(pose(c.x_min, cy, 1.8, 0.0)),
+                    billboard: true,
+                    font_size: 14.0,
+                    scale_invariant: true,
+                    color: Some(rgba(0.1, 1.0, 0.2, 1.0)),
+                    text: format!("lead {d:.2} m"),
+                });
+                entities.push(lead);
+            }
+        }
+        for ((name, _), cubes) in CLUSTER_STATUS.iter().zip(groups) {
+            if !cubes.is_empty() {
+                let mut e = entity(ns, FRAME_LIDAR, &format!("clusters/{name}"));
+                e.timestamp = Some(captured);
+                e.metadata = vec![kv("clusters", cubes.len().to_string())];
+                e.cubes = cubes;
+                entities.push(e);
+            }
+        }
+        let all = SceneEntityDeletion { timestamp: Some(captured), r#type: scene_entity_deletion::Type::All as i32, id: String::new() };
+        self.write(Ch::Detector, ns, &SceneUpdate { deletions: vec![all], entities })?;
+
+        // Lookahead point in the follower frame.
+        let (lx, ly) = lookahead;
+        let mut e = entity(ns, FRAME_FOLLOWER, "lookahead");
+        e.metadata = vec![kv("x_m", format!("{lx:.3}")), kv("y_m", format!("{ly:.3}"))];
+        e.spheres.push(SpherePrimitive { pose: Some(pose(lx, ly, 0.3, 0.0)), size: Some(v3(0.6, 0.6, 0.6)), color: Some(LOOKAHEAD_COLOR) });
+        e.lines.push(line(
+            line_primitive::Type::LineStrip,
+            vec![Point3 { x: 0.0, y: 0.0, z: 0.3 }, Point3 { x: lx, y: ly, z: 0.3 }],
+            0.05,
+            LOOKAHEAD_COLOR,
+        ));
+        self.write(Ch::Lookahead, ns, &SceneUpdate { deletions: vec![], entities: vec![e] })
+    }
+
+    /// One physics step: the vehicles' poses on [`TOPIC_TF`] and the step's record on
+    /// [`TOPIC_STATE`], both at `rec.t`.
+    pub fn step(&mut self, rec: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
+        let ns = time_ns(rec.t);
+        self.poses(ns, lead, follower)?;
+        let start = self.batch.data.len();
+        let msg = StateMessage { step: rec, active_name: active_name(rec.active), reason_name: reason_name(rec.reason) };
+        if let Err(e) = serde_json::to_writer(&mut self.batch.data, &msg) {
+            self.batch.data.truncate(start);
+            return Err(io_err(&self.path, e));
+        }
+        self.push_message(Ch::State, ns, start)
+    }
+
+    /// Writes the metrics (if given), the summary and the index, and closes the file.
+    pub fn finish(mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
+        if let Some(m) = metrics {
+            let meta = BTreeMap::from([("metrics".to_string(), serde_json::to_string(m).unwrap_or_default())]);
+            self.push(Item::Metadata(mcap::records::Metadata { name: METADATA_METRICS.into(), metadata: meta }))?;
+        }
+        self.close()?;
+        Ok(self.path.clone())
+    }
+}
+
+impl Drop for Recorder {
+    /// A run that stopped early still leaves a complete, indexed file (without `flc.metrics`):
+    /// the writer thread writes what was queued and finishes the file; errors are ignored here.
+    fn drop(&mut self) {
+        let _ = self.close();
+    }
+}
+
+// ---------------------------------------------------------------- interruptible runs
+
+/// Like [`crate::run_with`], but checks `stop` before every physics step: once it is set, the run
+/// ends there, the recording is finished (without `flc.metrics`) and the partial result returned.
+/// Callers tell an interrupted run by the flag.
+pub fn run_interruptible(scenario: &Scenario, record: Option<&Path>, stop: &AtomicBool) -> Result<RunResult, SimError> {
+    scenario.validate()?;
+    let mut sim = Simulation::new(scenario)?;
+    if let Some(dir) = record {
+        sim.record_to(dir)?;
+    }
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            sim.finish_recording(false)?;
+            return Ok(sim.finish());
+        }
+        if !sim.step()? {
+            break;
+        }
+    }
+    sim.finish_recording(true)?;
+    Ok(sim.finish())
+}
+
+/// [`crate::run_batch`] with recordings into `record` and the `stop` flag of
+/// [`run_interruptible`]; runs not started when `stop` is set are not started (an error each).
+pub fn run_batch_interruptible(
+    scenarios: &[Scenario],
+    progress: bool,
+    record: Option<&Path>,
+    stop: &AtomicBool,
+) -> Vec<Result<RunResult, SimError>> {
+    use rayon::prelude::*;
+    let bar = progress.then(|| {
+        let b = indicatif::ProgressBar::new(scenarios.len() as u64);
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed_precise} {msg}") {
+            b.set_style(style);
+        }
+        b
+    });
+    let out = scenarios
+        .par_iter()
+        .map(|s| {
+            if stop.load(Ordering::Relaxed) {
+                return Err(SimError::File { path: s.name.clone(), message: "interrupted before it started".into() });
+            }
+            let r = run_interruptible(s, record, stop);
+            if let Some(b) = &bar {
+                b.inc(1);
+            }
+            r
+        })
+        .collect();
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    out
+}
