@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
 use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +30,14 @@ pub enum ControllerKind {
     Pid,
     /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC otherwise).
     Pipeline,
+    /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
+    Idm,
+    /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
+    Acc,
+    /// Baseline under identical sensing: RSS safe-distance controller (`[rss]`).
+    Rss,
+    /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
+    CarlaBehavior,
 }
 
 impl ControllerKind {
@@ -38,17 +47,36 @@ impl ControllerKind {
             ControllerKind::Flc => "flc",
             ControllerKind::Pid => "pid",
             ControllerKind::Pipeline => "pipeline",
+            ControllerKind::Idm => "idm",
+            ControllerKind::Acc => "acc",
+            ControllerKind::Rss => "rss",
+            ControllerKind::CarlaBehavior => "carla-behavior",
         }
+    }
+
+    /// Every controller, in the order of the docs.
+    pub const ALL: [ControllerKind; 7] = [
+        ControllerKind::Flc,
+        ControllerKind::Pid,
+        ControllerKind::Pipeline,
+        ControllerKind::Idm,
+        ControllerKind::Acc,
+        ControllerKind::Rss,
+        ControllerKind::CarlaBehavior,
+    ];
+
+    /// Whether this controller uses V2V (the PID alone or inside the pipeline); the others see the
+    /// lead only through the LiDAR detector.
+    pub fn uses_v2v(self) -> bool {
+        matches!(self, ControllerKind::Pid | ControllerKind::Pipeline)
     }
 
     /// Parses the name used in scenario files and on the CLI.
     pub fn parse(s: &str) -> Result<Self, ConfigError> {
-        match s {
-            "flc" => Ok(ControllerKind::Flc),
-            "pid" => Ok(ControllerKind::Pid),
-            "pipeline" => Ok(ControllerKind::Pipeline),
-            other => Err(ConfigError::new("controller", format!("must be one of flc, pid, pipeline, got `{other}`"))),
-        }
+        Self::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|k| k.as_str()).collect();
+            ConfigError::new("controller", format!("must be one of {}, got `{s}`", names.join(", ")))
+        })
     }
 }
 
@@ -310,6 +338,14 @@ pub struct Scenario {
     pub pure_pursuit: PurePursuitParams,
     /// The parallel longitudinal controller.
     pub supervisor: SupervisorSpec,
+    /// Baseline: Intelligent Driver Model (`controller = "idm"`).
+    pub idm: IdmParams,
+    /// Baseline: Milanés & Shladover / SUMO ACC (`controller = "acc"`).
+    pub acc: AccParams,
+    /// Baseline: RSS safe-distance controller (`controller = "rss"`).
+    pub rss: RssParams,
+    /// Baseline: CARLA BehaviorAgent follower (`controller = "carla-behavior"`).
+    pub carla_behavior: CarlaBehaviorParams,
     /// Stop conditions.
     pub stop: StopSpec,
     /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
@@ -346,6 +382,9 @@ impl Calibration {
     }
 }
 
+/// How far above the lead's cruise speed the baselines' set speed is in the paper experiment, km/h.
+pub const BASELINE_SET_SPEED_MARGIN_KMH: f64 = 20.0;
+
 /// The four maximum speeds of the paper's experiment, km/h.
 pub const PAPER_SPEEDS_KMH: [f64; 4] = [30.0, 50.0, 70.0, 90.0];
 
@@ -367,10 +406,24 @@ impl Scenario {
             ],
         };
         match controller {
-            ControllerKind::Flc => v2v.enabled = false,
             ControllerKind::Pid => {}
             ControllerKind::Pipeline => v2v.outage_on_brake = true,
+            // LiDAR-only controllers: no V2V at all.
+            _ => v2v.enabled = false,
         }
+        // The baselines' set speed (they are cruise controllers, the lead is a follower's
+        // business only while it is ahead): 20 km/h above the lead's cruise speed, so that they
+        // follow the lead rather than cruise behind it (`docs/baselines.md`, "In the simulator").
+        let set_speed = (speed_kmh + BASELINE_SET_SPEED_MARGIN_KMH) * KMH;
+        let mut idm = IdmParams::default();
+        idm.desired_speed = set_speed;
+        let mut acc = AccParams::default();
+        acc.desired_speed = set_speed;
+        let mut rss = RssParams::default();
+        rss.desired_speed = set_speed;
+        let mut carla_behavior = CarlaBehaviorParams::default();
+        carla_behavior.cruise_speed = set_speed;
+        carla_behavior.speed_limit = set_speed;
         let mut s = Self {
             name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
             seed: 1,
@@ -387,6 +440,10 @@ impl Scenario {
             pid: PidParams::paper(),
             pure_pursuit: PurePursuitParams::default(),
             supervisor: SupervisorSpec::default(),
+            idm,
+            acc,
+            rss,
+            carla_behavior,
             stop: StopSpec::default(),
             speed_kmh: Some(speed_kmh),
         };
@@ -422,6 +479,10 @@ impl Scenario {
         core("flc", self.flc.validate())?;
         core("pid", self.pid.validate())?;
         core("pure_pursuit", self.pure_pursuit.validate())?;
+        core("idm", self.idm.validate())?;
+        core("acc", self.acc.validate())?;
+        core("rss", self.rss.validate())?;
+        core("carla_behavior", self.carla_behavior.validate())?;
         check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
@@ -438,6 +499,28 @@ impl Scenario {
             bumpless: self.supervisor.bumpless,
             flc: self.flc,
             pid: self.pid,
+        }
+    }
+
+    /// The steady-state gap the selected baseline keeps behind a lead at the follower's own speed
+    /// `v` (equal speeds), m; used for `gap_error_rms` (`docs/baselines.md`, "In the simulator").
+    /// IDM: its equilibrium `s*(v) / sqrt(1 - (v/v0)^delta)` (`s*(v)` at and above `v0`); ACC:
+    /// `min_gap + headway_time v`; RSS: `d_min(v, v) + margin`; CARLA: the upper edge of its
+    /// second TTC band at the floored closing speed, `2 safety_time min_closing_speed`. `NaN` for
+    /// the FLC, PID and pipeline (they have their own).
+    pub fn baseline_desired_gap(&self, v: f64) -> f64 {
+        let v = v.max(0.0);
+        match self.controller {
+            ControllerKind::Idm => {
+                let p = &self.idm;
+                let s_star = p.desired_gap(v, v);
+                let free = 1.0 - (v / p.desired_speed).powf(p.delta);
+                if free > 1e-6 { s_star / free.sqrt() } else { s_star }
+            }
+            ControllerKind::Acc => self.acc.min_gap + self.acc.headway_time * v,
+            ControllerKind::Rss => self.rss.safe_distance(v, v) + self.rss.margin,
+            ControllerKind::CarlaBehavior => 2.0 * self.carla_behavior.safety_time * self.carla_behavior.min_closing_speed,
+            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline => f64::NAN,
         }
     }
 

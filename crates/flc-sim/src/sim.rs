@@ -14,8 +14,9 @@
 
 use std::path::{Path, PathBuf};
 
+use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
 use flc_core::{
-    ActiveController, FallbackController, LeadDetector, PidController, Point2, PurePursuit, Supervisor, SwitchReason, V2vMessage,
+    ActiveController, Baseline, FallbackController, LeadDetector, PidController, Point2, PurePursuit, Supervisor, SwitchReason, V2vMessage,
 };
 
 use crate::error::SimError;
@@ -98,6 +99,7 @@ enum Longitudinal {
     Flc(FallbackController),
     Pid(PidController),
     Pipeline(Box<Supervisor>),
+    Baseline(Baseline),
 }
 
 /// A running closed-loop simulation (step it, then [`Simulation::finish`]).
@@ -165,6 +167,10 @@ impl Simulation {
             ControllerKind::Flc => Longitudinal::Flc(FallbackController::new(s.flc)?),
             ControllerKind::Pid => Longitudinal::Pid(PidController::new(s.pid)?),
             ControllerKind::Pipeline => Longitudinal::Pipeline(Box::new(Supervisor::new(s.supervisor_params())?)),
+            ControllerKind::Idm => Longitudinal::Baseline(IdmController::new(s.idm)?.into()),
+            ControllerKind::Acc => Longitudinal::Baseline(AccController::new(s.acc)?.into()),
+            ControllerKind::Rss => Longitudinal::Baseline(RssController::new(s.rss)?.into()),
+            ControllerKind::CarlaBehavior => Longitudinal::Baseline(CarlaBehaviorController::new(s.carla_behavior)?.into()),
         };
         let distance_offset = s.follower.distance_offset.unwrap_or(lf.length / 2.0 - s.lidar.mount_x);
         let lead_pp = flc_core::PurePursuitParams {
@@ -348,6 +354,9 @@ impl Simulation {
                 self.v2v_age = out.v2v_age_ticks;
                 out.command
             }
+            // The baselines get what the FLC gets plus the frame interval (their range-rate
+            // estimator needs it).
+            Longitudinal::Baseline(b) => b.step(distance, fs.speed, dt),
         };
         self.speed_cmd = cmd.speed;
     }
@@ -356,9 +365,10 @@ impl Simulation {
         let proj = self.track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
         // The desired gap of the controller that drives.
-        let desired = match self.active {
-            ActiveController::Pid => self.scenario.pid.desired_distance(fs.speed),
-            ActiveController::Flc => self.scenario.flc.desired_distance(fs.speed) + self.scenario.flc.f_shift(fs.speed),
+        let desired = match (&self.longitudinal, self.active) {
+            (Longitudinal::Baseline(_), _) => self.scenario.baseline_desired_gap(fs.speed),
+            (_, ActiveController::Pid) => self.scenario.pid.desired_distance(fs.speed),
+            (_, ActiveController::Flc) => self.scenario.flc.desired_distance(fs.speed) + self.scenario.flc.f_shift(fs.speed),
         };
         self.series.push(StepRecord {
             t: self.t,
