@@ -1,4 +1,4 @@
-"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic]``.
+"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope]``.
 
 Exit status 0 on success, 2 on bad arguments (argparse), 1 if matplotlib is missing.
 """
@@ -19,18 +19,53 @@ def _speeds(text: str) -> list[float]:
     return speeds
 
 
+def _controllers(text: str) -> list[str]:
+    from ._scenario import CONTROLLERS
+
+    names = [c.strip() for c in text.split(",") if c.strip()]
+    bad = [c for c in names if c not in CONTROLLERS]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(f"expected controllers from {', '.join(CONTROLLERS)}, got {text!r}")
+    return names
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
-    fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov) as PNG")
+    fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov) and the safety-envelope maps as PNG")
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
     fig.add_argument("--preset", choices=["paper", "realistic"], default="paper", help="vehicle preset of Fig. 4 (default paper)")
+    fig.add_argument("--no-envelope", action="store_true", help="skip the safety-envelope maps (about 1200 runs, ~30 s on 2 cores)")
+    fig.add_argument(
+        "--envelope-preset", choices=["paper", "realistic"], default="realistic", help="vehicle preset of the safety-envelope maps (default realistic)"
+    )
+    fig.add_argument(
+        "--envelope-speeds", type=_speeds, default=None, help="max speeds of the envelope maps, km/h, comma separated (default 30,40,...,150)"
+    )
+    fig.add_argument(
+        "--envelope-controllers",
+        type=_controllers,
+        default=None,
+        help="controllers of the envelope maps, comma separated (default flc,pid,idm,acc,rss,carla-behavior)",
+    )
+    fig.add_argument("--threads", type=int, default=None, help="worker threads of the envelope sweeps (default: all cores)")
     args = parser.parse_args(argv)
+    if args.threads is not None and args.threads < 1:
+        parser.error("--threads: expected a positive number")
     try:
+        from . import envelope
         from .figures import make_all
 
         paths = make_all(args.out, args.speeds, args.preset)
+        if not args.no_envelope:
+            paths += envelope.make_all(
+                args.out,
+                controllers=args.envelope_controllers or envelope.CONTROLLERS,
+                speeds_kmh=args.envelope_speeds or envelope.SPEEDS_KMH,
+                preset=args.envelope_preset,
+                threads=args.threads,
+            )
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

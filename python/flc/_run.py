@@ -49,8 +49,9 @@ def _result(scenario: Scenario, raw: tuple[str, dict[str, Any]]) -> RunResult:
 
 
 def run(scenario: Union[Scenario, Mapping[str, Any]], record: Optional[str] = None) -> RunResult:
-    """Run one scenario in Rust (GIL released). ``record`` (a directory for an MCAP recording) is
-    not implemented yet and raises an error."""
+    """Run one scenario in Rust (GIL released). With ``record`` (a directory), the run is also
+    written there as an MCAP recording for Foxglove (``docs/foxglove.md``; read it back with
+    :func:`flc.read_mcap`)."""
     sc = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
     return _result(sc, _flc.run(sc.to_json(), record))
 

@@ -1,19 +1,39 @@
-"""Safety envelope: read sweep results (``scenario sweep`` CSV), summarise them per controller and
-draw maps of minimum gap / impact speed with the collision boundary.
+"""Safety envelope: run or read sweeps, summarise them per controller and draw maps of minimum
+gap / impact speed with the collision boundary (``docs/safety-envelope.md``).
 
-    scenario sweep sweeps/envelope-decel.toml --out decel.csv
-    python -m flc envelope decel.csv --x speed_kmh --y lead_decel --out docs/figures
+Two sources, the same columns:
+
+* :func:`run_grid` runs the paper scenario family over (max speed x one more axis) per controller
+  from Python (parallel in Rust, or on any ``concurrent.futures`` executor);
+* :func:`load_sweep` reads the CSV of ``scenario sweep FILE.toml --out CSV``.
+
+:func:`make_all` is what ``python -m flc figures`` calls: both grids (speed x lead deceleration,
+speed x LiDAR latency) for every controller, maps, bar charts and summary tables.
 """
 from __future__ import annotations
 
 import csv
 import os
 from pathlib import Path
-from typing import Any, Optional, Sequence, Union
+from concurrent.futures import Executor
+from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 PathLike = Union[str, "os.PathLike[str]"]
+#: Sweep columns: text columns as string arrays, everything else as float arrays.
+Columns = dict[str, np.ndarray]
+Source = Union[PathLike, Mapping[str, np.ndarray]]
+
+#: Controllers of the default maps: the paper's FLC, the paper's PID with true V2V (the upper
+#: reference) and the four baselines under identical sensing (``docs/baselines.md``).
+CONTROLLERS = ("flc", "pid", "idm", "acc", "rss", "carla-behavior")
+#: Max speeds of the default maps, km/h.
+SPEEDS_KMH = tuple(float(v) for v in range(30, 151, 10))
+#: Lead decelerations of the speed x deceleration map, m/s².
+LEAD_DECELS = tuple(float(v) for v in range(2, 10))
+#: LiDAR latencies of the speed x latency map, frames (0-300 ms at 20 Hz).
+LATENCY_FRAMES = tuple(float(v) for v in range(0, 7))
 
 
 def _num(v: str) -> float:
@@ -43,6 +63,78 @@ def load_sweep(path: PathLike) -> dict[str, np.ndarray]:
     return cols
 
 
+#: Axis / colour-bar labels with units.
+LABELS = {
+    "speed_kmh": "max speed (km/h)",
+    "lead_decel": "lead deceleration (m/s²)",
+    "lidar.latency_frames": "LiDAR latency (frames, 50 ms each at 20 Hz)",
+    "min_gap": "min gap (m)",
+    "impact_speed": "impact speed (m/s)",
+}
+
+
+def _label(key: str) -> str:
+    return LABELS.get(key, key)
+
+
+def _scenario_with(speed_kmh: float, controller: str, preset: str, seed: int, key: str, value: float) -> Any:
+    from ._scenario import Scenario
+
+    sc = Scenario.paper(speed_kmh=speed_kmh, controller=controller, preset=preset, seed=seed)
+    if key == "speed_kmh":
+        return sc
+    d = sc.to_dict()
+    if key == "lead_decel":
+        brakes = [ph for ph in d["lead"]["phases"] if ph.get("kind") == "brake"]
+        for ph in brakes:
+            ph["decel"] = float(value)
+        return Scenario.from_dict(d)
+    return Scenario.from_dict(d, **{key: int(value) if float(value).is_integer() else value})
+
+
+def run_grid(
+    y: str = "lead_decel",
+    y_values: Sequence[float] = LEAD_DECELS,
+    controllers: Sequence[str] = CONTROLLERS,
+    speeds_kmh: Sequence[float] = SPEEDS_KMH,
+    preset: str = "realistic",
+    seed: int = 1,
+    threads: Optional[int] = None,
+    executor: Optional[Executor] = None,
+) -> Columns:
+    """Runs the paper scenario family (``flc.Scenario.paper``) for every controller x max speed x
+    ``y`` value and returns the same columns as :func:`load_sweep` (``controller``, ``speed_kmh``,
+    ``y`` and every metric of ``scenario --json``). ``y`` is ``"lead_decel"`` (the brake phase's
+    deceleration, m/s²) or any dotted scenario key (e.g. ``"lidar.latency_frames"``). Run ``i``
+    (controller-major, ``y`` fastest) gets the seed ``scenario sweep`` gives its run ``i`` for the
+    sweep seed ``seed``, so ``sweeps/envelope-decel.toml`` gives the same rows."""
+    from ._run import sweep
+
+    from . import _flc
+
+    keys = [(c, float(v), float(w)) for c in controllers for v in speeds_kmh for w in y_values]
+    # Run i gets the seed `scenario sweep` gives run i, so a sweep file with the axes controller,
+    # speed_kmh, y (in that order) and the same seed has exactly these rows.
+    scs = [_scenario_with(v, c, preset, _flc.sweep_run_seed(seed, i), y, w) for i, (c, v, w) in enumerate(keys)]
+    results = sweep(scs, threads=threads, executor=executor)
+    cols: Columns = {"controller": np.array([c for c, _, _ in keys], dtype=str)}
+    cols["speed_kmh"] = np.array([v for _, v, _ in keys])
+    cols[y] = np.array([w for _, _, w in keys])
+    names = [k for k, val in results[0].metrics.items() if isinstance(val, (bool, int, float)) or val is None] if results else []
+    for k in names:
+        if k in cols:
+            continue
+        vals = [r.metrics.get(k) for r in results]
+        cols[k] = np.array([float("nan") if x is None else float(x) for x in vals])
+    return cols
+
+
+def _cols(source: Source) -> Columns:
+    if isinstance(source, Mapping):
+        return {k: np.asarray(v) for k, v in source.items()}
+    return load_sweep(source)
+
+
 def highest_safe(speeds: np.ndarray, collided: np.ndarray) -> float:
     """Highest speed such that no run at that speed or below collided (NaN if the lowest collided)."""
     order = np.argsort(speeds)
@@ -56,11 +148,11 @@ def highest_safe(speeds: np.ndarray, collided: np.ndarray) -> float:
 
 def summary(cols: dict[str, np.ndarray], group: str = "lead_decel") -> list[dict[str, Any]]:
     """One row per (controller, ``group`` value): highest collision-free speed, min TTC and max
-    DRAC over the group, comfort (max decel, max jerk, time above 3.5 m/s²) and gap keeping."""
+    DRAC over the group (and the median over its runs of each run's min TTC / max DRAC), comfort (max decel, max jerk, time above 3.5 m/s²) and gap keeping."""
     out: list[dict[str, Any]] = []
     ctrls = cols["controller"]
     gvals = cols[group] if group in cols else np.zeros(len(ctrls))
-    for c in sorted(set(ctrls.tolist())):
+    for c in _ordered(ctrls):
         for g in sorted(set(gvals[ctrls == c].tolist())):
             m = (ctrls == c) & (gvals == g)
 
@@ -77,7 +169,9 @@ def summary(cols: dict[str, np.ndarray], group: str = "lead_decel") -> list[dict
                     "collisions": int(np.nansum(cols["collision"][m])),
                     "highest_safe_speed_kmh": highest_safe(cols["speed_kmh"][m], cols["collision"][m] > 0.5),
                     "min_ttc": agg("min_ttc", np.min),
+                    "median_min_ttc": agg("min_ttc", np.median),
                     "max_drac": agg("max_drac", np.max),
+                    "median_max_drac": agg("max_drac", np.median),
                     "max_decel": agg("max_decel", np.max),
                     "max_jerk": agg("max_jerk", np.max),
                     "time_hard_braking": agg("time_hard_braking", np.max),
@@ -100,14 +194,14 @@ def _grid(cols: dict[str, np.ndarray], mask: np.ndarray, x: str, y: str, value: 
 
 
 def fig_maps(
-    path: PathLike,
+    path: Source,
     x: str = "speed_kmh",
     y: str = "lead_decel",
     value: str = "min_gap",
     out: Optional[PathLike] = None,
 ) -> Any:
     """Heatmaps of ``value`` over (``x``, ``y``), one panel per controller; collisions are marked
-    and the collision boundary (collision = 0.5) is drawn."""
+    and the collision boundary (collision = 0.5) is drawn. ``path``: a sweep CSV or columns."""
     try:
         import matplotlib
 
@@ -116,20 +210,24 @@ def fig_maps(
         import matplotlib.pyplot as plt
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("flc.envelope figures need matplotlib: pip install 'flc[plot]'") from e
-    cols = load_sweep(path)
-    ctrls = sorted(set(cols["controller"].tolist()))
-    fig, axes = plt.subplots(1, len(ctrls), figsize=(5.0 * len(ctrls), 4.2), squeeze=False, constrained_layout=True)
-    for ax, c in zip(axes[0], ctrls):
+    cols = _cols(path)
+    ctrls = _ordered(cols["controller"])
+    ncol = min(3, len(ctrls))
+    nrow = (len(ctrls) + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.0 * ncol, 4.2 * nrow), squeeze=False, constrained_layout=True)
+    for ax in axes.flat[len(ctrls):]:
+        ax.set_visible(False)
+    for ax, c in zip(axes.flat, ctrls):
         xs, ys, z, col = _grid(cols, cols["controller"] == c, x, y, value)
         im = ax.pcolormesh(xs, ys, z, shading="nearest", cmap="viridis")
-        fig.colorbar(im, ax=ax, label=value)
+        fig.colorbar(im, ax=ax, label=_label(value))
         if xs.size >= 2 and ys.size >= 2 and np.nanmax(col) > 0.5 > np.nanmin(col):
             ax.contour(xs, ys, col, levels=[0.5], colors="red", linewidths=2)
         ii, jj = np.nonzero(col > 0.5)
         ax.scatter(xs[jj], ys[ii], marker="x", color="red", label="collision" if ii.size else None)
         ax.set_title(f"{c}: {value}")
-        ax.set_xlabel(x)
-        ax.set_ylabel(y)
+        ax.set_xlabel(_label(x))
+        ax.set_ylabel(_label(y))
         if ii.size:
             ax.legend(loc="upper left")
     if out is not None:
@@ -137,7 +235,13 @@ def fig_maps(
     return fig
 
 
-def fig_highest_speed(path: PathLike, group: str = "lead_decel", out: Optional[PathLike] = None) -> Any:
+def _ordered(ctrls: np.ndarray) -> list[str]:
+    """Controllers present, in the order of :data:`CONTROLLERS` (others after, sorted)."""
+    present = set(ctrls.tolist())
+    return [c for c in CONTROLLERS if c in present] + sorted(present - set(CONTROLLERS))
+
+
+def fig_highest_speed(path: Source, group: str = "lead_decel", out: Optional[PathLike] = None) -> Any:
     """Bar chart of the highest collision-free speed per controller (and ``group`` value)."""
     import matplotlib
 
@@ -145,16 +249,16 @@ def fig_highest_speed(path: PathLike, group: str = "lead_decel", out: Optional[P
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = summary(load_sweep(path), group)
-    ctrls = sorted({r["controller"] for r in rows})
+    rows = summary(_cols(path), group)
+    ctrls = _ordered(np.array([r["controller"] for r in rows], dtype=str))
     groups = sorted({r[group] for r in rows})
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
     width = 0.8 / max(1, len(ctrls))
     for k, c in enumerate(ctrls):
         vals = [next((r["highest_safe_speed_kmh"] for r in rows if r["controller"] == c and r[group] == g), np.nan) for g in groups]
         ax.bar(np.arange(len(groups)) + k * width, np.nan_to_num(vals), width, label=c)
     ax.set_xticks(np.arange(len(groups)) + width * (len(ctrls) - 1) / 2, [f"{g:g}" for g in groups])
-    ax.set_xlabel(group)
+    ax.set_xlabel(_label(group))
     ax.set_ylabel("highest collision-free speed (km/h)")
     ax.legend()
     if out is not None:
@@ -173,8 +277,10 @@ def write_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def make_maps(path: PathLike, out_dir: PathLike, x: str, y: str, stem: str) -> list[Path]:
-    """Writes ``<stem>-min_gap.png``, ``<stem>-impact_speed.png`` and ``<stem>-highest-speed.png``."""
+def make_maps(path: Source, out_dir: PathLike, x: str, y: str, stem: str) -> list[Path]:
+    """Writes ``<stem>-min_gap.png``, ``<stem>-impact_speed.png``, ``<stem>-highest-speed.png`` and
+    the summary table ``<stem>-summary.md`` (``path``: a sweep CSV or columns)."""
+    path = _cols(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -185,4 +291,26 @@ def make_maps(path: PathLike, out_dir: PathLike, x: str, y: str, stem: str) -> l
     p = out / f"{stem}-highest-speed.png"
     fig_highest_speed(path, y, p)
     written.append(p)
+    p = out / f"{stem}-summary.md"
+    p.write_text(write_table(summary(path, y)))
+    written.append(p)
+    return written
+
+
+def make_all(
+    out_dir: PathLike,
+    controllers: Sequence[str] = CONTROLLERS,
+    speeds_kmh: Sequence[float] = SPEEDS_KMH,
+    preset: str = "realistic",
+    threads: Optional[int] = None,
+) -> list[Path]:
+    """Both default maps for ``controllers``: ``envelope-decel-*`` (speed x lead deceleration,
+    :data:`LEAD_DECELS`) and ``envelope-latency-*`` (speed x LiDAR latency, lead at -6 m/s²,
+    :data:`LATENCY_FRAMES`), with ``preset`` (``"realistic"`` or ``"paper"``; the paper preset's
+    files get a ``-paper`` suffix). Returns the written paths."""
+    suffix = "" if preset == "realistic" else f"-{preset}"
+    written: list[Path] = []
+    for stem, y, values in (("envelope-decel", "lead_decel", LEAD_DECELS), ("envelope-latency", "lidar.latency_frames", LATENCY_FRAMES)):
+        cols = run_grid(y, values, controllers, speeds_kmh, preset, threads=threads)
+        written += make_maps(cols, out_dir, "speed_kmh", y, stem + suffix)
     return written

@@ -94,7 +94,7 @@ def _cli(*args):
 
 def test_cli_writes_three_pngs(tmp_path):
     out = tmp_path / "figs"
-    r = _cli("figures", "--out", str(out), "--speeds", "30")
+    r = _cli("figures", "--out", str(out), "--speeds", "30", "--no-envelope")
     assert r.returncode == 0, r.stderr
     names = ("following.png", "truncated_cosine.png", "lyapunov.png")
     assert r.stdout.split() == [str(out / n) for n in names]
@@ -111,6 +111,9 @@ def test_cli_writes_three_pngs(tmp_path):
         ("figures", "--out", "x", "--speeds", ""),
         ("figures", "--out", "x", "--speeds", "-30"),
         ("figures", "--out", "x", "--preset", "carla"),
+        ("figures", "--out", "x", "--envelope-controllers", "flc,lqr"),
+        ("figures", "--out", "x", "--envelope-speeds", "0"),
+        ("figures", "--out", "x", "--threads", "0"),
         ("figures",),
         ("plots", "--out", "x"),
         (),

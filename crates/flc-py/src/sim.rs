@@ -104,7 +104,14 @@ fn bench_rust_run(py: Python<'_>, scenario_json: &str, repeats: usize) -> PyResu
     })
 }
 
+/// The seed `scenario sweep` gives run `run_id` of a sweep with seed `sweep_seed`.
+#[pyfunction]
+fn sweep_run_seed(sweep_seed: u64, run_id: usize) -> u64 {
+    flc_sim::sweep::run_seed(sweep_seed, run_id)
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(check_scenario, m)?)?;

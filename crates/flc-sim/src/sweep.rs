@@ -233,7 +233,7 @@ impl SweepSpec {
             let key = e.path().to_string();
             ConfigError::new(key, e.into_inner().to_string())
         })?;
-        s.seed = crate::sim::sub_seed(self.seed, id as u64 + 1000);
+        s.seed = run_seed(self.seed, id);
         s.validate()?;
         Ok(s)
     }
@@ -285,6 +285,13 @@ fn csv_field(v: &Value) -> String {
         Value::String(s) => s.clone(),
         other => other.to_string(),
     }
+}
+
+/// The seed of run `run_id` of a sweep with seed `sweep_seed` (its own SplitMix64 stream), so
+/// that any tool enumerating the same grid in the same order (e.g. `flc.envelope.run_grid`)
+/// reproduces the sweep's rows exactly.
+pub fn run_seed(sweep_seed: u64, run_id: usize) -> u64 {
+    crate::sim::sub_seed(sweep_seed, run_id as u64 + 1000)
 }
 
 /// One finished row: `run_id, <axes...>, controller, seed, <metrics...>`.
