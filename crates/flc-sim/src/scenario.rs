@@ -415,15 +415,10 @@ impl Scenario {
         // business only while it is ahead): 20 km/h above the lead's cruise speed, so that they
         // follow the lead rather than cruise behind it (`docs/baselines.md`, "In the simulator").
         let set_speed = (speed_kmh + BASELINE_SET_SPEED_MARGIN_KMH) * KMH;
-        let mut idm = IdmParams::default();
-        idm.desired_speed = set_speed;
-        let mut acc = AccParams::default();
-        acc.desired_speed = set_speed;
-        let mut rss = RssParams::default();
-        rss.desired_speed = set_speed;
-        let mut carla_behavior = CarlaBehaviorParams::default();
-        carla_behavior.cruise_speed = set_speed;
-        carla_behavior.speed_limit = set_speed;
+        let idm = IdmParams { desired_speed: set_speed, ..Default::default() };
+        let acc = AccParams { desired_speed: set_speed, ..Default::default() };
+        let rss = RssParams { desired_speed: set_speed, ..Default::default() };
+        let carla_behavior = CarlaBehaviorParams { cruise_speed: set_speed, speed_limit: set_speed, ..Default::default() };
         let mut s = Self {
             name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
             seed: 1,
