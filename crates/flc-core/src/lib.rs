@@ -7,6 +7,7 @@
 //! | module | paper | what it does |
 //! |---|---|---|
 //! | [`flc`] | Sec. III-B, Eqs. (2)-(5) | the fallback longitudinal controller (LiDAR distance + own speed only) |
+//! | [`flc_robust`] | beyond the paper (issue 7) | a rate-invariant, collision-free-to-130-km/h variant with the same inputs |
 //! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
 //! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
 //! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
@@ -39,6 +40,7 @@ pub mod capi;
 pub mod command;
 pub mod detector;
 pub mod flc;
+pub mod flc_robust;
 pub mod params;
 pub mod pid;
 pub mod pure_pursuit;
@@ -48,6 +50,7 @@ pub use baselines::{Baseline, BaselineKind, NoLeadPolicy};
 pub use command::{LongitudinalCommand, Status};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
+pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 pub use params::ParamError;
 pub use pid::{GainSet, PidController, PidGains, PidParams, PidTerms};
 pub use pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
-use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams};
+use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFlcParams};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, SimError, check_range};
@@ -38,6 +38,9 @@ pub enum ControllerKind {
     Rss,
     /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
     CarlaBehavior,
+    /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
+    /// `[flc_robust]`, `docs/robust-flc.md`).
+    FlcRobust,
 }
 
 impl ControllerKind {
@@ -51,11 +54,12 @@ impl ControllerKind {
             ControllerKind::Acc => "acc",
             ControllerKind::Rss => "rss",
             ControllerKind::CarlaBehavior => "carla-behavior",
+            ControllerKind::FlcRobust => "flc-robust",
         }
     }
 
     /// Every controller, in the order of the docs.
-    pub const ALL: [ControllerKind; 7] = [
+    pub const ALL: [ControllerKind; 8] = [
         ControllerKind::Flc,
         ControllerKind::Pid,
         ControllerKind::Pipeline,
@@ -63,6 +67,7 @@ impl ControllerKind {
         ControllerKind::Acc,
         ControllerKind::Rss,
         ControllerKind::CarlaBehavior,
+        ControllerKind::FlcRobust,
     ];
 
     /// Whether this controller uses V2V (the PID alone or inside the pipeline); the others see the
@@ -253,6 +258,10 @@ pub struct FollowerSpec {
     /// lead's rear face) minus this offset, m. `None` (default) = the LiDAR's distance behind the
     /// front bumper, so the controllers see the bumper-to-bumper gap.
     pub distance_offset: Option<f64>,
+    /// Steer along the lane centre instead of pursuing the detected lead (the paper's pipeline
+    /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
+    /// and the detector's corridor follows the lane. Default `false`.
+    pub lane_keeping: bool,
 }
 
 impl Default for FollowerSpec {
@@ -263,6 +272,7 @@ impl Default for FollowerSpec {
             vehicle: VehicleParams::default(),
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,
+            lane_keeping: false,
         }
     }
 }
@@ -346,6 +356,8 @@ pub struct Scenario {
     pub rss: RssParams,
     /// Baseline: CARLA BehaviorAgent follower (`controller = "carla-behavior"`).
     pub carla_behavior: CarlaBehaviorParams,
+    /// Beyond the paper: the robust FLC (`controller = "flc-robust"`, `docs/robust-flc.md`).
+    pub flc_robust: RobustFlcParams,
     /// Stop conditions.
     pub stop: StopSpec,
     /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
@@ -439,6 +451,7 @@ impl Scenario {
             acc,
             rss,
             carla_behavior,
+            flc_robust: RobustFlcParams::default(),
             stop: StopSpec::default(),
             speed_kmh: Some(speed_kmh),
         };
@@ -478,6 +491,7 @@ impl Scenario {
         core("acc", self.acc.validate())?;
         core("rss", self.rss.validate())?;
         core("carla_behavior", self.carla_behavior.validate())?;
+        core("flc_robust", self.flc_robust.validate())?;
         check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
@@ -515,7 +529,7 @@ impl Scenario {
             ControllerKind::Acc => self.acc.min_gap + self.acc.headway_time * v,
             ControllerKind::Rss => self.rss.safe_distance(v, v) + self.rss.margin,
             ControllerKind::CarlaBehavior => 2.0 * self.carla_behavior.safety_time * self.carla_behavior.min_closing_speed,
-            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline => f64::NAN,
+            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline | ControllerKind::FlcRobust => f64::NAN,
         }
     }
 

@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 
 use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
 use flc_core::{
-    ActiveController, Baseline, FallbackController, LeadDetector, PidController, Point2, PurePursuit, Supervisor, SwitchReason, V2vMessage,
+    ActiveController, Baseline, FallbackController, LeadDetector, PidController, Point2, PurePursuit, RobustFallbackController, Supervisor,
+    SwitchReason, V2vMessage,
 };
 
 use crate::error::SimError;
@@ -100,6 +101,7 @@ enum Longitudinal {
     Pid(PidController),
     Pipeline(Box<Supervisor>),
     Baseline(Baseline),
+    FlcRobust(RobustFallbackController),
 }
 
 /// A running closed-loop simulation (step it, then [`Simulation::finish`]).
@@ -171,6 +173,7 @@ impl Simulation {
             ControllerKind::Acc => Longitudinal::Baseline(AccController::new(s.acc)?.into()),
             ControllerKind::Rss => Longitudinal::Baseline(RssController::new(s.rss)?.into()),
             ControllerKind::CarlaBehavior => Longitudinal::Baseline(CarlaBehaviorController::new(s.carla_behavior)?.into()),
+            ControllerKind::FlcRobust => Longitudinal::FlcRobust(RobustFallbackController::new(s.flc_robust)?),
         };
         let distance_offset = s.follower.distance_offset.unwrap_or(lf.length / 2.0 - s.lidar.mount_x);
         let lead_pp = flc_core::PurePursuitParams {
@@ -319,18 +322,26 @@ impl Simulation {
         let detection = det.detection;
         let distance = detection.map(|d| d.distance - self.distance_offset);
         self.detected = distance;
-        // Pure pursuit in the vehicle frame (sensor offset added).
-        let lead_pos = detection.map(|d| Point2::new(d.position.x + self.scenario.lidar.mount_x, d.position.y + self.scenario.lidar.mount_y));
-        let steer = self.pursuit.step(lead_pos, fs.speed);
-        self.steer_cmd = steer.steer;
-        self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
-        // Path for the detector's corridor on the next scan: the arc from the sensor through the
-        // lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight without one.
-        self.path_curvature = detection.map_or(0.0, |d| {
-            let (x, y) = (d.position.x, d.position.y);
-            let r2 = x * x + y * y;
-            if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
-        });
+        if self.scenario.follower.lane_keeping {
+            // Lane keeping (lead-change scenarios): steer along the lane centre like the lead's
+            // driver; the detector's corridor follows the lane.
+            let s = self.track.project(fs.x, fs.y).s;
+            self.steer_cmd = self.lead_centreline_steer(fs, s, 0.0);
+            self.path_curvature = self.track.curvature_at(s);
+        } else {
+            // Pure pursuit in the vehicle frame (sensor offset added).
+            let lead_pos = detection.map(|d| Point2::new(d.position.x + self.scenario.lidar.mount_x, d.position.y + self.scenario.lidar.mount_y));
+            let steer = self.pursuit.step(lead_pos, fs.speed);
+            self.steer_cmd = steer.steer;
+            self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
+            // Path for the detector's corridor on the next scan: the arc from the sensor through the
+            // lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight without one.
+            self.path_curvature = detection.map_or(0.0, |d| {
+                let (x, y) = (d.position.x, d.position.y);
+                let r2 = x * x + y * y;
+                if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
+            });
+        }
         let dt = self.last_tick_t.map_or(1.0 / self.scenario.lidar.rate_hz, |p| t - p);
         self.last_tick_t = Some(t);
         let msg = self.mailbox.take();
@@ -357,6 +368,8 @@ impl Simulation {
             // The baselines get what the FLC gets plus the frame interval (their range-rate
             // estimator needs it).
             Longitudinal::Baseline(b) => b.step(distance, fs.speed, dt),
+            // The robust FLC gets exactly what the FLC gets (no dt).
+            Longitudinal::FlcRobust(c) => c.step(distance, fs.speed),
         };
         self.speed_cmd = cmd.speed;
     }
@@ -367,6 +380,7 @@ impl Simulation {
         // The desired gap of the controller that drives.
         let desired = match (&self.longitudinal, self.active) {
             (Longitudinal::Baseline(_), _) => self.scenario.baseline_desired_gap(fs.speed),
+            (Longitudinal::FlcRobust(c), _) => c.params().desired_gap(fs.speed),
             (_, ActiveController::Pid) => self.scenario.pid.desired_distance(fs.speed),
             (_, ActiveController::Flc) => self.scenario.flc.desired_distance(fs.speed) + self.scenario.flc.f_shift(fs.speed),
         };
