@@ -8,7 +8,16 @@ Units are SI (m, m/s, m/s², s, rad); only arguments named ``*_kmh`` are in km/h
 """
 from __future__ import annotations
 
-from ._controllers import Command, FallbackController, LeadDetector, PidController, PurePursuit, Steering, Supervisor
+from ._controllers import (
+    Command,
+    FallbackController,
+    LeadDetector,
+    PidController,
+    PurePursuit,
+    RobustFallbackController,
+    Steering,
+    Supervisor,
+)
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
 from ._run import RunResult, run, sweep
@@ -22,6 +31,7 @@ __all__ = [
     "ParameterError",
     "PidController",
     "PurePursuit",
+    "RobustFallbackController",
     "RunResult",
     "Scenario",
     "ScenarioError",

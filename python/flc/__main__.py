@@ -47,7 +47,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "--envelope-controllers",
         type=_controllers,
         default=None,
-        help="controllers of the envelope maps, comma separated (default flc,pid,idm,acc,rss,carla-behavior)",
+        help="controllers of the envelope maps, comma separated (default flc,pid,idm,acc,rss,carla-behavior,flc-robust)",
     )
     fig.add_argument("--threads", type=int, default=None, help="worker threads of the envelope sweeps (default: all cores)")
     args = parser.parse_args(argv)

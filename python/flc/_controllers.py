@@ -43,6 +43,31 @@ class FallbackController:
         self._inner.reset()
 
 
+class RobustFallbackController:
+    """The robust FLC (beyond the paper, ``docs/robust-flc.md``): the same inputs as the paper's
+    FLC (LiDAR distance + own speed, no dt), a rate-invariant law.
+
+    Keyword arguments are the fields of ``RobustFlcParams`` (``standstill_gap``, ``time_gap``,
+    ``brake_gain``, ``envelope_decel``, ...); defaults are the documented design.
+    """
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.RobustFallbackController(params_json("flc_robust", params))
+
+    def step(self, distance: Optional[float], own_speed: float) -> Command:
+        """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
+        return Command(*self._inner.step(distance, own_speed))
+
+    def terms(self) -> dict[str, Any]:
+        """Terms of the last step (desired_gap, gap_error, gap_speed, envelope_speed, target_speed,
+        revealed, latched, latch_min_distance, a)."""
+        return dict(self._inner.terms())
+
+    def reset(self) -> None:
+        """Forget the history (the next detection is a first detection)."""
+        self._inner.reset()
+
+
 class PidController:
     """The V2V PID gap controller of Sec. III-A.3 (time gap 0.5 s, far / near gains)."""
 

@@ -12,11 +12,11 @@ from ._flc import ScenarioError
 #: Sections of a scenario; a keyword ``<section>_<key>`` overrides ``[section] key``.
 SECTIONS = (
     "follower", "lead", "lidar", "v2v", "detector", "flc", "pid", "pure_pursuit", "supervisor", "stop", "track",
-    "idm", "acc", "rss", "carla_behavior",
+    "idm", "acc", "rss", "carla_behavior", "flc_robust",
 )
 
 #: Controller names accepted by ``controller=`` (``docs/scenarios.md``, ``docs/baselines.md``).
-CONTROLLERS = ("flc", "pid", "pipeline", "idm", "acc", "rss", "carla-behavior")
+CONTROLLERS = ("flc", "pid", "pipeline", "idm", "acc", "rss", "carla-behavior", "flc-robust")
 
 
 def _set_path(d: dict[str, Any], path: list[str], value: Any, full: str) -> None:
@@ -57,8 +57,8 @@ class Scenario:
     @classmethod
     def paper(cls, speed_kmh: float = 50.0, controller: str = "flc", preset: str = "realistic", **overrides: Any) -> "Scenario":
         """The paper's experiment at ``speed_kmh`` (km/h) with ``controller`` in
-        :data:`CONTROLLERS` ("flc", "pid", "pipeline", or a baseline under identical sensing:
-        "idm", "acc", "rss", "carla-behavior") and ``preset`` in {"realistic", "paper"}."""
+        :data:`CONTROLLERS` ("flc", "pid", "pipeline", a baseline under identical sensing:
+        "idm", "acc", "rss", "carla-behavior", or the robust FLC "flc-robust") and ``preset`` in {"realistic", "paper"}."""
         if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):
             raise ScenarioError(f"`speed_kmh`: expected a number, got {type(speed_kmh).__name__}")
         base = json.loads(_flc.paper_scenario(float(speed_kmh), controller, preset))

@@ -26,8 +26,9 @@ Columns = dict[str, np.ndarray]
 Source = Union[PathLike, Mapping[str, np.ndarray]]
 
 #: Controllers of the default maps: the paper's FLC, the paper's PID with true V2V (the upper
-#: reference) and the four baselines under identical sensing (``docs/baselines.md``).
-CONTROLLERS = ("flc", "pid", "idm", "acc", "rss", "carla-behavior")
+#: reference), the four baselines under identical sensing (``docs/baselines.md``) and the robust
+#: FLC (``docs/robust-flc.md``).
+CONTROLLERS = ("flc", "pid", "idm", "acc", "rss", "carla-behavior", "flc-robust")
 #: Max speeds of the default maps, km/h.
 SPEEDS_KMH = tuple(float(v) for v in range(30, 151, 10))
 #: Lead decelerations of the speed x deceleration map, m/s².

@@ -2,7 +2,8 @@
 
 * :func:`fig_following` — Fig. 4: trajectories, gap over time and lead speed per max speed, FLC vs PID;
 * :func:`fig_truncated_cosine` — Fig. 2: the acceleration law of Eq. (5) for both Delta_d branches;
-* :func:`fig_lyapunov` — Sec. III-C: phase portrait of Eq. (7) and the sign of dV/dt for Eq. (8).
+* :func:`fig_lyapunov` — Sec. III-C: phase portrait of Eq. (7) and the sign of dV/dt for Eq. (8);
+* :func:`fig_robust_lyapunov` — Sec. III-C redone for the robust FLC (``docs/robust-flc.md``).
 
 Each returns a ``matplotlib.figure.Figure``. With ``out`` the figure is drawn on its own Agg canvas
 (headless, pyplot's global state untouched) and saved there; without it, it is a pyplot figure
@@ -188,6 +189,93 @@ def fig_lyapunov(s_l: float = 10.0, out: Optional[PathLike] = None) -> Any:
     ax.set_ylabel("x2 = dist_s (m)")
     ax.set_title(f"Eq. (7), S_L = {s_l:g} m/s, V = (x1² + x2²)/2: green dV/dt < 0, red dV/dt > 0,\n"
                  "black dV/dt = 0; grey streamlines, coloured RK4 trajectories from the dots", fontsize=10)
+    return _save(fig, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Sec. III-C redone for the robust FLC (docs/robust-flc.md, "Stability")
+
+
+def robust_lyapunov_field(x1: np.ndarray, x2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The robust FLC's closed loop behind a lead at constant speed, in x1 = v − v_L (m/s) and
+    x2 = d − D_r(v) (m), with the law's clamps and the actuator taken as ideal (as the paper's
+    analysis does): a = clamp(k x2 / h, −b_max, a_max), k = k_a for x2 >= 0 and k_b otherwise;
+    x1' = a, x2' = −x1 − h a. Returns (dx1/dt, dx2/dt, V, dV/dt) for
+    V = x1² / 2 + k x2² / (2 h) (``RobustFlcParams`` defaults)."""
+    p = defaults("flc_robust")
+    h, ka, kb = float(p["time_gap"]), float(p["accel_gain"]), float(p["brake_gain"])
+    amax, bmax = float(p["max_accel"]), float(p["max_decel"])
+    x1, x2 = np.asarray(x1, dtype=float), np.asarray(x2, dtype=float)
+    k = np.where(x2 >= 0.0, ka, kb)
+    a = np.clip(k * x2 / h, -bmax, amax)
+    dx1 = a
+    dx2 = -x1 - h * a
+    v = 0.5 * x1**2 + 0.5 * k * x2**2 / h
+    dv = x1 * dx1 + (k / h) * x2 * dx2
+    return dx1, dx2, v, dv
+
+
+def robust_lyapunov_data(lim1: float = 10.0, lim2: float = 12.0, n: int = 241) -> dict[str, np.ndarray]:
+    """The grid behind :func:`fig_robust_lyapunov`: ``x1``, ``x2`` (n × n, x1 in ±lim1 m/s, x2 in
+    ±lim2 m), ``dx1``, ``dx2``, ``v`` and ``dv`` (dV/dt)."""
+    x1, x2 = np.meshgrid(np.linspace(-lim1, lim1, n), np.linspace(-lim2, lim2, n))
+    dx1, dx2, v, dv = robust_lyapunov_field(x1, x2)
+    return {"x1": x1, "x2": x2, "dx1": dx1, "dx2": dx2, "v": v, "dv": dv}
+
+
+def robust_lyapunov_trajectory(start: tuple[float, float], h: float = 0.01, steps: int = 3000) -> np.ndarray:
+    """The robust closed loop integrated from ``start`` = (x1, x2) with classic RK4 (step ``h``
+    s); (k, 2) array."""
+
+    def f(y: np.ndarray) -> np.ndarray:
+        a, b, _, _ = robust_lyapunov_field(y[0], y[1])
+        return np.array([a, b], dtype=float)
+
+    ys = [np.asarray(start, dtype=float)]
+    for _ in range(steps):
+        y = ys[-1]
+        k1 = f(y)
+        k2 = f(y + h / 2 * k1)
+        k3 = f(y + h / 2 * k2)
+        k4 = f(y + h * k3)
+        ys.append(y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
+    return np.array(ys)
+
+
+def fig_robust_lyapunov(out: Optional[PathLike] = None) -> Any:
+    """Phase portrait of the robust FLC in (x1, x2) = (v − v_L, d − D_r(v)) with RK4 trajectories,
+    the sign of dV/dt for V = x1²/2 + k x2²/(2h) shaded (green < 0; dV/dt = −(k²/h) x2² wherever
+    the law is not clamped) and the clamp boundaries dashed."""
+    lim1, lim2 = 10.0, 12.0
+    p = defaults("flc_robust")
+    h, ka, kb = float(p["time_gap"]), float(p["accel_gain"]), float(p["brake_gain"])
+    amax, bmax = float(p["max_accel"]), float(p["max_decel"])
+    g = robust_lyapunov_data(lim1, lim2)
+    fig = _figure(out is not None, (8, 6.5))
+    ax = fig.subplots()
+    tol = 1e-9
+    sign = np.where(g["dv"] > tol, 1.0, np.where(g["dv"] < -tol, -1.0, 0.0))
+    ax.contourf(g["x1"], g["x2"], sign, levels=[-1.5, -0.5, 0.5, 1.5], colors=["#cfe8cf", "#ffffff", "#f4cccc"], alpha=0.8)
+    ax.streamplot(g["x1"], g["x2"], g["dx1"], g["dx2"], density=1.0, color="grey", linewidth=0.5, arrowsize=0.8)
+    for y, label in ((h * amax / ka, "a = a_max"), (-h * bmax / kb, "a = −b_max")):
+        ax.axhline(y, color="k", ls="--", lw=0.8)
+        ax.text(lim1 * 0.97, y + 0.25, label, ha="right", fontsize=8)
+    ax.axhline(0.0, color="k", lw=0.6)
+    starts = [(-8.0, 10.0), (8.0, -10.0), (6.0, 4.0), (-6.0, -6.0), (9.0, 0.0), (-9.0, 2.0)]
+    for i, start in enumerate(starts):
+        tr = robust_lyapunov_trajectory(start)
+        ax.plot(tr[:, 0], tr[:, 1], color=f"C{i}", lw=1.6)
+        ax.plot(*start, "o", color=f"C{i}", ms=5)
+    box = {"boxstyle": "round", "fc": "white", "alpha": 0.85, "lw": 0.5}
+    ax.text(-5.0, -2.2, "not clamped (between the dashed lines):\ndV/dt = −(k²/h)·x2² ≤ 0", ha="center", fontsize=8, bbox=box)
+    ax.text(-5.0, 10.5, "a = a_max: the lead pulls away\nfaster than the follower may speed up", ha="center", fontsize=8, bbox=box)
+    ax.text(5.0, -11.0, "a = −b_max: braking as hard as the law allows", ha="center", fontsize=8, bbox=box)
+    ax.set_xlim(-lim1, lim1)
+    ax.set_ylim(-lim2, lim2)
+    ax.set_xlabel("x1 = v − v_L (m/s)")
+    ax.set_ylabel("x2 = d − D_r(v) (m)")
+    ax.set_title(f"Robust FLC (h = {h:g} s, k_a = {ka:g}, k_b = {kb:g} 1/s), V = x1²/2 + k·x2²/(2h):\n"
+                 "green dV/dt < 0, red dV/dt > 0 (clamped law only); RK4 trajectories from the dots", fontsize=10)
     return _save(fig, out)
 
 

@@ -75,3 +75,36 @@ def test_detector_finds_a_rear_face():
     assert out["status"] == "ok"
     assert out["detection"]["distance"] == pytest.approx(20.0, abs=0.2)
     assert d.detect(np.zeros((0, 2)))["detection"] is None
+
+
+def test_robust_flc_by_hand():
+    # docs/robust-flc.md (R1)-(R6), defaults d_0 = 3, h = 1.5, k_a = 1, k_b = 4, a_max = 2.
+    c = flc.RobustFallbackController()
+    # v = 20, d = 33 = D_r(20): no action.
+    out = c.step(33.0, 20.0)
+    assert (out.speed, out.accel, out.status) == (pytest.approx(20.0), pytest.approx(0.0), "ok")
+    # v = 20, d = 30: V_g = 18, a = 4 * (18 - 20) = -8, v_cmd = 12.
+    out = c.step(30.0, 20.0)
+    assert out.accel == pytest.approx(-8.0) and out.speed == pytest.approx(12.0)
+    assert c.terms()["gap_error"] == pytest.approx(-3.0)
+    # A jump up by more than 3 m reveals another object: the stop envelope (R3) caps the target.
+    c.step(80.0, 30.0)
+    t = c.terms()
+    ve = 7.0 * (math.sqrt(0.25 + 2 * 78 / 7) - 0.5)
+    assert t["revealed"] and t["latched"] and t["target_speed"] == pytest.approx(ve)
+    # No lead: brake by fault_brake_step.
+    assert c.step(None, 10.0) == flc.Command(7.0, -3.0, "no_lead")
+
+
+def test_robust_flc_parameters_and_scenario():
+    with pytest.raises(flc.ParameterError, match="brake_gain"):
+        flc.RobustFallbackController(brake_gain=0.0)
+    c = flc.RobustFallbackController(time_gap=2.0)
+    c.step(30.0, 10.0)
+    assert c.terms()["desired_gap"] == pytest.approx(3.0 + 2.0 * 10)
+    s = flc.Scenario.paper(speed_kmh=50, controller="flc-robust", flc_robust_time_gap=1.8)
+    assert s.controller == "flc-robust"
+    r = flc.run(s)
+    assert r.metrics["collision"] is False
+    with pytest.raises(flc.ScenarioError, match="flc_robust.time_gap"):
+        flc.Scenario.paper(controller="flc-robust", flc_robust_time_gap=-1.0)

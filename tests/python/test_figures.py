@@ -73,6 +73,39 @@ def test_lyapunov_trajectory_approaches_origin():
     assert np.hypot(*tr[-1]) < 0.5 * np.hypot(4.0, -8.0)
 
 
+def test_robust_lyapunov_derivative_on_the_unclamped_band():
+    # docs/robust-flc.md, "Stability": V = x1^2/2 + k x2^2/(2h) gives dV/dt = -(k^2/h) x2^2 where
+    # the law is not clamped (-h b_max / k_b < x2 < h a_max / k_a, i.e. -3.75 < x2 < 3).
+    g = figures.robust_lyapunov_data()
+    x2, dv = g["x2"], g["dv"]
+    k = np.where(x2 >= 0, 1.0, 4.0)
+    band = (x2 > -3.75) & (x2 < 3.0)
+    assert band.sum() > 1000
+    np.testing.assert_allclose(dv[band], -(k[band] ** 2 / 1.5) * x2[band] ** 2, rtol=1e-12, atol=1e-12)
+    assert np.all(dv[band] <= 0.0)
+    # Clamped: dV/dt > 0 exists only where the follower is far behind and much slower (a = a_max).
+    pos = dv > 1e-9
+    assert pos.any() and np.all(x2[pos] > 3.0) and np.all(g["x1"][pos] < 0.0)
+
+
+def test_robust_lyapunov_field_by_hand():
+    # x1 = 1, x2 = -2: a = 4 * -2 / 1.5 = -5.333; x2' = -1 + 1.5 * 5.333 = 7; V = 0.5 + 4 * 4 / 3.
+    dx1, dx2, v, dv = figures.robust_lyapunov_field(np.array(1.0), np.array(-2.0))
+    assert float(dx1) == pytest.approx(-16 / 3, abs=1e-12)
+    assert float(dx2) == pytest.approx(7.0, abs=1e-12)
+    assert float(v) == pytest.approx(0.5 + 16 / 3, abs=1e-12)
+    assert float(dv) == pytest.approx(-(16 / 1.5) * 4, abs=1e-12)
+    # Clamped at a_max = 2 for x2 = 6 (k_a x2 / h = 4): x1' = 2, x2' = -x1 - 3.
+    dx1, dx2, _, _ = figures.robust_lyapunov_field(np.array(-1.0), np.array(6.0))
+    assert float(dx1) == pytest.approx(2.0) and float(dx2) == pytest.approx(-2.0)
+
+
+def test_robust_lyapunov_trajectories_reach_the_equilibrium():
+    for start in [(-8.0, 10.0), (8.0, -10.0), (9.0, 0.0)]:
+        tr = figures.robust_lyapunov_trajectory(start)
+        assert np.hypot(*tr[-1]) < 0.05
+
+
 def test_following_runs_match_paper_pattern():
     runs = figures.following_runs((70,), "paper")
     assert runs[(70.0, "flc")].metrics["collision"] is False

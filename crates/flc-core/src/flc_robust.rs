@@ -61,10 +61,11 @@ pub struct RobustFlcParams {
     pub time_gap: f64,
     /// `k_a`, gain on a positive speed error `V* - v` (speeding up), 1/s. Default 1.0.
     pub accel_gain: f64,
-    /// `k_b`, gain on a negative speed error (slowing down), 1/s. Default 2.5 (about critical
-    /// damping `4 / h` of the linear gap loop).
+    /// `k_b`, gain on a negative speed error (slowing down), 1/s. Default 4.0 (gap loop damping
+    /// `sqrt(k_b h) / 2 = 1.22`; see `docs/robust-flc.md`, "Gains").
     pub brake_gain: f64,
-    /// `a_max`, largest acceleration the law asks for, m/s². Default 1.5.
+    /// `a_max`, largest acceleration the law asks for, m/s². Default 2.0 (the ACC limit of
+    /// ISO 15622 at speed).
     pub max_accel: f64,
     /// `b_max`, largest deceleration the law asks for, m/s². Default 10 (above any tyre limit, so
     /// that an emergency saturates the vehicle's brakes).
@@ -110,8 +111,8 @@ impl RobustFlcParams {
             standstill_gap: 3.0,
             time_gap: 1.5,
             accel_gain: 1.0,
-            brake_gain: 2.5,
-            max_accel: 1.5,
+            brake_gain: 4.0,
+            max_accel: 2.0,
             max_decel: 10.0,
             envelope_decel: 7.0,
             envelope_reaction: 0.5,
@@ -356,12 +357,12 @@ mod tests {
     #[test]
     fn too_close_brakes_with_the_brake_gain() {
         let mut c = ctl();
-        // v = 20, d = 30: V_g = 18, error -2, a = 2.5 * -2 = -5, v_cmd = 15.
+        // v = 20, d = 30: V_g = 18, error -2, a = 4 * -2 = -8, v_cmd = 12.
         let out = c.step(Some(30.0), 20.0);
-        assert!((out.accel + 5.0).abs() < EPS, "{out:?}");
-        assert!((out.speed - 15.0).abs() < EPS);
+        assert!((out.accel + 8.0).abs() < EPS, "{out:?}");
+        assert!((out.speed - 12.0).abs() < EPS);
         assert!((c.terms().gap_error + 3.0).abs() < EPS);
-        // Far too close: clamped at -b_max = -10 (v = 20, d = 10: V_g = 4.667, a = -38.3 -> -10).
+        // Far too close: clamped at -b_max = -10 (v = 20, d = 10: V_g = 4.667, a = -61.3 -> -10).
         let out = c.step(Some(10.0), 20.0);
         assert!((out.accel + 10.0).abs() < EPS && (out.speed - 10.0).abs() < EPS);
     }
@@ -372,9 +373,9 @@ mod tests {
         // v = 20, d = 34.2: V_g = 20.8, error 0.8, a = 1.0 * 0.8 = 0.8.
         let out = c.step(Some(34.2), 20.0);
         assert!((out.accel - 0.8).abs() < 1e-9 && (out.speed - 20.8).abs() < 1e-9);
-        // v = 20, d = 60: V_g = 38, a = 18 -> a_max 1.5.
+        // v = 20, d = 60: V_g = 38, a = 18 -> a_max 2.
         let out = c.step(Some(60.0), 20.0);
-        assert!((out.accel - 1.5).abs() < EPS && (out.speed - 21.5).abs() < EPS);
+        assert!((out.accel - 2.0).abs() < EPS && (out.speed - 22.0).abs() < EPS);
     }
 
     #[test]
@@ -404,8 +405,8 @@ mod tests {
         // V_g(80) = 51.33 but V_e(80) = 7 (sqrt(0.25 + 156/7) - 0.5) = 7 (4.74342 - 0.5) = 29.7039...
         let ve = 7.0 * ((0.25f64 + 156.0 / 7.0).sqrt() - 0.5);
         assert!((t.envelope_speed - ve).abs() < 1e-9 && (t.target_speed - ve).abs() < 1e-9);
-        // a = 2.5 (29.7039 - 30) = -0.740...
-        assert!((out.accel - 2.5 * (ve - 30.0)).abs() < 1e-9);
+        // a = 4 (29.7039 - 30) = -1.184...
+        assert!((out.accel - 4.0 * (ve - 30.0)).abs() < 1e-9);
         // Closing in: still latched, min follows.
         c.step(Some(70.0), 28.0);
         assert!(c.latched() && c.terms().latch_min_distance == 70.0);
@@ -422,7 +423,7 @@ mod tests {
     fn downward_jumps_do_not_latch_the_gap_policy_already_brakes() {
         let mut c = ctl();
         c.step(Some(48.0), 30.0);
-        // A car cuts in at 12 m: V_g = 6, a = 2.5 (6 - 30) = -60 -> -10.
+        // A car cuts in at 12 m: V_g = 6, a = 4 (6 - 30) = -96 -> -10.
         let out = c.step(Some(12.0), 30.0);
         assert!(!c.latched());
         assert!((out.accel + 10.0).abs() < EPS);

@@ -51,6 +51,7 @@ fn command_tuple(c: flc_core::LongitudinalCommand) -> (f64, f64, &'static str) {
 fn default_params(kind: &str) -> PyResult<String> {
     match kind {
         "flc" => to_json(&flc_core::FlcParams::paper()),
+        "flc_robust" => to_json(&flc_core::RobustFlcParams::documented()),
         "pid" => to_json(&flc_core::PidParams::paper()),
         "pure_pursuit" => to_json(&flc_core::PurePursuitParams::default()),
         "detector" => to_json(&flc_core::DetectorParams::default()),
@@ -95,6 +96,49 @@ impl FallbackController {
         d.set_item("braking_branch", t.braking_branch)?;
         d.set_item("overridden", t.overridden)?;
         d.set_item("a_law", t.a_law)?;
+        d.set_item("a", t.a)?;
+        Ok(d)
+    }
+
+    fn params_json(&self) -> PyResult<String> {
+        to_json(self.inner.params())
+    }
+}
+
+/// The robust FLC (beyond the paper, `docs/robust-flc.md`).
+#[pyclass(module = "flc._flc")]
+struct RobustFallbackController {
+    inner: flc_core::RobustFallbackController,
+}
+
+#[pymethods]
+impl RobustFallbackController {
+    #[new]
+    fn new(params_json: &str) -> PyResult<Self> {
+        let p: flc_core::RobustFlcParams = from_json(params_json, "RobustFallbackController")?;
+        Ok(Self { inner: flc_core::RobustFallbackController::new(p).map_err(|e| param_err("RobustFallbackController", e))? })
+    }
+
+    /// `(speed_command, accel, status)`.
+    fn step(&mut self, distance: Option<f64>, own_speed: f64) -> (f64, f64, &'static str) {
+        command_tuple(self.inner.step(distance, own_speed))
+    }
+
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+
+    fn terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = self.inner.terms();
+        let d = PyDict::new(py);
+        d.set_item("desired_gap", t.desired_gap)?;
+        d.set_item("gap_error", t.gap_error)?;
+        d.set_item("gap_speed", t.gap_speed)?;
+        d.set_item("envelope_speed", t.envelope_speed)?;
+        d.set_item("target_speed", t.target_speed)?;
+        d.set_item("revealed", t.revealed)?;
+        d.set_item("latched", t.latched)?;
+        d.set_item("latch_min_distance", t.latch_min_distance)?;
         d.set_item("a", t.a)?;
         Ok(d)
     }
@@ -278,6 +322,7 @@ fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_class::<FallbackController>()?;
+    m.add_class::<RobustFallbackController>()?;
     m.add_class::<PidController>()?;
     m.add_class::<PurePursuit>()?;
     m.add_class::<Supervisor>()?;
