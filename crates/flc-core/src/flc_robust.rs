@@ -36,8 +36,8 @@
 //! `V' = -(k^2 / h) x_2^2 <= 0`: globally asymptotically stable by LaSalle (the paper's
 //! `V = (x_1^2 + x_2^2) / 2` is only partly decreasing).
 
-use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
-use crate::params::{check_positive, check_range, ParamError};
+use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::params::{ParamError, check_positive, check_range};
 
 /// What the very first detection is taken to be (later ones follow the latch rules).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
@@ -261,7 +261,8 @@ impl RobustFallbackController {
         let (Status::Ok, Some(d)) = (status, distance) else {
             // Lost track: whatever is seen next is an unknown object. The latch is kept.
             self.prev_distance = None;
-            self.terms = RobustFlcTerms { latched: self.latched(), latch_min_distance: self.latch_min.unwrap_or(0.0), ..RobustFlcTerms::default() };
+            self.terms =
+                RobustFlcTerms { latched: self.latched(), latch_min_distance: self.latch_min.unwrap_or(0.0), ..RobustFlcTerms::default() };
             return safe_brake(own_speed, speed_ok, p.fault_brake_step, status);
         };
 

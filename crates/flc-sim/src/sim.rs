@@ -330,12 +330,14 @@ impl Simulation {
             self.path_curvature = self.track.curvature_at(s);
         } else {
             // Pure pursuit in the vehicle frame (sensor offset added).
-            let lead_pos = detection.map(|d| Point2::new(d.position.x + self.scenario.lidar.mount_x, d.position.y + self.scenario.lidar.mount_y));
+            let (mx, my) = (self.scenario.lidar.mount_x, self.scenario.lidar.mount_y);
+            let lead_pos = detection.map(|d| Point2::new(d.position.x + mx, d.position.y + my));
             let steer = self.pursuit.step(lead_pos, fs.speed);
             self.steer_cmd = steer.steer;
             self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
-            // Path for the detector's corridor on the next scan: the arc from the sensor through the
-            // lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight without one.
+            // Path for the detector's corridor on the next scan: the arc from the sensor through
+            // the lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight
+            // without one.
             self.path_curvature = detection.map_or(0.0, |d| {
                 let (x, y) = (d.position.x, d.position.y);
                 let r2 = x * x + y * y;

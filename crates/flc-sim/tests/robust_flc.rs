@@ -45,7 +45,8 @@ fn steady(controller: ControllerKind, kmh: f64, decel: f64) -> Scenario {
     s.track = TrackSpec::Straight { length: 5000.0 };
     s.lead.initial_speed = v;
     s.lead.vehicle.max_brake = 10.0;
-    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }, Phase::Brake { decel, speed: None, speed_kmh: None }];
+    s.lead.phases =
+        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }, Phase::Brake { decel, speed: None, speed_kmh: None }];
     s.follower.initial_speed = v;
     s.follower.initial_gap = own_gap(&s, v);
     s
@@ -87,8 +88,10 @@ fn ideal_stopping_distance(v: f64) -> f64 {
 #[test]
 fn paper_scenario_30_to_130_kmh() {
     let speeds: Vec<f64> = (3..=13).map(|k| 10.0 * k as f64).collect();
-    let scenarios: Vec<Scenario> =
-        [ROBUST, PAPER].iter().flat_map(|&c| speeds.iter().map(move |&v| Scenario::paper_experiment(v, c, Calibration::Realistic))).collect();
+    let scenarios: Vec<Scenario> = [ROBUST, PAPER]
+        .iter()
+        .flat_map(|&c| speeds.iter().map(move |&v| Scenario::paper_experiment(v, c, Calibration::Realistic)))
+        .collect();
     let r = batch(&scenarios);
     let (robust, paper) = r.split_at(speeds.len());
     for (v, (a, b)) in speeds.iter().zip(robust.iter().zip(paper)) {
@@ -223,7 +226,13 @@ fn rate_invariance() {
         eprintln!(
             "{v} km/h lead -{b}: robust {:?} | paper {:?}",
             rows.iter().map(|r| (r.metrics.final_clearance.unwrap_or(f64::NAN) * 100.0).round() / 100.0).collect::<Vec<_>>(),
-            prow.iter().map(|r| if r.metrics.collision { f64::NAN } else { (r.metrics.final_clearance.unwrap_or(f64::NAN) * 100.0).round() / 100.0 }).collect::<Vec<_>>()
+            prow.iter()
+                .map(|r| if r.metrics.collision {
+                    f64::NAN
+                } else {
+                    (r.metrics.final_clearance.unwrap_or(f64::NAN) * 100.0).round() / 100.0
+                })
+                .collect::<Vec<_>>()
         );
     }
     // The paper's Delta_d trigger: clearances several metres apart across rates, and a collision
