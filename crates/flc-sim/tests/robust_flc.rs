@@ -441,3 +441,26 @@ fn cut_out_reveals_a_standing_car() {
     // The paper's FLC hits the car where the robust FLC stops.
     assert!(paper_first_hit < 0.9 * robust_bound, "paper FLC first contact {paper_first_hit} km/h");
 }
+
+/// `[flc_robust]` errors name the dotted key; `scenarios/robust-cut-out.toml` parses and stops
+/// before the standing car (the paper's FLC, same file, does not).
+#[test]
+fn scenario_section_and_example_file() {
+    let err = |body: &str| {
+        Scenario::from_toml_str(&format!("controller = \"flc-robust\"\n[flc_robust]\n{body}\n"), "t.toml").unwrap_err().to_string()
+    };
+    assert!(err("tme_gap = 1.0").contains("`flc_robust.tme_gap`"), "{}", err("tme_gap = 1.0"));
+    assert!(err("brake_gain = -1.0").contains("flc_robust.brake_gain"));
+    assert!(err("first_object = \"maybe\"").contains("flc_robust.first_object"));
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/robust-cut-out.toml"));
+    let s = Scenario::from_file(path).expect("scenario");
+    assert_eq!(s.controller, ROBUST);
+    let car_rear = 222.3 - 2.35;
+    let front = s.follower.vehicle.length / 2.0;
+    let mut paper = s.clone();
+    paper.controller = PAPER;
+    let r = batch(&[s, paper]);
+    let min_gap = |x: &RunResult| x.series.follower_x.iter().map(|fx| car_rear - (fx + front)).fold(f64::INFINITY, f64::min);
+    assert!(min_gap(&r[0]) > 2.0, "flc-robust: {}", min_gap(&r[0]));
+    assert!(min_gap(&r[1]) < 0.0, "paper FLC: {}", min_gap(&r[1]));
+}
