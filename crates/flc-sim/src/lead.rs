@@ -72,7 +72,7 @@ impl LeadDriver {
                 Phase::Hold { until_x, until_t, duration } => {
                     until_x.is_some_and(|ux| x >= ux) || until_t.is_some_and(|ut| t >= ut) || duration.is_some_and(|d| elapsed >= d)
                 }
-                Phase::LaneChange { duration, .. } => elapsed >= *duration,
+                Phase::LaneChange { duration, .. } | Phase::Sine { duration, .. } => elapsed >= *duration,
             };
             if !done {
                 break;
@@ -96,6 +96,14 @@ impl LeadDriver {
                 self.offset = self.offset_from + (offset - self.offset_from) * w;
                 hold(self.hold_speed)
             }
+            Some(Phase::Sine { amplitude, freq_hz, .. }) => {
+                // Speed reference v0 + A sin(w (t - t0)) around the speed held before: its
+                // derivative as feed-forward plus the hold loop on the reference.
+                let w = std::f64::consts::TAU * freq_hz;
+                let phase = w * (t - self.phase_start_t);
+                let reference = self.hold_speed + amplitude * phase.sin();
+                (amplitude * w * phase.cos() + HOLD_GAIN * (reference - speed)).clamp(-8.0, 3.5)
+            }
             Some(Phase::Hold { .. }) | None => hold(self.hold_speed),
         };
         LeadCommand { accel, lateral_offset: self.offset, phase: self.index }
@@ -104,6 +112,8 @@ impl LeadDriver {
     fn finish_phase(&mut self, t: f64, speed: f64) {
         self.hold_speed = match (self.phases.get(self.index), self.targets.get(self.index).copied().flatten()) {
             (Some(Phase::Accelerate { .. } | Phase::Brake { .. }), Some(v)) => v,
+            // After a sine the lead returns to the speed it oscillated around.
+            (Some(Phase::Sine { .. }), _) => self.hold_speed,
             _ => speed.max(0.0),
         };
         if let Some(Phase::LaneChange { offset, .. }) = self.phases.get(self.index) {

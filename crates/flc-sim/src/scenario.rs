@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, SimError, check_range};
 use crate::lidar::LidarParams;
+use crate::platoon::{FollowerConfig, PlatoonSpec};
 use crate::track::Track;
 use crate::v2v::V2vParams;
 use crate::vehicle::{SpeedControllerParams, VehicleParams};
@@ -172,6 +173,17 @@ pub enum Phase {
         /// Duration of the manoeuvre, s.
         duration: f64,
     },
+    /// Drive a sinusoidal speed `v0 + amplitude sin(2 pi freq_hz (t - t_start))` around the speed
+    /// held before (`v0`) for `duration` (s), then hold `v0` again (string-stability frequency
+    /// response).
+    Sine {
+        /// Speed amplitude, m/s.
+        amplitude: f64,
+        /// Frequency, Hz.
+        freq_hz: f64,
+        /// Duration of the phase, s.
+        duration: f64,
+    },
 }
 
 impl Phase {
@@ -219,6 +231,11 @@ impl Phase {
             Phase::LaneChange { offset, duration } => {
                 check_range("offset", *offset, -10.0, 10.0, "m")?;
                 check_range("duration", *duration, 0.1, 60.0, "s")
+            }
+            Phase::Sine { amplitude, freq_hz, duration } => {
+                check_range("amplitude", *amplitude, 0.0, 20.0, "m/s")?;
+                check_range("freq_hz", *freq_hz, 0.001, 5.0, "Hz")?;
+                check_range("duration", *duration, 0.0, 1.0e5, "s")
             }
         }
     }
@@ -363,6 +380,28 @@ pub struct Scenario {
     /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
     /// as `speed_kmh` in the JSON; informational).
     pub speed_kmh: Option<f64>,
+    /// A platoon: N followers behind the lead (`crate::platoon`); `None`: one follower.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub platoon: Option<PlatoonSpec>,
+    /// Named variants of this scenario (`[[variants]]`: `name` plus keys patched into the
+    /// scenario); `scenario --config` runs each of them instead of the scenario itself.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub variants: Vec<Variant>,
+    /// The variant this scenario was expanded from (set by [`Scenario::expand_variants`];
+    /// reported as `variant` in the JSON).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variant: Option<String>,
+}
+
+/// One entry of `[[variants]]`: a name and the keys it changes (any scenario keys, tables merged
+/// key by key).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Variant {
+    /// Name of the variant (reported as `variant`, appended to output file names).
+    pub name: String,
+    /// The keys patched into the scenario.
+    #[serde(flatten)]
+    pub patch: toml::Table,
 }
 
 impl Default for Scenario {
@@ -454,6 +493,9 @@ impl Scenario {
             flc_robust: RobustFlcParams::default(),
             stop: StopSpec::default(),
             speed_kmh: Some(speed_kmh),
+            platoon: None,
+            variants: Vec::new(),
+            variant: None,
         };
         if calibration == Calibration::Paper {
             crate::calibration::apply_paper(&mut s);
@@ -471,44 +513,100 @@ impl Scenario {
         for (i, p) in self.lead.phases.iter().enumerate() {
             p.validate().map_err(|e| e.within(&format!("lead.phases[{i}]")))?;
         }
-        check_range("follower.initial_speed", self.follower.initial_speed, 0.0, 70.0, "m/s")?;
-        check_range("follower.initial_gap", self.follower.initial_gap, 0.5, 500.0, "m")?;
-        if let Some(o) = self.follower.distance_offset {
-            check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
-        }
-        self.follower.vehicle.validate().map_err(|e| e.within("follower.vehicle"))?;
-        self.follower.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
-        self.lidar.validate().map_err(|e| e.within("lidar"))?;
-        self.v2v.validate().map_err(|e| e.within("v2v"))?;
-        let core = |section: &str, r: Result<(), flc_core::ParamError>| {
-            r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
-        };
-        core("detector", self.detector.validate())?;
-        core("flc", self.flc.validate())?;
-        core("pid", self.pid.validate())?;
-        core("pure_pursuit", self.pure_pursuit.validate())?;
-        core("idm", self.idm.validate())?;
-        core("acc", self.acc.validate())?;
-        core("rss", self.rss.validate())?;
-        core("carla_behavior", self.carla_behavior.validate())?;
-        core("flc_robust", self.flc_robust.validate())?;
-        check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")?;
+        self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
             check_range("speed_kmh", s, 0.0, 252.0, "km/h")?;
         }
+        if let Some(p) = &self.platoon {
+            p.validate().map_err(|e| e.within("platoon"))?;
+            self.follower_configs()?;
+        }
+        for i in 0..self.variants.len() {
+            let key = format!("variants[{i}]");
+            self.expand_variant(i)?.validate().map_err(|e| e.within(&key))?;
+        }
         Ok(())
+    }
+
+    /// The settings of a single follower (or of every follower of a platoon before
+    /// `[[platoon.overrides]]`): the scenario's `controller`, `[follower]`, `[lidar]`, `[v2v]`,
+    /// `[detector]`, `[flc]`, `[pid]`, `[pure_pursuit]`, `[supervisor]` and the baselines' and robust
+    /// FLC's sections.
+    pub fn base_follower_config(&self) -> FollowerConfig {
+        FollowerConfig {
+            controller: self.controller,
+            follower: self.follower.clone(),
+            lidar: self.lidar.clone(),
+            v2v: self.v2v.clone(),
+            detector: self.detector,
+            flc: self.flc,
+            pid: self.pid,
+            pure_pursuit: self.pure_pursuit,
+            supervisor: self.supervisor,
+            idm: self.idm,
+            acc: self.acc,
+            rss: self.rss,
+            carla_behavior: self.carla_behavior,
+            flc_robust: self.flc_robust,
+        }
+    }
+
+    /// Number of followers (1 without `[platoon]`).
+    pub fn n_followers(&self) -> usize {
+        self.platoon.as_ref().map_or(1, |p| p.followers as usize)
+    }
+
+    /// The settings of every follower (index 0 = follower 1, right behind the lead), with
+    /// `[[platoon.overrides]]` applied in order; each is validated. Errors name the override
+    /// (`platoon.overrides[1].v2v.loss_prob`).
+    pub fn follower_configs(&self) -> Result<Vec<FollowerConfig>, ConfigError> {
+        let base = self.base_follower_config();
+        let mut out = vec![base; self.n_followers()];
+        if let Some(p) = &self.platoon {
+            for (i, o) in p.overrides.iter().enumerate() {
+                let key = format!("platoon.overrides[{i}]");
+                for &k in &o.followers {
+                    let slot = out.get_mut((k as usize).wrapping_sub(1)).ok_or_else(|| {
+                        ConfigError::new(format!("{key}.followers"), format!("no follower {k} (platoon.followers = {})", p.followers))
+                    })?;
+                    let patched = slot.patched(&o.patch).map_err(|e| e.within(&key))?;
+                    patched.validate().map_err(|e| e.within(&key))?;
+                    *slot = patched;
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Variant `i` of `[[variants]]`: this scenario (without its variants) with the variant's
+    /// keys patched in, `variant` set to its name.
+    pub fn expand_variant(&self, i: usize) -> Result<Scenario, ConfigError> {
+        let key = format!("variants[{i}]");
+        let v = self.variants.get(i).ok_or_else(|| ConfigError::new(key.clone(), "no such variant"))?;
+        if v.patch.contains_key("variants") || v.patch.contains_key("variant") {
+            return Err(ConfigError::new(format!("{key}.variants"), "a variant cannot define variants"));
+        }
+        if v.name.is_empty() {
+            return Err(ConfigError::new(format!("{key}.name"), "must not be empty"));
+        }
+        let base = Scenario { variants: Vec::new(), ..self.clone() };
+        let mut out: Scenario = crate::platoon::patch_value(&base, &v.patch).map_err(|e| e.within(&key))?;
+        out.variant = Some(v.name.clone());
+        Ok(out)
+    }
+
+    /// The scenarios to run for this one: each variant if it has `[[variants]]`, else itself.
+    pub fn expand_variants(&self) -> Result<Vec<Scenario>, ConfigError> {
+        if self.variants.is_empty() {
+            return Ok(vec![self.clone()]);
+        }
+        (0..self.variants.len()).map(|i| self.expand_variant(i)).collect()
     }
 
     /// The supervisor's parameters assembled from `[supervisor]`, `[flc]` and `[pid]`.
     pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
-        flc_core::SupervisorParams {
-            max_age_ticks: self.supervisor.max_age_ticks,
-            return_after: self.supervisor.return_after,
-            bumpless: self.supervisor.bumpless,
-            flc: self.flc,
-            pid: self.pid,
-        }
+        self.base_follower_config().supervisor_params()
     }
 
     /// The steady-state gap the selected baseline keeps behind a lead at the follower's own speed
@@ -518,19 +616,7 @@ impl Scenario {
     /// second TTC band at the floored closing speed, `2 safety_time min_closing_speed`. `NaN` for
     /// the FLC, PID and pipeline (they have their own).
     pub fn baseline_desired_gap(&self, v: f64) -> f64 {
-        let v = v.max(0.0);
-        match self.controller {
-            ControllerKind::Idm => {
-                let p = &self.idm;
-                let s_star = p.desired_gap(v, v);
-                let free = 1.0 - (v / p.desired_speed).powf(p.delta);
-                if free > 1e-6 { s_star / free.sqrt() } else { s_star }
-            }
-            ControllerKind::Acc => self.acc.min_gap + self.acc.headway_time * v,
-            ControllerKind::Rss => self.rss.safe_distance(v, v) + self.rss.margin,
-            ControllerKind::CarlaBehavior => 2.0 * self.carla_behavior.safety_time * self.carla_behavior.min_closing_speed,
-            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline | ControllerKind::FlcRobust => f64::NAN,
-        }
+        self.base_follower_config().baseline_desired_gap(v)
     }
 
     /// Parses TOML text. Errors name the dotted key (`lidar.rate_hz`) and the problem; `origin`

@@ -1,0 +1,341 @@
+//! Platoons: one lead and N followers, each follower with its own pipeline (`docs/platoon.md`).
+//!
+//! A scenario without a `[platoon]` table has one follower. With one, `followers = N` vehicles
+//! drive behind the lead; follower `k` (1 = right behind the lead) follows vehicle `k - 1`
+//! (0 = the lead): its LiDAR sees whatever is in front of it (the predecessor occludes the
+//! vehicles further ahead because the rays hit its collider), its V2V link comes from the
+//! predecessor, the lead or both (`v2v_source`), and it runs its own detector, pure pursuit,
+//! longitudinal controller and low-level speed controller.
+//!
+//! Every follower starts from the scenario's single-follower sections (`controller`,
+//! `[follower]`, `[lidar]`, `[v2v]`, `[detector]`, `[flc]`, `[pid]`, `[pure_pursuit]`,
+//! `[supervisor]`), which therefore apply to the whole string; `[[platoon.overrides]]` patches
+//! them for chosen followers, key by key:
+//!
+//! ```toml
+//! [platoon]
+//! followers = 7
+//! v2v_source = "predecessor"
+//!
+//! [[platoon.overrides]]
+//! followers = [3]
+//! v2v = { loss_prob = 0.5 }        # only the link into follower 3
+//! follower = { initial_gap = 12.0 }
+//! ```
+//!
+//! The resolved per-follower settings are [`FollowerConfig`]s ([`crate::Scenario::follower_configs`]).
+
+use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
+use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFlcParams};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, check_range};
+use crate::lidar::LidarParams;
+use crate::scenario::{ControllerKind, FollowerSpec, SupervisorSpec};
+use crate::v2v::V2vParams;
+
+/// Largest number of followers.
+pub const MAX_FOLLOWERS: u32 = 64;
+
+/// Where a follower's V2V messages come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum V2vSource {
+    /// The vehicle in front broadcasts its own speed (predecessor following; the default).
+    #[default]
+    Predecessor,
+    /// The lead broadcasts its speed to every follower (leader following).
+    Lead,
+    /// Both links: the PID gets `(1 - lead_weight) v_pred + lead_weight v_lead` whenever the
+    /// predecessor's message arrives (the lead's last speed while it is fresh, else `v_pred`
+    /// alone). Follower 1 has a single link (its predecessor is the lead).
+    Both,
+}
+
+impl V2vSource {
+    /// The name used in scenario files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            V2vSource::Predecessor => "predecessor",
+            V2vSource::Lead => "lead",
+            V2vSource::Both => "both",
+        }
+    }
+}
+
+/// Settings of the string-stability measures (`crate::string_stability`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StringStabilitySpec {
+    /// A ratio counts as string stable up to `1 + tolerance`.
+    pub tolerance: f64,
+    /// Start of the time-domain window, s. `None`: the lead's brake onset if it brakes, else 0.
+    pub window_start: Option<f64>,
+    /// Errors whose peak stays below these floors are noise, not amplification: a pair whose
+    /// follower peak is below the floor counts as stable whatever the ratio (m and m/s).
+    pub gap_floor: f64,
+    /// See `gap_floor`, for the speed error, m/s.
+    pub speed_floor: f64,
+    /// Frequencies of the |Gamma(jw)| runs, Hz (empty: not measured).
+    pub frequencies_hz: Vec<f64>,
+    /// Amplitude of the lead's sinusoidal speed in the |Gamma(jw)| runs, m/s.
+    pub sine_amplitude: f64,
+    /// Time the string drives at constant speed before the sine starts, s.
+    pub settle_time: f64,
+    /// Sine periods before the fit window (transient).
+    pub warmup_periods: u32,
+    /// Sine periods the amplitude is fitted over.
+    pub fit_periods: u32,
+}
+
+impl Default for StringStabilitySpec {
+    fn default() -> Self {
+        Self {
+            tolerance: 0.02,
+            window_start: None,
+            gap_floor: 0.1,
+            speed_floor: 0.1,
+            frequencies_hz: Vec::new(),
+            sine_amplitude: 1.0,
+            settle_time: 10.0,
+            warmup_periods: 2,
+            fit_periods: 3,
+        }
+    }
+}
+
+impl StringStabilitySpec {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_range("tolerance", self.tolerance, 0.0, 1.0, "")?;
+        if let Some(t) = self.window_start {
+            check_range("window_start", t, 0.0, 1.0e5, "s")?;
+        }
+        check_range("gap_floor", self.gap_floor, 0.0, 100.0, "m")?;
+        check_range("speed_floor", self.speed_floor, 0.0, 100.0, "m/s")?;
+        if self.frequencies_hz.len() > 64 {
+            return Err(ConfigError::new("frequencies_hz", "at most 64 frequencies"));
+        }
+        for (i, f) in self.frequencies_hz.iter().enumerate() {
+            check_range(&format!("frequencies_hz[{i}]"), *f, 0.001, 5.0, "Hz")?;
+        }
+        check_range("sine_amplitude", self.sine_amplitude, 0.01, 20.0, "m/s")?;
+        check_range("settle_time", self.settle_time, 0.0, 1000.0, "s")?;
+        check_range("warmup_periods", f64::from(self.warmup_periods), 0.0, 100.0, "periods")?;
+        check_range("fit_periods", f64::from(self.fit_periods), 1.0, 100.0, "periods")
+    }
+}
+
+/// Settings patched into chosen followers (`[[platoon.overrides]]`): `followers` lists them
+/// (1-based), every other key is a section of [`FollowerConfig`] (`controller`, `follower`,
+/// `lidar`, `v2v`, `detector`, `flc`, `pid`, `pure_pursuit`, `supervisor`) whose given keys
+/// replace the string's values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FollowerOverride {
+    /// The followers patched, 1 = right behind the lead.
+    pub followers: Vec<u32>,
+    /// The patch, shaped like the scenario's sections.
+    #[serde(flatten)]
+    pub patch: toml::Table,
+}
+
+/// The `[platoon]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlatoonSpec {
+    /// Number of followers N, [1, 64].
+    pub followers: u32,
+    /// Source of each follower's V2V messages.
+    pub v2v_source: V2vSource,
+    /// Weight of the lead's speed with `v2v_source = "both"`, [0, 1].
+    pub lead_weight: f64,
+    /// With `lead` / `both`: the lead's speed travels hop by hop (follower `k - 1` forwards each
+    /// new lead message to follower `k` on its next broadcast slot), so a broken link cuts off
+    /// every follower behind it. `false`: the lead reaches every follower directly.
+    pub relay: bool,
+    /// Start each follower at its controller's desired gap at its initial speed (the FLC's
+    /// `D_d + F_shift` for `flc`, the PID's for `pid` / `pipeline`) instead of `initial_gap`.
+    pub equilibrium_start: bool,
+    /// Per-follower patches, applied in order.
+    pub overrides: Vec<FollowerOverride>,
+    /// String-stability measures.
+    pub string_stability: StringStabilitySpec,
+}
+
+impl Default for PlatoonSpec {
+    fn default() -> Self {
+        Self {
+            followers: 1,
+            v2v_source: V2vSource::Predecessor,
+            lead_weight: 0.5,
+            relay: false,
+            equilibrium_start: false,
+            overrides: Vec::new(),
+            string_stability: StringStabilitySpec::default(),
+        }
+    }
+}
+
+impl PlatoonSpec {
+    /// Checks the table's own values (the followers' settings: [`crate::Scenario::follower_configs`]).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_range("followers", f64::from(self.followers), 1.0, f64::from(MAX_FOLLOWERS), "")?;
+        check_range("lead_weight", self.lead_weight, 0.0, 1.0, "")?;
+        for (i, o) in self.overrides.iter().enumerate() {
+            let key = format!("overrides[{i}].followers");
+            if o.followers.is_empty() {
+                return Err(ConfigError::new(key, "list at least one follower (1-based)"));
+            }
+            for (j, &k) in o.followers.iter().enumerate() {
+                if k < 1 || k > self.followers {
+                    return Err(ConfigError::new(format!("{key}[{j}]"), format!("must be in [1, {}] (platoon.followers), got {k}", self.followers)));
+                }
+            }
+        }
+        self.string_stability.validate().map_err(|e| e.within("string_stability"))
+    }
+}
+
+/// Everything one follower's pipeline needs: the scenario's single-follower sections, patched per
+/// follower by `[[platoon.overrides]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowerConfig {
+    /// Which controller drives.
+    pub controller: ControllerKind,
+    /// Vehicle, low-level controller, initial state.
+    pub follower: FollowerSpec,
+    /// Its LiDAR.
+    pub lidar: LidarParams,
+    /// Its incoming V2V link(s).
+    pub v2v: V2vParams,
+    /// Its lead detector.
+    pub detector: DetectorParams,
+    /// Its FLC.
+    pub flc: FlcParams,
+    /// Its PID.
+    pub pid: PidParams,
+    /// Its lateral controller.
+    pub pure_pursuit: PurePursuitParams,
+    /// Its supervisor.
+    pub supervisor: SupervisorSpec,
+    /// Baseline: Intelligent Driver Model (`controller = "idm"`).
+    pub idm: IdmParams,
+    /// Baseline: Milanés & Shladover / SUMO ACC (`controller = "acc"`).
+    pub acc: AccParams,
+    /// Baseline: RSS safe-distance controller (`controller = "rss"`).
+    pub rss: RssParams,
+    /// Baseline: CARLA BehaviorAgent follower (`controller = "carla-behavior"`).
+    pub carla_behavior: CarlaBehaviorParams,
+    /// The robust FLC (`controller = "flc-robust"`).
+    pub flc_robust: RobustFlcParams,
+}
+
+impl FollowerConfig {
+    /// Checks every value; the error names the dotted key (`lidar.rate_hz`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let f = &self.follower;
+        check_range("follower.initial_speed", f.initial_speed, 0.0, 70.0, "m/s")?;
+        check_range("follower.initial_gap", f.initial_gap, 0.5, 500.0, "m")?;
+        if let Some(o) = f.distance_offset {
+            check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
+        }
+        f.vehicle.validate().map_err(|e| e.within("follower.vehicle"))?;
+        f.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
+        self.lidar.validate().map_err(|e| e.within("lidar"))?;
+        self.v2v.validate().map_err(|e| e.within("v2v"))?;
+        let core = |section: &str, r: Result<(), flc_core::ParamError>| r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem));
+        core("detector", self.detector.validate())?;
+        core("flc", self.flc.validate())?;
+        core("pid", self.pid.validate())?;
+        core("pure_pursuit", self.pure_pursuit.validate())?;
+        core("idm", self.idm.validate())?;
+        core("acc", self.acc.validate())?;
+        core("rss", self.rss.validate())?;
+        core("carla_behavior", self.carla_behavior.validate())?;
+        core("flc_robust", self.flc_robust.validate())?;
+        check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")
+    }
+
+    /// The steady-state gap the selected baseline keeps behind a lead at the follower's own speed
+    /// `v` (equal speeds), m; used for `gap_error_rms` (`docs/baselines.md`, "In the simulator").
+    /// IDM: its equilibrium `s*(v) / sqrt(1 - (v/v0)^delta)` (`s*(v)` at and above `v0`); ACC:
+    /// `min_gap + headway_time v`; RSS: `d_min(v, v) + margin`; CARLA: the upper edge of its
+    /// second TTC band at the floored closing speed, `2 safety_time min_closing_speed`. `NaN` for
+    /// the FLC, PID and pipeline (they have their own).
+    pub fn baseline_desired_gap(&self, v: f64) -> f64 {
+        let v = v.max(0.0);
+        match self.controller {
+            ControllerKind::Idm => {
+                let p = &self.idm;
+                let s_star = p.desired_gap(v, v);
+                let free = 1.0 - (v / p.desired_speed).powf(p.delta);
+                if free > 1e-6 { s_star / free.sqrt() } else { s_star }
+            }
+            ControllerKind::Acc => self.acc.min_gap + self.acc.headway_time * v,
+            ControllerKind::Rss => self.rss.safe_distance(v, v) + self.rss.margin,
+            ControllerKind::CarlaBehavior => 2.0 * self.carla_behavior.safety_time * self.carla_behavior.min_closing_speed,
+            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline | ControllerKind::FlcRobust => f64::NAN,
+        }
+    }
+
+    /// The supervisor's parameters assembled from `supervisor`, `flc` and `pid`.
+    pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
+        flc_core::SupervisorParams {
+            max_age_ticks: self.supervisor.max_age_ticks,
+            return_after: self.supervisor.return_after,
+            bumpless: self.supervisor.bumpless,
+            flc: self.flc,
+            pid: self.pid,
+        }
+    }
+
+    /// The spacing policy the string is formed with, m, at own speed `v` (m/s): the FLC's
+    /// `D_d + F_shift` for `flc`, the PID's desired distance for `pid` and `pipeline` (the PID
+    /// drives while V2V is fresh), the robust FLC's desired gap, a baseline's steady-state gap
+    /// ([`Self::baseline_desired_gap`]). `None` where that is undefined.
+    pub fn reference_gap(&self, v: f64) -> Option<f64> {
+        let g = match self.controller {
+            ControllerKind::Flc => self.flc.desired_distance(v) + self.flc.f_shift(v),
+            ControllerKind::Pid | ControllerKind::Pipeline => self.pid.desired_distance(v),
+            ControllerKind::FlcRobust => self.flc_robust.desired_gap(v),
+            ControllerKind::Idm | ControllerKind::Acc | ControllerKind::Rss | ControllerKind::CarlaBehavior => self.baseline_desired_gap(v),
+        };
+        g.is_finite().then_some(g)
+    }
+
+    /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:
+    /// tables merge key by key, anything else is replaced. Errors name the key within the patch.
+    pub fn patched(&self, patch: &toml::Table) -> Result<Self, ConfigError> {
+        patch_value(self, patch)
+    }
+}
+
+/// Serialises `base`, merges `patch` into it key by key (tables merge recursively, other values
+/// and arrays are replaced) and deserialises the result. Errors name the dotted key.
+pub(crate) fn patch_value<T: Serialize + serde::de::DeserializeOwned>(base: &T, patch: &toml::Table) -> Result<T, ConfigError> {
+    let mut value = toml::Value::try_from(base).map_err(|e| ConfigError::new("", e.to_string()))?;
+    merge(&mut value, &toml::Value::Table(patch.clone()));
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = e.path().to_string();
+        let msg = e.into_inner().to_string();
+        let msg = msg.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or_default().to_string();
+        ConfigError::new(if path == "." { String::new() } else { path }, msg)
+    })
+}
+
+/// Deep merge of TOML values: tables key by key, everything else replaced.
+pub(crate) fn merge(base: &mut toml::Value, patch: &toml::Value) {
+    match (base, patch) {
+        (toml::Value::Table(b), toml::Value::Table(p)) => {
+            for (k, v) in p {
+                match b.get_mut(k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (b, p) => *b = p.clone(),
+    }
+}
