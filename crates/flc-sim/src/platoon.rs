@@ -82,10 +82,18 @@ pub struct StringStabilitySpec {
     pub sine_amplitude: f64,
     /// Time the string drives at constant speed before the sine starts, s.
     pub settle_time: f64,
-    /// Sine periods before the fit window (transient).
+    /// Sine periods before the fit window (transient), at least `min_warmup_time`.
     pub warmup_periods: u32,
-    /// Sine periods the amplitude is fitted over.
+    /// Sine periods the amplitude is fitted over, at least `min_fit_time`.
     pub fit_periods: u32,
+    /// Shortest transient before the fit window, s (rounded up to whole periods).
+    pub min_warmup_time: f64,
+    /// Shortest fit window, s (rounded up to whole periods): averages out the noise at high
+    /// frequencies.
+    pub min_fit_time: f64,
+    /// A follower whose fitted amplitude stays below this (m/s) does not count in the
+    /// frequency-domain verdict: its ratio is one of noise, not of the drive.
+    pub gamma_floor: f64,
 }
 
 impl Default for StringStabilitySpec {
@@ -100,6 +108,9 @@ impl Default for StringStabilitySpec {
             settle_time: 10.0,
             warmup_periods: 2,
             fit_periods: 3,
+            min_warmup_time: 20.0,
+            min_fit_time: 30.0,
+            gamma_floor: 0.05,
         }
     }
 }
@@ -121,7 +132,16 @@ impl StringStabilitySpec {
         check_range("sine_amplitude", self.sine_amplitude, 0.01, 20.0, "m/s")?;
         check_range("settle_time", self.settle_time, 0.0, 1000.0, "s")?;
         check_range("warmup_periods", f64::from(self.warmup_periods), 0.0, 100.0, "periods")?;
-        check_range("fit_periods", f64::from(self.fit_periods), 1.0, 100.0, "periods")
+        check_range("fit_periods", f64::from(self.fit_periods), 1.0, 100.0, "periods")?;
+        check_range("min_warmup_time", self.min_warmup_time, 0.0, 1000.0, "s")?;
+        check_range("min_fit_time", self.min_fit_time, 0.0, 1000.0, "s")?;
+        check_range("gamma_floor", self.gamma_floor, 0.0, 20.0, "m/s")
+    }
+
+    /// `(warmup, fit)` periods of the sine run at `freq_hz`.
+    pub fn sine_periods(&self, freq_hz: f64) -> (u32, u32) {
+        let at_least = |n: u32, t: f64| n.max((t * freq_hz - 1e-9).ceil().max(0.0) as u32);
+        (at_least(self.warmup_periods, self.min_warmup_time), at_least(self.fit_periods, self.min_fit_time))
     }
 }
 

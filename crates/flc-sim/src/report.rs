@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::metrics::Metrics;
+use crate::metrics::{Metrics, Series};
 use crate::scenario::Scenario;
 use crate::sim::RunResult;
+use crate::string_stability::StringStability;
 
 /// One line of `scenario --json`: identification plus every metric (flattened). Field names are a
 /// contract (documented in `docs/scenarios.md`).
@@ -24,9 +25,74 @@ pub struct RunRecord {
     pub preset: Option<String>,
     /// Seed of the run.
     pub seed: u64,
-    /// The metrics.
+    /// The metrics (of follower 1 in a platoon).
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// The scenario file's variant (`[[variants]]`), absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variant: Option<String>,
+    /// Platoon results, absent without `[platoon]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub platoon: Option<PlatoonRecord>,
+}
+
+/// One follower of a platoon in the JSON record.
+#[derive(Debug, Clone, Serialize)]
+pub struct FollowerRecord {
+    /// 1 = right behind the lead.
+    pub follower: u32,
+    /// Its controller.
+    pub controller: String,
+    /// Its metrics against the vehicle in front (same fields as the run's).
+    #[serde(flatten)]
+    pub metrics: Metrics,
+}
+
+/// The `platoon` object of the JSON record.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlatoonRecord {
+    /// Number of followers.
+    pub followers: u32,
+    /// `predecessor`, `lead` or `both`.
+    pub v2v_source: String,
+    /// Lead information relayed hop by hop.
+    pub relay: bool,
+    /// Some follower touched the vehicle in front.
+    pub any_collision: bool,
+    /// Smallest gap in the string, m.
+    pub min_gap: f64,
+    /// Per follower, 1..N.
+    pub per_follower: Vec<FollowerRecord>,
+    /// The string-stability measures and verdict.
+    pub string_stability: StringStability,
+}
+
+impl PlatoonRecord {
+    /// The record of a platoon run (`None` without `[platoon]`).
+    pub fn of(run: &RunResult) -> Option<Self> {
+        let p = run.platoon.as_ref()?;
+        let spec = run.scenario.platoon.clone().unwrap_or_default();
+        let configs = run.scenario.follower_configs().ok();
+        let per_follower: Vec<FollowerRecord> = p
+            .followers
+            .iter()
+            .enumerate()
+            .map(|(i, f)| FollowerRecord {
+                follower: i as u32 + 1,
+                controller: configs.as_ref().and_then(|c| c.get(i)).map_or(run.scenario.controller, |c| c.controller).as_str().to_string(),
+                metrics: f.metrics.clone(),
+            })
+            .collect();
+        Some(Self {
+            followers: p.followers.len() as u32,
+            v2v_source: spec.v2v_source.as_str().to_string(),
+            relay: spec.relay,
+            any_collision: p.followers.iter().any(|f| f.collision.is_some()),
+            min_gap: p.followers.iter().map(|f| f.metrics.min_gap).fold(f64::INFINITY, f64::min),
+            per_follower,
+            string_stability: p.string_stability.clone(),
+        })
+    }
 }
 
 impl RunRecord {
@@ -39,7 +105,27 @@ impl RunRecord {
             preset: preset.map(str::to_string),
             seed: scenario.seed,
             metrics: metrics.clone(),
+            variant: scenario.variant.clone(),
+            platoon: None,
         }
+    }
+
+    /// The record of a run, with its platoon results if any.
+    pub fn from_run(preset: Option<&str>, run: &RunResult) -> Self {
+        Self { platoon: PlatoonRecord::of(run), ..Self::new(&run.scenario, preset, &run.metrics) }
+    }
+
+    /// The scenario name with its variant (`name/variant`).
+    pub fn label(&self) -> String {
+        match &self.variant {
+            Some(v) => format!("{}/{v}", self.scenario),
+            None => self.scenario.clone(),
+        }
+    }
+
+    /// Some vehicle collided (follower 1, or any follower of a platoon).
+    pub fn any_collision(&self) -> bool {
+        self.metrics.collision || self.platoon.as_ref().is_some_and(|p| p.any_collision)
     }
 }
 
@@ -93,7 +179,7 @@ pub fn table(records: &[RunRecord]) -> String {
         let ttc = m.min_ttc.map_or("-".to_string(), |t| format!("{t:.2} s"));
         out.push_str(&format!(
             "{:<28} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
-            r.scenario,
+            r.label(),
             r.controller,
             r.speed_kmh.map_or("-".to_string(), |s| format!("{s:.0}")),
             format!(" {}", outcome(m)),
@@ -107,20 +193,36 @@ pub fn table(records: &[RunRecord]) -> String {
     out
 }
 
-/// File name of a run's outputs: `<scenario>-<controller>` with anything but `[A-Za-z0-9._-]`
-/// replaced by `_`.
+/// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
+/// `[A-Za-z0-9._-]` replaced by `_`.
 pub fn run_file_stem(scenario: &Scenario) -> String {
-    let raw = format!("{}-{}", scenario.name, scenario.controller.as_str());
+    let raw = match &scenario.variant {
+        Some(v) => format!("{}-{v}-{}", scenario.name, scenario.controller.as_str()),
+        None => format!("{}-{}", scenario.name, scenario.controller.as_str()),
+    };
     raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
 }
 
-/// Writes the run's time series as `<dir>/<stem>.csv` (header = column names with units).
+/// Writes the run's time series as `<dir>/<stem>.csv` (header = column names with units); for a
+/// platoon also followers 2..N as `<dir>/<stem>-follower<k>.csv` (their `lead_*` columns are the
+/// vehicle in front). Returns the first file.
 pub fn write_series_csv(dir: &Path, run: &RunResult) -> std::io::Result<PathBuf> {
-    let path = dir.join(format!("{}.csv", run_file_stem(&run.scenario)));
+    let stem = run_file_stem(&run.scenario);
+    let path = dir.join(format!("{stem}.csv"));
+    write_csv(&path, &run.series)?;
+    if let Some(p) = &run.platoon {
+        for (i, f) in p.followers.iter().enumerate().skip(1) {
+            write_csv(&dir.join(format!("{stem}-follower{}.csv", i + 1)), &f.series)?;
+        }
+    }
+    Ok(path)
+}
+
+fn write_csv(path: &Path, series: &Series) -> std::io::Result<()> {
     let tmp = path.with_extension("csv.part");
     {
         let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        let cols = run.series.columns();
+        let cols = series.columns();
         let header: Vec<&str> = cols.iter().map(|(name, _)| *name).collect();
         writeln!(w, "{}", header.join(","))?;
         let n = cols.first().map_or(0, |(_, c)| c.len());
@@ -138,6 +240,75 @@ pub fn write_series_csv(dir: &Path, run: &RunResult) -> std::io::Result<PathBuf>
         }
         w.flush()?;
     }
-    std::fs::rename(&tmp, &path)?;
-    Ok(path)
+    std::fs::rename(&tmp, path)
+}
+
+fn fmt_ratios(peak: &[f64], l2: &[f64], i: usize) -> String {
+    match (peak.get(i), l2.get(i)) {
+        (Some(p), Some(q)) => format!("{p:5.2} / {q:5.2}"),
+        _ => "     -       ".to_string(),
+    }
+}
+
+/// The platoon section of the table: per follower its outcome, errors and ratios to the follower
+/// in front, then |Gamma(jw)| and the verdict.
+pub fn platoon_table(r: &RunRecord) -> String {
+    let Some(p) = &r.platoon else { return String::new() };
+    let ss = &p.string_stability;
+    let mut out = format!(
+        "\n{} ({}): lead + {} followers, V2V from {}{}, window {:.2}-{:.2} s\n",
+        r.label(),
+        r.controller,
+        p.followers,
+        p.v2v_source,
+        if p.relay { " (relayed)" } else { "" },
+        ss.window_start,
+        ss.window_end
+    );
+    out.push_str(&format!(
+        "  {:>3} {:<9} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>9}\n",
+        "k", "ctrl", "outcome (clearance)", "min gap", "max dec", "gap err", "speed err", "gap ratio", "speed ratio", "peak |a|"
+    ));
+    out.push_str(&format!("  {:>3} {:<9} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>5.2} m/s²\n", 0, "lead", "", "", "", "", "", "", "", ss.accel_peak.first().copied().unwrap_or(f64::NAN)));
+    for (i, f) in p.per_follower.iter().enumerate() {
+        let m = &f.metrics;
+        let pair = i.wrapping_sub(1);
+        out.push_str(&format!(
+            "  {:>3} {:<9} {:<24} {:>6.2} m {:>5.2} m/s² {:>7.2} m {:>6.2} m/s {:>14} {:>14} {:>5.2} m/s²\n",
+            f.follower,
+            f.controller,
+            outcome(m),
+            m.min_gap,
+            m.max_decel,
+            ss.gap_error_peak.get(i).copied().unwrap_or(f64::NAN),
+            ss.speed_error_peak.get(i).copied().unwrap_or(f64::NAN),
+            fmt_ratios(&ss.gap_ratio_peak, &ss.gap_ratio_l2, pair),
+            fmt_ratios(&ss.speed_ratio_peak, &ss.speed_ratio_l2, pair),
+            ss.accel_peak.get(i + 1).copied().unwrap_or(f64::NAN),
+        ));
+    }
+    out.push_str("  (ratios: follower / follower in front, peak / L2; |Gamma| in parentheses: amplitude below the floor, not counted)\n");
+    for g in &ss.frequency_response {
+        let gammas: Vec<String> = g.gamma.iter().zip(&g.counted).map(|(x, c)| if *c { format!("{x:.3}") } else { format!("({x:.3})") }).collect();
+        out.push_str(&format!(
+            "  |Gamma| at {:5.3} Hz: max {:.3}{}  [{}]\n",
+            g.freq_hz,
+            g.max_gamma,
+            if g.collision { " (collision)" } else { "" },
+            gammas.join(" ")
+        ));
+    }
+    let verdict = if ss.string_stable { "string stable" } else { "NOT string stable" };
+    let mut why = Vec::new();
+    if !ss.collisions.is_empty() {
+        why.push(format!("collision of follower(s) {:?}", ss.collisions));
+    }
+    if let Some(m) = ss.max_ratio {
+        why.push(format!("max error ratio {m:.3}"));
+    }
+    if let Some(g) = ss.max_gamma {
+        why.push(format!("max |Gamma| {g:.3}"));
+    }
+    out.push_str(&format!("  verdict: {verdict} (tolerance 1 + {}; {})\n", ss.tolerance, why.join(", ")));
+    out
 }

@@ -171,6 +171,8 @@ struct Follower {
     pursuit: PurePursuit,
     longitudinal: Longitudinal,
     distance_offset: f64,
+    /// The scan's points that can fall into the detector's grid (reused buffer).
+    grid_buf: Vec<[f64; 2]>,
     mailbox: Option<V2vMessage>,
     /// `both`: the lead's last speed and the control ticks since it arrived.
     lead_info: Option<(f64, u32)>,
@@ -213,6 +215,7 @@ impl Follower {
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             longitudinal,
             distance_offset,
+            grid_buf: Vec::new(),
             mailbox: None,
             lead_info: None,
             relay_pending: None,
@@ -229,13 +232,15 @@ impl Follower {
             lookahead: (0.0, 0.0),
             accel_cmd: 0.0,
             collision: None,
-            series: Series::default(),
+            // Room for the whole run (up to 2^18 steps, 45 min at 10 ms; longer runs grow): no
+            // reallocation while recording.
+            series: Series::with_capacity(((s.duration / s.physics_dt).ceil() as usize + 2).min(1 << 18)),
             cfg,
         })
     }
 
     fn control_tick(&mut self, t: f64, points: &[[f64; 2]], fs: &VehicleState, road: &Road<'_>, source: V2vSource, lead_weight: f64) {
-        let det = self.detector.detect(points, self.path_curvature);
+        let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
         let detection = det.detection;
         let distance = detection.map(|d| d.distance - self.distance_offset);
         self.detected = distance;
@@ -356,6 +361,22 @@ fn centreline_steer(track: &Track, pp: &PurePursuit, state: &VehicleState, s: f6
     let (c, sn) = (state.yaw.cos(), state.yaw.sin());
     let local = Point2::new(c * gx + sn * gy, -sn * gx + c * gy);
     pp.step(Some(local), state.speed).steer
+}
+
+/// The points of a scan the detector can use: those within 1 cm of its grid (plus any
+/// non-finite ones, which it counts). The detector ignores every other point (`cell_of` is
+/// `None` for them), so its result is the same as on the whole scan, with less work: on a road
+/// with guard rails about half the returns lie outside the grid. Scans longer than
+/// `max_points` are passed whole (the detector truncates them).
+fn grid_points<'a>(det: &LeadDetector, params: &flc_core::DetectorParams, points: &'a [[f64; 2]], buf: &'a mut Vec<[f64; 2]>) -> &'a [[f64; 2]] {
+    if points.len() > params.max_points {
+        return points;
+    }
+    let ((x0, x1), (y0, y1)) = (det.x_range(), det.y_range());
+    let (x0, x1, y0, y1) = (x0 - 0.01, x1 + 0.01, y0 - 0.01, y1 + 0.01);
+    buf.clear();
+    buf.extend(points.iter().filter(|[x, y]| !(x.is_finite() && y.is_finite()) || (*x >= x0 && *x <= x1 && *y >= y0 && *y <= y1)));
+    buf
 }
 
 /// Bumper-to-bumper distance along the front vehicle's heading (the "gap").
@@ -668,4 +689,60 @@ fn relay_tick(ch: &mut V2vChannel, t: f64, pending: Option<f64>, consumed: &mut 
 fn wrap_angle(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;
     (a + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn follower_one_keeps_the_single_follower_streams() {
+        assert_eq!([1, 2, 3].map(|j| follower_stream(1, j)), [1, 2, 3]);
+        assert_eq!(follower_stream(2, 1), 17);
+        // Distinct streams for every follower and process.
+        let mut all: Vec<u64> = (1..=64).flat_map(|k| (1..=3).map(move |j| follower_stream(k, j))).collect();
+        all.sort_unstable();
+        all.dedup();
+        assert_eq!(all.len(), 64 * 3);
+    }
+
+    #[test]
+    fn grid_prefilter_does_not_change_the_detection() {
+        // Random scans with points inside, outside and within a few mm of the detector's grid:
+        // the detector sees the same scan whether or not the points outside are dropped.
+        let params = flc_core::DetectorParams::default();
+        let mut a = <LeadDetector>::new(params).unwrap();
+        let mut b = <LeadDetector>::new(params).unwrap();
+        let ((x0, x1), (y0, y1)) = (a.x_range(), a.y_range());
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut buf = Vec::new();
+        for _ in 0..300 {
+            let mut pts: Vec<[f64; 2]> = Vec::new();
+            // A car somewhere ahead, rails, clutter, edge points.
+            let (cx, cy) = (rng.random_range(3.0..80.0), rng.random_range(-5.0..5.0));
+            for i in 0..30 {
+                pts.push([cx + rng.random_range(-0.02..0.02), cy - 0.9 + 1.8 * f64::from(i) / 29.0]);
+            }
+            for _ in 0..300 {
+                let x: f64 = rng.random_range(-2.0..110.0);
+                pts.push([x, if rng.random_bool(0.5) { -3.15 } else { 6.65 } + rng.random_range(-0.03..0.03)]);
+            }
+            for _ in 0..40 {
+                let e = rng.random_range(-0.005..0.005);
+                pts.push(match rng.random_range(0..4) {
+                    0 => [x0 + e, rng.random_range(y0..y1)],
+                    1 => [x1 + e, rng.random_range(y0..y1)],
+                    2 => [rng.random_range(x0..x1), y0 + e],
+                    _ => [rng.random_range(x0..x1), y1 + e],
+                });
+            }
+            let kappa = rng.random_range(-0.01..0.01);
+            let full = a.detect(&pts, kappa);
+            let filtered = b.detect(grid_points(&b, &params, &pts, &mut buf), kappa);
+            assert_eq!(full.detection, filtered.detection);
+            assert_eq!(a.clusters(), b.clusters());
+            assert!(buf.len() < pts.len());
+        }
+    }
 }

@@ -42,7 +42,9 @@ pub struct GammaPoint {
     pub gamma: Vec<f64>,
     /// Phase of `Gamma_k` (follower relative to the vehicle in front), degrees (negative = lag).
     pub phase_deg: Vec<f64>,
-    /// `max_k |Gamma_k|`.
+    /// Whether follower `k`'s `|Gamma_k|` counts: its amplitude is above `gamma_floor`.
+    pub counted: Vec<bool>,
+    /// `max |Gamma_k|` over the counted followers (NaN, serialised `null`, if none counts).
     pub max_gamma: f64,
     /// Some follower collided during the run (the fit is then meaningless).
     pub collision: bool,
@@ -88,9 +90,10 @@ pub struct StringStability {
     pub time_domain_stable: bool,
     /// `|Gamma(jw)|` per measured frequency (empty unless measured).
     pub frequency_response: Vec<GammaPoint>,
-    /// Largest `|Gamma|` over frequencies and followers, if measured.
+    /// Largest counted `|Gamma|` over frequencies and followers, if measured.
     pub max_gamma: Option<f64>,
-    /// Every `|Gamma| <= 1 + tolerance` (and no collision in those runs); `None` if not measured.
+    /// Every counted `|Gamma| <= 1 + tolerance` (and no collision in those runs); `None` if not
+    /// measured.
     pub frequency_domain_stable: Option<bool>,
     /// The verdict: time domain stable and, if measured, frequency domain stable.
     pub string_stable: bool,
@@ -197,15 +200,17 @@ fn wrap_deg(a: f64) -> f64 {
     (a + 180.0).rem_euclid(360.0) - 180.0
 }
 
-/// `|Gamma|` at `freq_hz` from the vehicles' speeds (index 0 = lead) over `[t0, t1]`.
-pub fn gamma_from_speeds(t: &[f64], speeds: &[&[f64]], freq_hz: f64, t0: f64, t1: f64) -> GammaPoint {
+/// `|Gamma|` at `freq_hz` from the vehicles' speeds (index 0 = lead) over `[t0, t1]`; followers
+/// whose amplitude is below `floor` (m/s) do not count in `max_gamma` (NaN if none counts).
+pub fn gamma_from_speeds(t: &[f64], speeds: &[&[f64]], freq_hz: f64, t0: f64, t1: f64, floor: f64) -> GammaPoint {
     let fits: Vec<(f64, f64)> =
         speeds.iter().map(|v| fit_sinusoid(t, v, freq_hz, t0, t1).map_or((f64::NAN, f64::NAN), |(a, p, _)| (a, p))).collect();
     let amplitude: Vec<f64> = fits.iter().map(|f| f.0).collect();
     let gamma: Vec<f64> = fits.windows(2).map(|w| ratio(w[1].0, w[0].0)).collect();
     let phase_deg: Vec<f64> = fits.windows(2).map(|w| wrap_deg((w[1].1 - w[0].1).to_degrees())).collect();
-    let max_gamma = gamma.iter().copied().fold(f64::NAN, f64::max);
-    GammaPoint { freq_hz, amplitude, gamma, phase_deg, max_gamma, collision: false }
+    let counted: Vec<bool> = amplitude.iter().skip(1).map(|&a| a > floor).collect();
+    let max_gamma = gamma.iter().zip(&counted).filter(|(_, c)| **c).map(|(g, _)| *g).fold(f64::NAN, f64::max);
+    GammaPoint { freq_hz, amplitude, gamma, phase_deg, counted, max_gamma, collision: false }
 }
 
 impl StringStability {
@@ -289,9 +294,9 @@ impl StringStability {
             self.string_stable = self.time_domain_stable;
             return;
         }
-        let max = points.iter().flat_map(|p| p.gamma.iter().copied()).fold(f64::NAN, f64::max);
-        let ok = points.iter().all(|p| !p.collision && p.gamma.iter().all(|&g| g <= 1.0 + self.tolerance));
-        self.max_gamma = Some(max);
+        let max = points.iter().map(|p| p.max_gamma).fold(f64::NAN, f64::max);
+        let ok = points.iter().all(|p| !p.collision && !(p.max_gamma > 1.0 + self.tolerance));
+        self.max_gamma = max.is_finite().then_some(max);
         self.frequency_domain_stable = Some(ok);
         self.string_stable = self.time_domain_stable && ok;
         self.frequency_response = points;
@@ -313,7 +318,8 @@ pub fn sine_scenario(base: &Scenario, freq_hz: f64) -> Result<Scenario, ConfigEr
         ));
     }
     let mut s = Scenario { variants: Vec::new(), ..base.clone() };
-    let sine = f64::from(ss.warmup_periods + ss.fit_periods) / freq_hz;
+    let (warmup, fit) = ss.sine_periods(freq_hz);
+    let sine = f64::from(warmup + fit) / freq_hz;
     s.lead.phases = vec![
         Phase::Hold { until_x: None, until_t: None, duration: Some(ss.settle_time) },
         Phase::Sine { amplitude: ss.sine_amplitude, freq_hz, duration: sine },
@@ -328,9 +334,11 @@ pub fn sine_scenario(base: &Scenario, freq_hz: f64) -> Result<Scenario, ConfigEr
     Ok(s)
 }
 
-/// `|Gamma|` from one run of [`sine_scenario`]: the fit covers the last `fit_periods` periods.
+/// `|Gamma|` from one run of [`sine_scenario`]: the fit covers its last fit periods
+/// ([`StringStabilitySpec::sine_periods`]).
 pub fn gamma_from_run(scenario: &Scenario, run: &crate::RunResult, freq_hz: f64) -> GammaPoint {
-    let fit = f64::from(scenario.platoon.as_ref().map_or(3, |p| p.string_stability.fit_periods)) / freq_hz;
+    let spec = scenario.platoon.as_ref().map(|p| p.string_stability.clone()).unwrap_or_default();
+    let fit = f64::from(spec.sine_periods(freq_hz).1) / freq_hz;
     let first = &run.series;
     let t1 = first.t.last().copied().unwrap_or(0.0);
     let mut speeds: Vec<&[f64]> = vec![&first.lead_speed];
@@ -344,7 +352,7 @@ pub fn gamma_from_run(scenario: &Scenario, run: &crate::RunResult, freq_hz: f64)
         }
         None => speeds.push(&first.follower_speed),
     }
-    let mut g = gamma_from_speeds(&first.t, &speeds, freq_hz, t1 - fit, t1);
+    let mut g = gamma_from_speeds(&first.t, &speeds, freq_hz, t1 - fit, t1, spec.gamma_floor);
     g.collision = collision;
     g
 }
@@ -453,7 +461,7 @@ mod tests {
                     (0..5).map(|k| t.iter().map(|&ti| 30.0 + 1.3 * gain.powi(k) * (w * ti - 0.4 * k as f64).sin()).collect()).collect();
                 let refs: Vec<&[f64]> = speeds.iter().map(Vec::as_slice).collect();
                 let t1 = *t.last().unwrap();
-                let g = gamma_from_speeds(&t, &refs, f, t1 - 3.0 / f, t1);
+                let g = gamma_from_speeds(&t, &refs, f, t1 - 3.0 / f, t1, 0.05);
                 assert_eq!(g.gamma.len(), 4);
                 assert!((g.amplitude[0] - 1.3).abs() < 1e-9, "{:?}", g.amplitude);
                 for (gk, ph) in g.gamma.iter().zip(&g.phase_deg) {

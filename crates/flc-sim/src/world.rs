@@ -240,6 +240,14 @@ impl World {
         let region = Aabb::new(lo - Vector::splat(0.01), hi + Vector::splat(0.01));
         for (_, co) in qp.intersect_aabb_conservative(region) {
             let (lo, hi) = angular_extent(co, origin, base);
+            // Cuboids (vehicles, rails, parked cars): parry's `cast_ray` is `cast_local_ray` on the
+            // ray moved into the shape's frame; the origin's image is the same for every ray of
+            // the fan, so it is computed once (same operations, same result).
+            let pos = co.position();
+            let local = co.shape().as_cuboid().map(|c| {
+                let lo_origin = pos.inverse_transform_point(o);
+                LocalBox { near: -c.half_extents - lo_origin, far: c.half_extents - lo_origin, inv_rot: pos.rotation.inverse() }
+            });
             for shift in [-TAU, 0.0, TAU] {
                 let (l, h) = (lo + shift - ANGLE_SLACK, hi + shift + ANGLE_SLACK);
                 if h < a_first || l > a_last {
@@ -249,14 +257,57 @@ impl World {
                 let last = angles.partition_point(|&a| a <= h);
                 for i in first..last {
                     let (Some(d), Some(slot)) = (unit.get(i), hits.get_mut(i)) else { continue };
-                    let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
+                    let dir = Vector::new(d[0] as f32, d[1] as f32);
                     let best = slot.map_or(r, |b| b as f32);
-                    if let Some(toi) = co.shape().cast_ray(co.position(), &ray, best, true) {
+                    let toi = match &local {
+                        Some(b) => b.cast(b.inv_rot * dir, best),
+                        None => co.shape().cast_ray(pos, &Ray::new(o, dir), best, true),
+                    };
+                    if let Some(toi) = toi {
                         *slot = Some(f64::from(toi));
                     }
                 }
             }
         }
+    }
+}
+
+/// A cuboid seen from a fan's origin, in the cuboid's frame: the slab offsets `mins - origin` and
+/// `maxs - origin` are the same for every ray of the fan.
+struct LocalBox {
+    near: Vector,
+    far: Vector,
+    inv_rot: rapier2d::parry::math::Rotation,
+}
+
+impl LocalBox {
+    /// parry's `Aabb::cast_local_ray(ray, max_toi, solid = true)` (slab test, `parry2d` 0.31,
+    /// `query/ray/ray_aabb.rs`) for the fan's ray along the local direction `dir`, with the
+    /// per-fan terms precomputed: the same f32 operations in the same order, so the same result
+    /// bit for bit (tested against parry in `fan_casting_equals_one_ray_cast_per_ray*`).
+    #[inline]
+    fn cast(&self, dir: Vector, max_toi: f32) -> Option<f32> {
+        let (mut tmin, mut tmax) = (0.0f32, max_toi);
+        for (d, near, far) in [(dir.x, self.near.x, self.far.x), (dir.y, self.near.y, self.far.y)] {
+            if d == 0.0 {
+                // Parallel to this slab: no hit unless inside it (`o < mins` iff `mins - o > 0`).
+                if near > 0.0 || far < 0.0 {
+                    return None;
+                }
+            } else {
+                let denom = 1.0 / d;
+                let (mut a, mut b) = (near * denom, far * denom);
+                if a > b {
+                    std::mem::swap(&mut a, &mut b);
+                }
+                tmin = tmin.max(a);
+                tmax = tmax.min(b);
+                if tmin > tmax {
+                    return None;
+                }
+            }
+        }
+        Some(tmin)
     }
 }
 
@@ -442,6 +493,62 @@ mod tests {
                         (None, None) => {}
                         other => panic!("s {s} off {off}: fan {:?} vs single {:?}", other.0, other.1),
                     }
+                }
+            }
+        }
+    }
+
+    /// The fan's ray casts before the per-fan cuboid terms: parry's `cast_ray` per ray and
+    /// collider, nearest hit kept (reference for `fan_casting_is_bit_identical_to_parry`).
+    fn cast_fan_reference(w: &World, fan: &RayFan<'_>, max_range: f64, exclude: Body) -> Vec<Option<f64>> {
+        let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
+        let qp = w.pw.query_pipeline_with_filter(filter);
+        let o = Vector::new(fan.origin[0] as f32, fan.origin[1] as f32);
+        let mut hits = vec![None; fan.angles.len()];
+        let everything = rapier2d::parry::bounding_volume::Aabb::new(Vector::splat(-1e6), Vector::splat(1e6));
+        for (_, co) in qp.intersect_aabb_conservative(everything) {
+            for (d, slot) in fan.unit.iter().zip(hits.iter_mut()) {
+                let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
+                let best = slot.map_or(max_range as f32, |b: f64| b as f32);
+                if let Some(toi) = co.shape().cast_ray(co.position(), &ray, best, true) {
+                    *slot = Some(f64::from(toi));
+                }
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn fan_casting_is_bit_identical_to_parry() {
+        // The fan's own slab test for cuboids must give exactly parry's numbers (the closed loop's
+        // results depend on every bit of them).
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for track in [Track::straight(2000.0), Track::curvy()] {
+            let mut w = World::new(&track);
+            let p = VehicleParams::default();
+            let ego = w.add_vehicle(&p, &VehicleState::default());
+            let others: Vec<Body> = (0..3).map(|_| w.add_vehicle(&p, &VehicleState::default())).collect();
+            let mut hits = Vec::new();
+            for _ in 0..60 {
+                let s = rng.random_range(0.0..track.length() - 100.0);
+                let (x, y, h) = track.pose_at(s);
+                w.set_pose(ego, &VehicleState { x, y, yaw: h + rng.random_range(-0.2..0.2), ..Default::default() });
+                for (k, b) in others.iter().enumerate() {
+                    let (lx, ly, lh) = track.pose_at(s + 8.0 + 25.0 * k as f64 + rng.random_range(0.0..10.0));
+                    w.set_pose(*b, &VehicleState { x: lx + rng.random_range(-1.0..1.0), y: ly, yaw: lh + rng.random_range(-0.3..0.3), ..Default::default() });
+                }
+                w.step(0.01);
+                let n = 961;
+                let fov = 120f64.to_radians();
+                let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
+                let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(h + a).cos(), (h + a).sin()]).collect();
+                let fan = RayFan { origin: [x + 2.0 * h.cos(), y + 2.0 * h.sin()], base: h, angles: &angles, unit: &unit };
+                w.cast_fan(&fan, 100.0, ego, &mut hits);
+                let reference = cast_fan_reference(&w, &fan, 100.0, ego);
+                assert!(hits.iter().any(Option::is_some));
+                for (i, (a, b)) in hits.iter().zip(&reference).enumerate() {
+                    assert!(a.map(f64::to_bits) == b.map(f64::to_bits), "s {s} ray {i}: {a:?} vs {b:?}");
                 }
             }
         }

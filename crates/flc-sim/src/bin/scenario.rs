@@ -108,7 +108,10 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
     let mut out = Vec::new();
     if !cli.config.is_empty() {
         for path in &cli.config {
-            out.push((Scenario::from_file(path)?, None));
+            let s = Scenario::from_file(path)?;
+            // A file with `[[variants]]` runs each variant.
+            let variants = s.expand_variants().map_err(|e| SimError::File { path: path.display().to_string(), message: e.to_string() })?;
+            out.extend(variants.into_iter().map(|v| (v, None)));
         }
     } else {
         let presets = match cli.preset.as_str() {
@@ -140,6 +143,35 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
         s.validate().map_err(|e| SimError::File { path: s.name.clone(), message: e.to_string() })?;
     }
     Ok(out)
+}
+
+/// Runs the |Gamma(jw)| sine runs of every platoon scenario with `frequencies_hz` (all in
+/// parallel) and adds them to the records.
+fn frequency_responses(list: &[(Scenario, Option<Calibration>)], records: &mut [RunRecord]) -> Result<(), SimError> {
+    use flc_sim::string_stability::{gamma_from_run, sine_scenario};
+    let mut jobs = Vec::new();
+    for (i, (s, _)) in list.iter().enumerate() {
+        let freqs = s.platoon.as_ref().map(|p| p.string_stability.frequencies_hz.clone()).unwrap_or_default();
+        for f in freqs {
+            jobs.push((i, f, sine_scenario(s, f).map_err(|e| SimError::File { path: s.name.clone(), message: e.to_string() })?));
+        }
+    }
+    if jobs.is_empty() {
+        return Ok(());
+    }
+    let scenarios: Vec<Scenario> = jobs.iter().map(|(_, _, s)| s.clone()).collect();
+    let results = run_batch(&scenarios, true);
+    let mut points: Vec<Vec<flc_sim::string_stability::GammaPoint>> = vec![Vec::new(); list.len()];
+    for ((i, f, s), r) in jobs.iter().zip(results) {
+        let r = r?;
+        points[*i].push(gamma_from_run(s, &r, *f));
+    }
+    for (rec, pts) in records.iter_mut().zip(points) {
+        if let Some(p) = rec.platoon.as_mut() {
+            p.string_stability.set_frequency_response(pts);
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -203,7 +235,13 @@ fn main() -> ExitCode {
                 return ExitCode::FAILURE;
             }
         }
-        records.push(RunRecord::new(scenario, preset.map(Calibration::as_str), &run.metrics));
+        records.push(RunRecord::from_run(preset.map(Calibration::as_str), &run));
+    }
+    // Platoons with `string_stability.frequencies_hz`: |Gamma(jw)|, one sine run per frequency.
+    if cli.record.is_none() {
+        if let Err(e) = frequency_responses(&list, &mut records) {
+            return bad_input(e);
+        }
     }
     if cli.json {
         for r in &records {
@@ -217,8 +255,11 @@ fn main() -> ExitCode {
         }
     } else {
         print!("{}", report::table(&records));
+        for r in &records {
+            print!("{}", report::platoon_table(r));
+        }
     }
-    if cli.fail_on_collision && records.iter().any(|r| r.metrics.collision) {
+    if cli.fail_on_collision && records.iter().any(RunRecord::any_collision) {
         return ExitCode::from(1);
     }
     ExitCode::SUCCESS
