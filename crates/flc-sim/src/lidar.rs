@@ -168,7 +168,7 @@ impl Lidar {
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
         world.cast_fan(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
-        let mut points = Vec::with_capacity(self.hits.len() / 4);
+        let mut points = Vec::with_capacity(self.hits.len());
         for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
             // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
             // what the other rays hit.
