@@ -20,7 +20,7 @@ from ._controllers import (
 )
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
-from ._run import RunResult, run, sweep
+from ._run import PlatoonResult, RunResult, frequency_response, run, sweep
 from ._scenario import Scenario
 
 __all__ = [
@@ -29,6 +29,7 @@ __all__ = [
     "FlcError",
     "LeadDetector",
     "ParameterError",
+    "PlatoonResult",
     "PidController",
     "PurePursuit",
     "RobustFallbackController",
@@ -38,6 +39,7 @@ __all__ = [
     "SimulationError",
     "Steering",
     "Supervisor",
+    "frequency_response",
     "read_mcap",
     "run",
     "sweep",

@@ -1,4 +1,4 @@
-"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope]``.
+"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``.
 
 Exit status 0 on success, 2 on bad arguments (argparse), 1 if matplotlib is missing.
 """
@@ -29,10 +29,20 @@ def _controllers(text: str) -> list[str]:
     return names
 
 
+def _freqs(text: str) -> list[float]:
+    try:
+        freqs = [float(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers (Hz), got {text!r}") from None
+    if not freqs or not all(0.001 <= f <= 5.0 for f in freqs):
+        raise argparse.ArgumentTypeError(f"expected one or more frequencies in [0.001, 5] Hz, got {text!r}")
+    return freqs
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
-    fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov) and the safety-envelope maps as PNG")
+    fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov), the safety-envelope maps and the platoon figures as PNG")
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
     fig.add_argument("--preset", choices=["paper", "realistic"], default="paper", help="vehicle preset of Fig. 4 (default paper)")
@@ -50,6 +60,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         help="controllers of the envelope maps, comma separated (default flc,pid,idm,acc,rss,carla-behavior,flc-robust)",
     )
     fig.add_argument("--threads", type=int, default=None, help="worker threads of the envelope sweeps (default: all cores)")
+    fig.add_argument(
+        "--platoon-frequencies",
+        type=_freqs,
+        default=None,
+        help="frequencies of the platoon's |Gamma(jw)|, Hz, comma separated (default: the brake demo's 0.05,0.1,0.2,0.3,0.5)",
+    )
     args = parser.parse_args(argv)
     if args.threads is not None and args.threads < 1:
         parser.error("--threads: expected a positive number")
@@ -57,7 +73,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from . import envelope
         from .figures import make_all
 
-        paths = make_all(args.out, args.speeds, args.preset)
+        paths = make_all(args.out, args.speeds, args.preset, args.platoon_frequencies)
         if not args.no_envelope:
             paths += envelope.make_all(
                 args.out,

@@ -11,18 +11,79 @@ from . import _flc
 from ._scenario import Scenario
 
 
+class PlatoonResult:
+    """Every follower of a platoon run.
+
+    ``series`` maps the column names of :attr:`RunResult.series` to NumPy arrays shaped
+    ``(n_followers, n_steps)`` (row ``k - 1`` = follower ``k``; its ``lead_*`` columns are the
+    vehicle in front of it), plus ``gap_error`` (gap minus the follower's reference spacing policy)
+    and ``speed_error`` (speed of the vehicle in front minus its own), also reachable as
+    attributes (``platoon.gap``). ``metrics`` holds each follower's metrics (the keys of
+    :attr:`RunResult.metrics`), ``string_stability`` the measures and verdict
+    (``docs/platoon.md``), ``record`` the whole ``platoon`` object of ``scenario --json``.
+    """
+
+    def __init__(self, record: Mapping[str, Any], series: Mapping[str, np.ndarray]) -> None:
+        self.record: dict[str, Any] = dict(record)
+        self.series: dict[str, np.ndarray] = dict(series)
+        self.metrics: list[dict[str, Any]] = [dict(m) for m in self.record.get("per_follower", [])]
+        self.string_stability: dict[str, Any] = dict(self.record.get("string_stability", {}))
+
+    @property
+    def n_followers(self) -> int:
+        return int(self.record.get("followers", 0))
+
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times, s (1-D, shared by all followers)."""
+        return self.series["t"][0]
+
+    def vehicle_speed(self) -> np.ndarray:
+        """Speeds of all vehicles, shape ``(n_followers + 1, n_steps)``, row 0 = the lead, m/s."""
+        return np.vstack([self.series["lead_speed"][:1], self.series["follower_speed"]])
+
+    def vehicle_xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """World positions ``(x, y)`` of all vehicles, each ``(n_followers + 1, n_steps)``, row 0 = lead."""
+        x = np.vstack([self.series["lead_x"][:1], self.series["follower_x"]])
+        y = np.vstack([self.series["lead_y"][:1], self.series["follower_y"]])
+        return x, y
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        series = self.__dict__.get("series", {})
+        if name in series:
+            return series[name]
+        raise AttributeError(name)
+
+    def __repr__(self) -> str:
+        ss = self.string_stability
+        return f"PlatoonResult(followers={self.n_followers}, any_collision={self.record.get('any_collision')}, string_stable={ss.get('string_stable')})"
+
+
 class RunResult:
     """The outcome of one run.
 
     ``series`` maps column names (SI units, documented in ``docs/v2v-and-metrics.md``) to NumPy
     arrays, also reachable as attributes (``result.t``, ``result.gap``); ``metrics`` has the same
-    keys as ``scenario --json`` (``collision``, ``min_gap``, ...).
+    keys as ``scenario --json`` (``collision``, ``min_gap``, ...). For a platoon these are follower
+    1's, and ``platoon`` (a :class:`PlatoonResult`) holds every follower; ``None`` otherwise.
     """
 
-    def __init__(self, scenario: Scenario, metrics: Mapping[str, Any], series: Mapping[str, np.ndarray]) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        metrics: Mapping[str, Any],
+        series: Mapping[str, np.ndarray],
+        platoon: Optional[PlatoonResult] = None,
+    ) -> None:
         self.scenario = scenario
         self.metrics: dict[str, Any] = dict(metrics)
         self.series: dict[str, np.ndarray] = dict(series)
+        self.platoon = platoon
+
+    @property
+    def string_stability(self) -> Optional[dict[str, Any]]:
+        """The platoon's string-stability measures and verdict (``None`` without a platoon)."""
+        return None if self.platoon is None else self.platoon.string_stability
 
     def __getattr__(self, name: str) -> np.ndarray:
         series = self.__dict__.get("series", {})
@@ -40,12 +101,17 @@ class RunResult:
 
     def __repr__(self) -> str:
         m = self.metrics
-        return f"RunResult({self.scenario.name!r}, controller={self.scenario.controller!r}, collision={m.get('collision')}, min_gap={m.get('min_gap'):.2f})"
+        extra = "" if self.platoon is None else f", followers={self.platoon.n_followers}"
+        return f"RunResult({self.scenario.name!r}, controller={self.scenario.controller!r}, collision={m.get('collision')}, min_gap={m.get('min_gap'):.2f}{extra})"
 
 
-def _result(scenario: Scenario, raw: tuple[str, dict[str, Any]]) -> RunResult:
-    metrics_json, columns = raw
-    return RunResult(scenario, json.loads(metrics_json), {k: np.asarray(v) for k, v in columns.items()})
+def _result(scenario: Scenario, raw: tuple[str, dict[str, Any], Optional[tuple[str, dict[str, Any]]]]) -> RunResult:
+    metrics_json, columns, platoon = raw
+    p = None
+    if platoon is not None:
+        record_json, arrays = platoon
+        p = PlatoonResult(json.loads(record_json), {k: np.asarray(v) for k, v in arrays.items()})
+    return RunResult(scenario, json.loads(metrics_json), {k: np.asarray(v) for k, v in columns.items()}, p)
 
 
 def run(scenario: Union[Scenario, Mapping[str, Any]], record: Optional[str] = None) -> RunResult:
@@ -75,3 +141,15 @@ def sweep(
         return [f.result() for f in futures]
     raws = _flc.sweep([s.to_json() for s in scs], threads)
     return [_result(s, r) for s, r in zip(scs, raws)]
+
+
+def frequency_response(scenario: Union[Scenario, Mapping[str, Any]], freqs_hz: Optional[Sequence[float]] = None) -> list[dict[str, Any]]:
+    """``|Gamma(jw)|`` of a platoon scenario: for each frequency (Hz; default the scenario's
+    ``platoon.string_stability.frequencies_hz``) the lead drives ``v + A sin(w t)`` and every
+    vehicle's speed is fitted at ``w``. Runs in parallel in Rust (GIL released). Each point has
+    ``freq_hz``, ``amplitude`` (per vehicle, lead first), ``gamma`` and ``phase_deg`` (per
+    follower), ``counted``, ``max_gamma`` and ``collision`` (``docs/platoon.md``)."""
+    sc = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
+    freqs = None if freqs_hz is None else [float(f) for f in freqs_hz]
+    points: list[dict[str, Any]] = json.loads(_flc.frequency_response(sc.to_json(), freqs))
+    return points

@@ -12,7 +12,7 @@ from ._flc import ScenarioError
 #: Sections of a scenario; a keyword ``<section>_<key>`` overrides ``[section] key``.
 SECTIONS = (
     "follower", "lead", "lidar", "v2v", "detector", "flc", "pid", "pure_pursuit", "supervisor", "stop", "track",
-    "idm", "acc", "rss", "carla_behavior", "flc_robust",
+    "idm", "acc", "rss", "carla_behavior", "flc_robust", "platoon",
 )
 
 #: Controller names accepted by ``controller=`` (``docs/scenarios.md``, ``docs/baselines.md``).
@@ -65,6 +65,14 @@ class Scenario:
         return cls.from_dict(base, **overrides)
 
     @classmethod
+    def brakedemo(cls, **overrides: Any) -> "Scenario":
+        """The platoon brake demo (``scenarios/platoon-brakedemo.toml``, ``docs/platoon.md``): the lead
+        and 7 followers at 120 km/h, the lead brakes at -6 m/s² after 20 s; three variants
+        (:meth:`variants`): ``pid-v2v``, ``flc``, ``pipeline-outage``. Keyword overrides as in
+        :meth:`from_dict` (e.g. ``platoon_followers=15``)."""
+        return cls.from_dict(json.loads(_flc.brakedemo_scenario()), **overrides)
+
+    @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"], **overrides: Any) -> "Scenario":
         """Read a TOML scenario file."""
         base = json.loads(_flc.load_scenario(os.fspath(path)))
@@ -81,6 +89,16 @@ class Scenario:
     def replace(self, **overrides: Any) -> "Scenario":
         """A copy with fields overridden by keyword."""
         return Scenario.from_dict(self._data, **overrides)
+
+    def variants(self) -> list["Scenario"]:
+        """The scenarios to run for this one: each of its ``[[variants]]`` (with ``variant`` set to
+        its name), or ``[self]`` without any (as ``scenario --config`` does)."""
+        return [Scenario(json.loads(j)) for j in _flc.expand_variants(self._json)]
+
+    @property
+    def variant(self) -> Optional[str]:
+        v = self._data.get("variant")
+        return None if v is None else str(v)
 
     def to_dict(self) -> dict[str, Any]:
         """The full scenario (every key, defaults filled in)."""
@@ -114,7 +132,8 @@ class Scenario:
         return copy.deepcopy(node)
 
     def __repr__(self) -> str:
-        return f"Scenario(name={self.name!r}, controller={self.controller!r}, seed={self.seed})"
+        v = "" if self.variant is None else f", variant={self.variant!r}"
+        return f"Scenario(name={self.name!r}, controller={self.controller!r}, seed={self.seed}{v})"
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Scenario) and self._data == other._data

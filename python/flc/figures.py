@@ -4,11 +4,15 @@
 * :func:`fig_truncated_cosine` — Fig. 2: the acceleration law of Eq. (5) for both Delta_d branches;
 * :func:`fig_lyapunov` — Sec. III-C: phase portrait of Eq. (7) and the sign of dV/dt for Eq. (8);
 * :func:`fig_robust_lyapunov` — Sec. III-C redone for the robust FLC (``docs/robust-flc.md``).
+* :func:`fig_platoon_space_time`, :func:`fig_platoon_gap_errors`, :func:`fig_platoon_gamma` — the
+  platoon brake demo (``docs/platoon.md``): space-time diagram of the string, gap errors per
+  vehicle and the string-stability frequency response ``|Gamma(jw)|``.
 
 Each returns a ``matplotlib.figure.Figure``. With ``out`` the figure is drawn on its own Agg canvas
 (headless, pyplot's global state untouched) and saved there; without it, it is a pyplot figure
-(``plt.show()``, notebooks). ``python -m flc figures --out DIR`` writes all three as PNG; the data
-behind each figure is available without matplotlib (``*_data`` / :func:`following_runs`).
+(``plt.show()``, notebooks). ``python -m flc figures --out DIR`` writes all of them as PNG; the data
+behind each figure is available without matplotlib (``*_data`` / :func:`following_runs` /
+:func:`platoon_runs`).
 """
 from __future__ import annotations
 
@@ -21,7 +25,7 @@ import numpy as np
 
 from ._controllers import FallbackController
 from ._params import defaults
-from ._run import RunResult, sweep
+from ._run import RunResult, frequency_response, sweep
 from ._scenario import Scenario
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -347,15 +351,170 @@ def fig_following(speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = 
     return _save(fig, out)
 
 
-def make_all(out_dir: PathLike, speeds_kmh: Sequence[float] = (30, 50, 70, 90), preset: str = "paper") -> list[Path]:
-    """Writes ``following.png``, ``truncated_cosine.png`` and ``lyapunov.png`` into ``out_dir``
-    (created if needed); returns their paths."""
+# ---------------------------------------------------------------------------------------------
+# Platoons: the brake demo (docs/platoon.md)
+
+
+def platoon_runs(scenario: Optional[Scenario] = None) -> dict[str, RunResult]:
+    """The runs behind the platoon figures, keyed by variant name (``pid-v2v``, ``flc``,
+    ``pipeline-outage`` for the default :meth:`Scenario.brakedemo`), run in parallel."""
+    sc = scenario if scenario is not None else Scenario.brakedemo()
+    variants = sc.variants()
+    results = sweep(variants)
+    return {(v.variant or v.controller): r for v, r in zip(variants, results)}
+
+
+def _platoon(r: RunResult) -> Any:
+    if r.platoon is None:
+        raise ValueError(f"{r.scenario.name!r} is not a platoon run (no [platoon] section)")
+    return r.platoon
+
+
+def space_time_data(r: RunResult) -> dict[str, np.ndarray]:
+    """The space-time diagram of a platoon run: ``t`` (s), ``position`` (m, shape
+    ``(n_followers + 1, n_steps)``, row 0 = the lead): each vehicle's distance travelled along its
+    path, offset so that the lead starts at 0 and each follower at minus its straight-line distance
+    to the lead's start; ``speed`` (m/s, same shape)."""
+    p = _platoon(r)
+    x, y = p.vehicle_xy()
+    x0, y0 = x[0, 0], y[0, 0]
+    start = -np.hypot(x[:, 0] - x0, y[:, 0] - y0)
+    steps = np.hypot(np.diff(x, axis=1), np.diff(y, axis=1))
+    position = start[:, None] + np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(steps, axis=1)], axis=1)
+    return {"t": np.asarray(p.t), "position": position, "speed": p.vehicle_speed()}
+
+
+def gap_error_data(r: RunResult) -> dict[str, np.ndarray]:
+    """Gap errors of a platoon run: ``t`` (s), ``gap_error`` (m, ``(n_followers, n_steps)``: gap
+    minus each follower's reference spacing policy, as in the string-stability measures) and
+    ``window_start`` (s, start of the measures' window: the lead's brake onset)."""
+    p = _platoon(r)
+    return {"t": np.asarray(p.t), "gap_error": np.asarray(p.gap_error), "window_start": np.asarray(float(p.string_stability["window_start"]))}
+
+
+def gamma_data(scenario: Optional[Scenario] = None, freqs_hz: Optional[Sequence[float]] = None) -> dict[str, dict[str, np.ndarray]]:
+    """``|Gamma(jw)|`` per variant of a platoon scenario (default: the brake demo at its
+    ``frequencies_hz``): ``freq_hz`` (Hz), ``gamma`` (``(n_freqs, n_followers)``, follower over the
+    vehicle in front), ``counted`` (same shape; amplitude above the floor), ``max_gamma`` (max of the
+    counted ones per frequency, NaN if none)."""
+    sc = scenario if scenario is not None else Scenario.brakedemo()
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for v in sc.variants():
+        pts = frequency_response(v, freqs_hz)
+        out[v.variant or v.controller] = {
+            "freq_hz": np.array([p["freq_hz"] for p in pts], dtype=float),
+            "gamma": np.array([[np.nan if g is None else g for g in p["gamma"]] for p in pts], dtype=float),
+            "counted": np.array([p["counted"] for p in pts], dtype=bool),
+            "max_gamma": np.array([np.nan if p["max_gamma"] is None else p["max_gamma"] for p in pts], dtype=float),
+        }
+    return out
+
+
+def _variant_axes(fig: Any, n: int) -> Any:
+    return fig.subplots(1, n, squeeze=False)[0]
+
+
+def fig_platoon_space_time(runs: Optional[dict[str, RunResult]] = None, out: Optional[PathLike] = None) -> Any:
+    """Space-time diagram of the brake demo (one panel per variant): every vehicle's position along
+    the road over time, the lead in black; × marks a collision."""
+    runs = runs if runs is not None else platoon_runs()
+    fig = _figure(out is not None, (5.2 * len(runs), 4.2))
+    for ax, (name, r) in zip(_variant_axes(fig, len(runs)), runs.items()):
+        d = space_time_data(r)
+        n = d["position"].shape[0]
+        colors = _follower_colors(n - 1)
+        for k in range(n):
+            color = "k" if k == 0 else colors[k - 1]
+            ax.plot(d["t"], d["position"][k], color=color, lw=1.6 if k == 0 else 1.1, gid=f"{name}/vehicle{k}", label="lead" if k == 0 else (f"follower {k}" if k in (1, n - 1) else None))
+        for k, m in enumerate(_platoon(r).metrics, start=1):
+            if m["collision"]:
+                tc = float(m["collision_time"])
+                ax.plot([tc], [float(np.interp(tc, d["t"], d["position"][k]))], "x", color="red", ms=10, mew=2.5)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("position along the road (m)")
+        ss = _platoon(r).string_stability
+        ax.set_title(f"{name}: {'string stable' if ss['string_stable'] else 'not string stable'}", fontsize=10)
+        ax.legend(fontsize=8, loc="upper left")
+    fig.suptitle(f"Platoon brake demo: space-time diagram ({len(runs)} variants)")
+    return _save(fig, out)
+
+
+def _follower_colors(n: int) -> list[Any]:
+    from matplotlib import colormaps
+
+    cmap = colormaps["viridis"]
+    return [cmap(0.9 * i / max(n - 1, 1)) for i in range(n)]
+
+
+def fig_platoon_gap_errors(runs: Optional[dict[str, RunResult]] = None, out: Optional[PathLike] = None) -> Any:
+    """Gap error of every follower over time (one panel per variant), the window of the
+    string-stability measures shaded."""
+    runs = runs if runs is not None else platoon_runs()
+    fig = _figure(out is not None, (5.2 * len(runs), 4.2))
+    for ax, (name, r) in zip(_variant_axes(fig, len(runs)), runs.items()):
+        d = gap_error_data(r)
+        colors = _follower_colors(d["gap_error"].shape[0])
+        for k, e in enumerate(d["gap_error"], start=1):
+            ax.plot(d["t"], e, color=colors[k - 1], lw=1.1, gid=f"{name}/follower{k}", label=f"follower {k}")
+        ax.axvspan(float(d["window_start"]), float(d["t"][-1]), color="grey", alpha=0.12, lw=0)
+        ax.axhline(0, color="grey", lw=0.5)
+        ss = _platoon(r).string_stability
+        ratio = ss.get("max_ratio")
+        ax.set_title(f"{name}: max error ratio {ratio:.2f}" if ratio is not None else name, fontsize=10)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("gap − reference gap (m)")
+        ax.legend(fontsize=7, ncol=2, loc="lower left")
+    fig.suptitle("Platoon brake demo: gap errors per follower (shaded: window of the measures)")
+    return _save(fig, out)
+
+
+def fig_platoon_gamma(gamma: Optional[dict[str, dict[str, np.ndarray]]] = None, out: Optional[PathLike] = None, tolerance: float = 0.02) -> Any:
+    """``|Gamma(jw)|`` per variant: the largest counted ratio over the followers (line) and every
+    follower's (dots), against the drive frequency; string stable below 1 (+ tolerance)."""
+    gamma = gamma if gamma is not None else gamma_data()
+    fig = _figure(out is not None, (7.5, 4.8))
+    ax = fig.subplots()
+    for i, (name, g) in enumerate(gamma.items()):
+        color = f"C{i}"
+        ax.plot(g["freq_hz"], g["max_gamma"], "o-", color=color, lw=1.8, gid=f"{name}/max", label=f"{name}: max over followers")
+        f = np.repeat(g["freq_hz"][:, None], g["gamma"].shape[1], axis=1)
+        ax.plot(f[g["counted"]], g["gamma"][g["counted"]], ".", color=color, alpha=0.45, ms=6, gid=f"{name}/followers")
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.axhline(1.0 + tolerance, color="k", lw=0.6, ls=":")
+    ax.set_xscale("log")
+    ax.set_xlabel("frequency of the lead's speed (Hz)")
+    ax.set_ylabel("|Γ(jω)| = |V_k| / |V_k−1|")
+    ax.set_title("String stability: frequency response (dots: every follower)", fontsize=10)
+    ax.legend(fontsize=8)
+    return _save(fig, out)
+
+
+def make_all(
+    out_dir: PathLike,
+    speeds_kmh: Sequence[float] = (30, 50, 70, 90),
+    preset: str = "paper",
+    platoon_freqs_hz: Optional[Sequence[float]] = None,
+) -> list[Path]:
+    """Writes ``following.png``, ``truncated_cosine.png``, ``lyapunov.png`` and the platoon
+    figures ``platoon_space_time.png``, ``platoon_gap_errors.png``, ``platoon_gamma.png`` (the
+    brake demo; ``|Gamma|`` at ``platoon_freqs_hz``, default its own frequencies) into
+    ``out_dir`` (created if needed); returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    runs: dict[str, RunResult] = {}
+
+    def platoon() -> dict[str, RunResult]:
+        if not runs:
+            runs.update(platoon_runs())
+        return runs
+
     jobs: list[tuple[str, Callable[[Path], Any]]] = [
         ("following.png", lambda p: fig_following(speeds_kmh, preset, p)),
         ("truncated_cosine.png", lambda p: fig_truncated_cosine(p)),
         ("lyapunov.png", lambda p: fig_lyapunov(out=p)),
+        ("platoon_space_time.png", lambda p: fig_platoon_space_time(platoon(), p)),
+        ("platoon_gap_errors.png", lambda p: fig_platoon_gap_errors(platoon(), p)),
+        ("platoon_gamma.png", lambda p: fig_platoon_gamma(gamma_data(None, platoon_freqs_hz), p)),
     ]
     for name, make in jobs:
         make(out / name)

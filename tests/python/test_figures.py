@@ -125,11 +125,11 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "flc", *args], capture_output=True, text=True)
 
 
-def test_cli_writes_three_pngs(tmp_path):
+def test_cli_writes_all_pngs(tmp_path):
     out = tmp_path / "figs"
-    r = _cli("figures", "--out", str(out), "--speeds", "30", "--no-envelope")
+    r = _cli("figures", "--out", str(out), "--speeds", "30", "--no-envelope", "--platoon-frequencies", "0.2")
     assert r.returncode == 0, r.stderr
-    names = ("following.png", "truncated_cosine.png", "lyapunov.png")
+    names = ("following.png", "truncated_cosine.png", "lyapunov.png", "platoon_space_time.png", "platoon_gap_errors.png", "platoon_gamma.png")
     assert r.stdout.split() == [str(out / n) for n in names]
     for name in names:
         data = (out / name).read_bytes()
@@ -147,6 +147,8 @@ def test_cli_writes_three_pngs(tmp_path):
         ("figures", "--out", "x", "--envelope-controllers", "flc,lqr"),
         ("figures", "--out", "x", "--envelope-speeds", "0"),
         ("figures", "--out", "x", "--threads", "0"),
+        ("figures", "--out", "x", "--platoon-frequencies", "9"),
+        ("figures", "--out", "x", "--platoon-frequencies", "a"),
         ("figures",),
         ("plots", "--out", "x"),
         (),

@@ -2,7 +2,10 @@
 
 use std::path::PathBuf;
 
+use flc_sim::metrics::Series;
+use flc_sim::report::PlatoonRecord;
 use flc_sim::scenario::{Calibration, ControllerKind, Scenario};
+use flc_sim::string_stability::Signals;
 use flc_sim::{RunResult, SimError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -50,19 +53,70 @@ fn check_scenario(json: &str) -> PyResult<String> {
     to_json(&parse_scenario(json)?)
 }
 
-fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<(String, Bound<'py, PyDict>)> {
+/// What a run returns to Python: metrics JSON, `{column: 1-D array}` (follower 1), and for a
+/// platoon `(platoon JSON, {column: 2-D array (n_followers, n_steps)})`.
+type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>);
+
+fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
     let metrics = to_json(&r.metrics)?;
     let d = PyDict::new(py);
     for (name, col) in r.series.columns() {
         d.set_item(name, array(py, col))?;
     }
-    Ok((metrics, d))
+    let platoon = match (PlatoonRecord::of(&r), r.platoon.as_ref()) {
+        (Some(record), Some(p)) => {
+            let pd = PyDict::new(py);
+            let per_follower: Vec<Vec<(&'static str, Vec<f64>)>> = p.followers.iter().map(|f| f.series.columns()).collect();
+            for (j, (name, _)) in Series::COLUMNS.iter().enumerate() {
+                let rows: Vec<Vec<f64>> = per_follower.iter().map(|cols| cols.get(j).map(|c| c.1.clone()).unwrap_or_default()).collect();
+                pd.set_item(*name, array2(py, &rows)?)?;
+            }
+            let configs = r.scenario.follower_configs().map_err(|e| ScenarioError::new_err(e.to_string()))?;
+            let sig = Signals::of(&p.followers, &configs);
+            pd.set_item("gap_error", array2(py, &sig.gap_error)?)?;
+            pd.set_item("speed_error", array2(py, &sig.speed_error)?)?;
+            Some((to_json(&record)?, pd))
+        }
+        _ => None,
+    };
+    Ok((metrics, d, platoon))
 }
 
-/// Runs one scenario (GIL released). Returns `(metrics_json, {column: ndarray})`.
+fn array2<'py>(py: Python<'py>, rows: &[Vec<f64>]) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    numpy::PyArray2::from_vec2(py, rows).map_err(|e| SimulationError::new_err(e.to_string()))
+}
+
+/// The scenarios a file's `[[variants]]` expand to, as JSON (the scenario itself without any).
+#[pyfunction]
+fn expand_variants(scenario_json: &str) -> PyResult<Vec<String>> {
+    let s = parse_scenario(scenario_json)?;
+    let list = s.expand_variants().map_err(|e| ScenarioError::new_err(format!("scenario: {e}")))?;
+    list.iter().map(to_json).collect()
+}
+
+/// The platoon brake demo (`scenarios/platoon-brakedemo.toml`) as scenario JSON.
+#[pyfunction]
+fn brakedemo_scenario() -> PyResult<String> {
+    to_json(&flc_sim::platoon::brakedemo())
+}
+
+/// `|Gamma(jw)|` of a platoon scenario at `freqs_hz` (default: its
+/// `platoon.string_stability.frequencies_hz`): one sine run per frequency, in parallel, GIL
+/// released. Returns the JSON list of points.
+#[pyfunction]
+#[pyo3(signature = (scenario_json, freqs_hz=None))]
+fn frequency_response(py: Python<'_>, scenario_json: &str, freqs_hz: Option<Vec<f64>>) -> PyResult<String> {
+    let s = parse_scenario(scenario_json)?;
+    let freqs = freqs_hz.unwrap_or_else(|| s.platoon.as_ref().map(|p| p.string_stability.frequencies_hz.clone()).unwrap_or_default());
+    let points = py.detach(|| flc_sim::string_stability::frequency_response_at(&s, &freqs)).map_err(scenario_err)?;
+    to_json(&points)
+}
+
+/// Runs one scenario (GIL released). Returns `(metrics_json, {column: ndarray}, platoon)` with
+/// `platoon = (platoon_json, {column: 2-D ndarray})` or `None` (see `RunTuple`).
 #[pyfunction]
 #[pyo3(signature = (scenario_json, record=None))]
-fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<(String, Bound<'py, PyDict>)> {
+fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<RunTuple<'py>> {
     let s = parse_scenario(scenario_json)?;
     let r = py.detach(|| flc_sim::run_with(&s, record.as_deref())).map_err(scenario_err)?;
     result_to_py(py, r)
@@ -71,7 +125,7 @@ fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> Py
 /// Runs many scenarios in parallel in Rust (GIL released); results in input order.
 #[pyfunction]
 #[pyo3(signature = (scenarios_json, threads=None))]
-fn sweep<'py>(py: Python<'py>, scenarios_json: Vec<String>, threads: Option<usize>) -> PyResult<Vec<(String, Bound<'py, PyDict>)>> {
+fn sweep<'py>(py: Python<'py>, scenarios_json: Vec<String>, threads: Option<usize>) -> PyResult<Vec<RunTuple<'py>>> {
     let scenarios = scenarios_json.iter().map(|j| parse_scenario(j)).collect::<PyResult<Vec<_>>>()?;
     let results: Vec<Result<RunResult, SimError>> = py.detach(|| {
         let go = || scenarios.par_iter().map(flc_sim::run).collect::<Vec<_>>();
@@ -118,5 +172,8 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(bench_rust_run, m)?)?;
+    m.add_function(wrap_pyfunction!(expand_variants, m)?)?;
+    m.add_function(wrap_pyfunction!(brakedemo_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(frequency_response, m)?)?;
     Ok(())
 }

@@ -112,6 +112,27 @@ pub struct Signals {
     pub accel: Vec<Vec<f64>>,
 }
 
+impl Signals {
+    /// The signals of a platoon run (`runs` and `configs` per follower): gap errors against each
+    /// follower's [`FollowerConfig::reference_gap`] (the recorded `desired_gap` where it has
+    /// none), speed errors against the vehicle in front, accelerations.
+    pub fn of(runs: &[FollowerRun], configs: &[FollowerConfig]) -> Self {
+        let t = runs.first().map(|r| r.series.t.clone()).unwrap_or_default();
+        let mut sig = Signals { t, ..Signals::default() };
+        if let Some(first) = runs.first() {
+            sig.accel.push(first.series.lead_accel.clone());
+        }
+        for (r, c) in runs.iter().zip(configs) {
+            let s = &r.series;
+            let e: Vec<f64> = (0..s.len()).map(|i| s.gap[i] - c.reference_gap(s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
+            sig.gap_error.push(e);
+            sig.speed_error.push(s.lead_speed.iter().zip(&s.follower_speed).map(|(a, b)| a - b).collect());
+            sig.accel.push(s.follower_accel.clone());
+        }
+        sig
+    }
+}
+
 /// Peak `max |x|` and L2 norm `sqrt(sum x_i^2 dt_i)` of `x` over the samples with `t` in
 /// `[t0, t1]`; `dt_i = t_i - t_{i-1}` (the first sample weighs like the second). NaN samples are
 /// skipped.
@@ -267,18 +288,7 @@ impl StringStability {
 
     /// The measures of a platoon run: `runs` and `configs` per follower, `brake_onset` the lead's.
     pub fn measure(spec: &StringStabilitySpec, runs: &[FollowerRun], configs: &[FollowerConfig], brake_onset: Option<f64>) -> Self {
-        let t = runs.first().map(|r| r.series.t.clone()).unwrap_or_default();
-        let mut sig = Signals { t, ..Signals::default() };
-        if let Some(first) = runs.first() {
-            sig.accel.push(first.series.lead_accel.clone());
-        }
-        for (r, c) in runs.iter().zip(configs) {
-            let s = &r.series;
-            let e: Vec<f64> = (0..s.len()).map(|i| s.gap[i] - c.reference_gap(s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
-            sig.gap_error.push(e);
-            sig.speed_error.push(s.lead_speed.iter().zip(&s.follower_speed).map(|(a, b)| a - b).collect());
-            sig.accel.push(s.follower_accel.clone());
-        }
+        let sig = Signals::of(runs, configs);
         let t0 = spec.window_start.or(brake_onset).unwrap_or(0.0);
         let t1 = sig.t.last().copied().unwrap_or(0.0);
         let collisions = runs.iter().enumerate().filter(|(_, r)| r.collision.is_some()).map(|(k, _)| k as u32 + 1).collect();
