@@ -291,9 +291,9 @@ pub fn platoon_table(r: &RunRecord) -> String {
     for g in &ss.frequency_response {
         let gammas: Vec<String> = g.gamma.iter().zip(&g.counted).map(|(x, c)| if *c { format!("{x:.3}") } else { format!("({x:.3})") }).collect();
         out.push_str(&format!(
-            "  |Gamma| at {:5.3} Hz: max {:.3}{}  [{}]\n",
+            "  |Gamma| at {:5.3} Hz: max {}{}  [{}]\n",
             g.freq_hz,
-            g.max_gamma,
+            if g.max_gamma.is_finite() { format!("{:.3}", g.max_gamma) } else { "- (none above the floor)".to_string() },
             if g.collision { " (collision)" } else { "" },
             gammas.join(" ")
         ));

@@ -208,6 +208,11 @@ fn platoon_keys_are_validated_with_dotted_names() {
 }
 
 #[test]
+fn the_brake_demo_file_is_the_built_in_scenario() {
+    assert_eq!(file("platoon-brakedemo.toml"), flc_sim::platoon::brakedemo());
+}
+
+#[test]
 fn the_brake_demo_stops_every_variant_without_collision() {
     let demo = file("platoon-brakedemo.toml");
     let variants = demo.expand_variants().expect("variants");
