@@ -9,7 +9,7 @@
 //!
 //! Every follower starts from the scenario's single-follower sections (`controller`,
 //! `[follower]`, `[lidar]`, `[v2v]`, `[detector]`, `[flc]`, `[pid]`, `[pure_pursuit]`,
-//! `[supervisor]`), which therefore apply to the whole string; `[[platoon.overrides]]` patches
+//! `[supervisor]` and the baselines' / robust FLC's), which therefore apply to the whole string; `[[platoon.overrides]]` patches
 //! them for chosen followers, key by key:
 //!
 //! ```toml
@@ -147,8 +147,8 @@ impl StringStabilitySpec {
 
 /// Settings patched into chosen followers (`[[platoon.overrides]]`): `followers` lists them
 /// (1-based), every other key is a section of [`FollowerConfig`] (`controller`, `follower`,
-/// `lidar`, `v2v`, `detector`, `flc`, `pid`, `pure_pursuit`, `supervisor`) whose given keys
-/// replace the string's values.
+/// `lidar`, `v2v`, `detector`, `flc`, `pid`, `pure_pursuit`, `supervisor`, `idm`, `acc`, `rss`,
+/// `carla_behavior`, `flc_robust`) whose given keys replace the string's values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FollowerOverride {
     /// The followers patched, 1 = right behind the lead.
@@ -172,8 +172,8 @@ pub struct PlatoonSpec {
     /// new lead message to follower `k` on its next broadcast slot), so a broken link cuts off
     /// every follower behind it. `false`: the lead reaches every follower directly.
     pub relay: bool,
-    /// Start each follower at its controller's desired gap at its initial speed (the FLC's
-    /// `D_d + F_shift` for `flc`, the PID's for `pid` / `pipeline`) instead of `initial_gap`.
+    /// Start each follower at its controller's desired gap at its initial speed
+    /// ([`FollowerConfig::reference_gap`]) instead of `initial_gap`.
     pub equilibrium_start: bool,
     /// Per-follower patches, applied in order.
     pub overrides: Vec<FollowerOverride>,
