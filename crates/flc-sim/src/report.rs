@@ -266,15 +266,15 @@ pub fn platoon_table(r: &RunRecord) -> String {
         ss.window_end
     );
     out.push_str(&format!(
-        "  {:>3} {:<9} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>9}\n",
+        "  {:>3} {:<14} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>9}\n",
         "k", "ctrl", "outcome (clearance)", "min gap", "max dec", "gap err", "speed err", "gap ratio", "speed ratio", "peak |a|"
     ));
-    out.push_str(&format!("  {:>3} {:<9} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>5.2} m/s²\n", 0, "lead", "", "", "", "", "", "", "", ss.accel_peak.first().copied().unwrap_or(f64::NAN)));
+    out.push_str(&format!("  {:>3} {:<14} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>5.2} m/s²\n", 0, "lead", "", "", "", "", "", "", "", ss.accel_peak.first().copied().unwrap_or(f64::NAN)));
     for (i, f) in p.per_follower.iter().enumerate() {
         let m = &f.metrics;
         let pair = i.wrapping_sub(1);
         out.push_str(&format!(
-            "  {:>3} {:<9} {:<24} {:>6.2} m {:>5.2} m/s² {:>7.2} m {:>6.2} m/s {:>14} {:>14} {:>5.2} m/s²\n",
+            "  {:>3} {:<14} {:<24} {:>6.2} m {:>5.2} m/s² {:>7.2} m {:>6.2} m/s {:>14} {:>14} {:>5.2} m/s²\n",
             f.follower,
             f.controller,
             outcome(m),
