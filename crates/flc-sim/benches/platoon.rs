@@ -35,7 +35,10 @@ fn platoon(c: &mut Criterion) {
         // The brake demo's road: guard rails both sides, posts every 50 m, parked cars.
         ("platoon_16_vehicles_120s_straight_rails", sixteen(TrackSpec::Straight { length: 5000.0 })),
         // An open road: nothing but the vehicles (the LiDAR sees only the car in front).
-        ("platoon_16_vehicles_120s_open_road", sixteen(TrackSpec::Custom(Track::new("open", vec![[0.0, 0.0], [5000.0, 0.0]], 3.5, vec![])))),
+        (
+            "platoon_16_vehicles_120s_open_road",
+            sixteen(TrackSpec::Custom(Track::new("open", vec![[0.0, 0.0], [5000.0, 0.0]], 3.5, vec![]))),
+        ),
     ];
     let mut g = c.benchmark_group("platoon");
     g.sample_size(10);
@@ -43,7 +46,11 @@ fn platoon(c: &mut Criterion) {
         let r = run(s).expect("run");
         let p = r.platoon.as_ref().expect("platoon");
         assert!(p.followers.iter().all(|f| f.collision.is_none()), "{name}: collision");
-        eprintln!("{name}: {:.2} s simulated, {} vehicles (real-time factor = this / time per iteration)", r.metrics.duration, p.followers.len() + 1);
+        eprintln!(
+            "{name}: {:.2} s simulated, {} vehicles (real-time factor = this / time per iteration)",
+            r.metrics.duration,
+            p.followers.len() + 1
+        );
         g.bench_function(*name, |b| b.iter(|| run(std::hint::black_box(s))));
     }
     g.finish();

@@ -207,7 +207,10 @@ impl PlatoonSpec {
             }
             for (j, &k) in o.followers.iter().enumerate() {
                 if k < 1 || k > self.followers {
-                    return Err(ConfigError::new(format!("{key}[{j}]"), format!("must be in [1, {}] (platoon.followers), got {k}", self.followers)));
+                    return Err(ConfigError::new(
+                        format!("{key}[{j}]"),
+                        format!("must be in [1, {}] (platoon.followers), got {k}", self.followers),
+                    ));
                 }
             }
         }
@@ -263,7 +266,9 @@ impl FollowerConfig {
         f.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
         self.lidar.validate().map_err(|e| e.within("lidar"))?;
         self.v2v.validate().map_err(|e| e.within("v2v"))?;
-        let core = |section: &str, r: Result<(), flc_core::ParamError>| r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem));
+        let core = |section: &str, r: Result<(), flc_core::ParamError>| {
+            r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
+        };
         core("detector", self.detector.validate())?;
         core("flc", self.flc.validate())?;
         core("pid", self.pid.validate())?;
@@ -377,14 +382,19 @@ pub fn brakedemo() -> crate::Scenario {
         ..crate::Scenario::default()
     };
     s.lead.initial_speed = v;
-    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: None, duration: Some(20.0) }, Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }];
+    s.lead.phases =
+        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(20.0) }, Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }];
     s.follower.initial_speed = v;
     s.v2v = V2vParams::default();
     s.platoon = Some(PlatoonSpec {
         followers: 7,
         v2v_source: V2vSource::Predecessor,
         equilibrium_start: true,
-        string_stability: StringStabilitySpec { frequencies_hz: vec![0.05, 0.1, 0.2, 0.3, 0.5], sine_amplitude: 1.0, ..StringStabilitySpec::default() },
+        string_stability: StringStabilitySpec {
+            frequencies_hz: vec![0.05, 0.1, 0.2, 0.3, 0.5],
+            sine_amplitude: 1.0,
+            ..StringStabilitySpec::default()
+        },
         ..PlatoonSpec::default()
     });
     let table = |text: &str| text.parse::<toml::Table>().unwrap_or_default();

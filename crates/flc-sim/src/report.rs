@@ -269,7 +269,19 @@ pub fn platoon_table(r: &RunRecord) -> String {
         "  {:>3} {:<14} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>9}\n",
         "k", "ctrl", "outcome (clearance)", "min gap", "max dec", "gap err", "speed err", "gap ratio", "speed ratio", "peak |a|"
     ));
-    out.push_str(&format!("  {:>3} {:<14} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>5.2} m/s²\n", 0, "lead", "", "", "", "", "", "", "", ss.accel_peak.first().copied().unwrap_or(f64::NAN)));
+    out.push_str(&format!(
+        "  {:>3} {:<14} {:<24} {:>8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>5.2} m/s²\n",
+        0,
+        "lead",
+        "",
+        "",
+        "",
+        "",
+        "",
+        "",
+        "",
+        ss.accel_peak.first().copied().unwrap_or(f64::NAN)
+    ));
     for (i, f) in p.per_follower.iter().enumerate() {
         let m = &f.metrics;
         let pair = i.wrapping_sub(1);
@@ -289,7 +301,8 @@ pub fn platoon_table(r: &RunRecord) -> String {
     }
     out.push_str("  (ratios: follower / follower in front, peak / L2; |Gamma| in parentheses: amplitude below the floor, not counted)\n");
     for g in &ss.frequency_response {
-        let gammas: Vec<String> = g.gamma.iter().zip(&g.counted).map(|(x, c)| if *c { format!("{x:.3}") } else { format!("({x:.3})") }).collect();
+        let gammas: Vec<String> =
+            g.gamma.iter().zip(&g.counted).map(|(x, c)| if *c { format!("{x:.3}") } else { format!("({x:.3})") }).collect();
         out.push_str(&format!(
             "  |Gamma| at {:5.3} Hz: max {}{}  [{}]\n",
             g.freq_hz,

@@ -20,12 +20,12 @@ use flc_core::{
     SwitchReason, V2vMessage,
 };
 
+use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 use crate::lidar::Lidar;
 use crate::metrics::{CollisionInfo, Metrics, Series, StepRecord};
-use crate::record::Recorder;
-use crate::error::{ConfigError, SimError};
 use crate::platoon::{FollowerConfig, V2vSource};
+use crate::record::Recorder;
 use crate::scenario::{ControllerKind, Scenario};
 use crate::string_stability::StringStability;
 use crate::track::Track;
@@ -368,7 +368,12 @@ fn centreline_steer(track: &Track, pp: &PurePursuit, state: &VehicleState, s: f6
 /// `None` for them), so its result is the same as on the whole scan, with less work: on a road
 /// with guard rails about half the returns lie outside the grid. Scans longer than
 /// `max_points` are passed whole (the detector truncates them).
-fn grid_points<'a>(det: &LeadDetector, params: &flc_core::DetectorParams, points: &'a [[f64; 2]], buf: &'a mut Vec<[f64; 2]>) -> &'a [[f64; 2]] {
+fn grid_points<'a>(
+    det: &LeadDetector,
+    params: &flc_core::DetectorParams,
+    points: &'a [[f64; 2]],
+    buf: &'a mut Vec<[f64; 2]>,
+) -> &'a [[f64; 2]] {
     if points.len() > params.max_points {
         return points;
     }
@@ -601,7 +606,12 @@ impl Simulation {
             let len = f.cfg.follower.vehicle.length;
             let gap = bumper_gap(&front, front_len, &fs, len);
             if f.collision.is_none() && contacts.iter().any(|c| c.involves(front_body) && c.involves(f.body)) {
-                f.collision = Some(CollisionInfo { time: self.t, impact_speed: (fs.speed - front.speed).max(0.0), lead_speed: front.speed, follower_speed: fs.speed });
+                f.collision = Some(CollisionInfo {
+                    time: self.t,
+                    impact_speed: (fs.speed - front.speed).max(0.0),
+                    lead_speed: front.speed,
+                    follower_speed: fs.speed,
+                });
             }
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;

@@ -409,11 +409,14 @@ mod tests {
         // Follower k's errors: gain^(k-1) times a bump delayed by k * 0.5 s (a whole number of
         // samples), entirely inside the window.
         let t = times(3000);
-        let err = |k: usize, h: f64| -> Vec<f64> { t.iter().map(|&ti| gain.powi(k as i32 - 1) * bump(ti, 5.0 + 0.5 * k as f64, h)).collect() };
+        let err =
+            |k: usize, h: f64| -> Vec<f64> { t.iter().map(|&ti| gain.powi(k as i32 - 1) * bump(ti, 5.0 + 0.5 * k as f64, h)).collect() };
         Signals {
             gap_error: (1..=n_followers).map(|k| err(k, 2.0)).collect(),
             speed_error: (1..=n_followers).map(|k| err(k, 1.5)).collect(),
-            accel: (0..=n_followers).map(|k| t.iter().map(|&ti| -6.0 * gain.powi(k as i32) * bump(ti, 5.0 + 0.5 * k as f64, 1.0)).collect()).collect(),
+            accel: (0..=n_followers)
+                .map(|k| t.iter().map(|&ti| -6.0 * gain.powi(k as i32) * bump(ti, 5.0 + 0.5 * k as f64, 1.0)).collect())
+                .collect(),
             t,
         }
     }

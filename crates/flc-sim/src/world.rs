@@ -547,7 +547,8 @@ mod tests {
                 w.set_pose(ego, &VehicleState { x, y, yaw: h + rng.random_range(-0.2..0.2), ..Default::default() });
                 for (k, b) in others.iter().enumerate() {
                     let (lx, ly, lh) = track.pose_at(s + 8.0 + 25.0 * k as f64 + rng.random_range(0.0..10.0));
-                    w.set_pose(*b, &VehicleState { x: lx + rng.random_range(-1.0..1.0), y: ly, yaw: lh + rng.random_range(-0.3..0.3), ..Default::default() });
+                    let yaw = lh + rng.random_range(-0.3..0.3);
+                    w.set_pose(*b, &VehicleState { x: lx + rng.random_range(-1.0..1.0), y: ly, yaw, ..Default::default() });
                 }
                 w.step(0.01);
                 let n = 961;

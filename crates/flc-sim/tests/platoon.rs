@@ -13,7 +13,10 @@ use flc_sim::{RunResult, run};
 fn same_bits(a: &Series, b: &Series) -> bool {
     let (ca, cb) = (a.columns(), b.columns());
     ca.len() == cb.len()
-        && ca.iter().zip(&cb).all(|((na, xa), (nb, xb))| na == nb && xa.len() == xb.len() && xa.iter().zip(xb).all(|(x, y)| x.to_bits() == y.to_bits()))
+        && ca
+            .iter()
+            .zip(&cb)
+            .all(|((na, xa), (nb, xb))| na == nb && xa.len() == xb.len() && xa.iter().zip(xb).all(|(x, y)| x.to_bits() == y.to_bits()))
 }
 
 fn assert_bit_identical(a: &RunResult, b: &RunResult, what: &str) {
@@ -34,10 +37,8 @@ fn assert_bit_identical(a: &RunResult, b: &RunResult, what: &str) {
 fn short_brake(controller: ControllerKind) -> Scenario {
     let mut s = Scenario { name: "short-brake".into(), controller, duration: 25.0, ..Default::default() };
     s.lead.initial_speed = 20.0;
-    s.lead.phases = vec![
-        Phase::Hold { until_x: None, until_t: Some(8.0), duration: None },
-        Phase::Brake { decel: 6.0, speed: None, speed_kmh: None },
-    ];
+    s.lead.phases =
+        vec![Phase::Hold { until_x: None, until_t: Some(8.0), duration: None }, Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }];
     s.follower.initial_speed = 20.0;
     s.follower.initial_gap = 22.0;
     s.v2v.enabled = controller != ControllerKind::Flc;
@@ -146,11 +147,17 @@ fn broken_link(source: V2vSource, relay: bool) -> RunResult {
 
 /// Share of the last 2 s each follower drove with the FLC.
 fn flc_share_at_end(r: &RunResult) -> Vec<f64> {
-    r.platoon.as_ref().expect("platoon").followers.iter().map(|f| {
-        let s = &f.series;
-        let last: Vec<u8> = s.active.iter().zip(&s.t).filter(|(_, t)| **t > 7.0).map(|(a, _)| *a).collect();
-        last.iter().filter(|a| **a == ACTIVE_FLC).count() as f64 / last.len() as f64
-    }).collect()
+    r.platoon
+        .as_ref()
+        .expect("platoon")
+        .followers
+        .iter()
+        .map(|f| {
+            let s = &f.series;
+            let last: Vec<u8> = s.active.iter().zip(&s.t).filter(|(_, t)| **t > 7.0).map(|(a, _)| *a).collect();
+            last.iter().filter(|a| **a == ACTIVE_FLC).count() as f64 / last.len() as f64
+        })
+        .collect()
 }
 
 #[test]
@@ -196,7 +203,11 @@ fn platoon_keys_are_validated_with_dotted_names() {
     let e = err("[[variants]]\nname = \"x\"\nplatoon = { followers = 99 }\n");
     assert!(e.contains("`variants[0].platoon.followers`"), "{e}");
     // Overrides patch key by key: the rest of [v2v] is kept.
-    let s = Scenario::from_toml_str(&format!("{base}[v2v]\nrate_hz = 20.0\n[[platoon.overrides]]\nfollowers = [2, 3]\nv2v = {{ loss_prob = 0.5 }}\n"), "t.toml").expect("ok");
+    let s = Scenario::from_toml_str(
+        &format!("{base}[v2v]\nrate_hz = 20.0\n[[platoon.overrides]]\nfollowers = [2, 3]\nv2v = {{ loss_prob = 0.5 }}\n"),
+        "t.toml",
+    )
+    .expect("ok");
     let c = s.follower_configs().expect("configs");
     assert_eq!((c[0].v2v.loss_prob, c[1].v2v.loss_prob, c[2].v2v.loss_prob), (0.0, 0.5, 0.5));
     assert!(c.iter().all(|c| c.v2v.rate_hz == 20.0));
