@@ -165,7 +165,7 @@ pub fn table(records: &[RunRecord]) -> String {
             };
             out.push_str(&format!("\n{title}\n"));
             out.push_str(&format!(
-                "{:<28} {:<14} {:>6}  {:<24} {:<18} {:>8} {:>9} {:>9} {:>10}\n",
+                "{:<34} {:<14} {:>6}  {:<24} {:<18} {:>8} {:>9} {:>9} {:>10}\n",
                 "scenario", "ctrl", "km/h", "outcome (clearance)", "paper", "min gap", "min TTC", "max dec", "max jerk"
             ));
             last_preset = Some(r.preset.clone());
@@ -178,7 +178,7 @@ pub fn table(records: &[RunRecord]) -> String {
         };
         let ttc = m.min_ttc.map_or("-".to_string(), |t| format!("{t:.2} s"));
         out.push_str(&format!(
-            "{:<28} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
+            "{:<34} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
             r.label(),
             r.controller,
             r.speed_kmh.map_or("-".to_string(), |s| format!("{s:.0}")),
