@@ -1,0 +1,142 @@
+//! Golden outputs: the `scenario` binary's results compared byte for byte (floats are printed in
+//! their shortest round-trip form, so equal text = equal bits) with the files in `tests/golden/`.
+//!
+//! The set: the paper experiment with all eight controllers and both presets (`--json`), the
+//! platoon brake demo (`--json`), a 200-run sweep CSV (`sweeps/golden-200.toml`, rows sorted by
+//! run id since they are written as runs finish), the per-step series of one run (`--out`) and the
+//! per-topic message counts and content hashes of one MCAP recording (`--record`).
+//!
+//! The goldens change only when an issue changes behaviour on purpose; regenerate them with
+//!
+//! ```sh
+//! FLC_BLESS=1 cargo test --release -p flc-sim --test golden
+//! ```
+//!
+//! and say in the commit which results moved. `tests/run_all.sh` runs this test in release (a
+//! debug build would take minutes); in a debug `cargo test` it is ignored.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn golden_dir() -> PathBuf {
+    root().join("tests/golden")
+}
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("flc-golden-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("mkdir");
+    d
+}
+
+fn scenario(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).current_dir(root()).args(args).output().expect("run scenario");
+    assert!(out.status.success(), "scenario {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf-8")
+}
+
+/// Compares `actual` with the golden file `name` (or writes it with `FLC_BLESS=1`).
+fn check(name: &str, actual: &str) {
+    let path = golden_dir().join(name);
+    if std::env::var_os("FLC_BLESS").is_some() {
+        std::fs::create_dir_all(golden_dir()).expect("mkdir");
+        std::fs::write(&path, actual).expect("write golden");
+        return;
+    }
+    let expected = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (regenerate: see this file's docs)", path.display()));
+    if expected != actual {
+        let (el, al): (Vec<&str>, Vec<&str>) = (expected.lines().collect(), actual.lines().collect());
+        let first = el.iter().zip(&al).position(|(a, b)| a != b).unwrap_or(el.len().min(al.len()));
+        panic!(
+            "{name} differs from the golden output (lines {} vs {}); first difference at line {}:\n golden: {}\n now:    {}",
+            el.len(),
+            al.len(),
+            first + 1,
+            el.get(first).unwrap_or(&"<end>"),
+            al.get(first).unwrap_or(&"<end>")
+        );
+    }
+}
+
+const ALL_CONTROLLERS: &str = "flc,pid,pipeline,idm,acc,rss,carla-behavior,flc-robust";
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn paper_experiment_all_controllers_both_presets() {
+    check("paper-all.jsonl", &scenario(&["--json", "--controllers", ALL_CONTROLLERS, "--preset", "both"]));
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn platoon_brake_demo() {
+    check("brakedemo.jsonl", &scenario(&["--json", "--config", "scenarios/platoon-brakedemo.toml"]));
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn sweep_200_runs() {
+    let d = tmpdir("sweep");
+    let csv = d.join("sweep.csv");
+    let csv_s = csv.to_str().expect("utf-8 path");
+    scenario(&["sweep", "sweeps/golden-200.toml", "--out", csv_s]);
+    let text = std::fs::read_to_string(&csv).expect("read sweep csv");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let mut rows: Vec<&str> = lines.collect();
+    rows.sort_by_key(|r| r.split(',').next().and_then(|id| id.parse::<usize>().ok()).unwrap_or(usize::MAX));
+    assert_eq!(rows.len(), 200);
+    let mut out = String::from(header);
+    out.push('\n');
+    for r in rows {
+        out.push_str(r);
+        out.push('\n');
+    }
+    check("sweep-200.csv", &out);
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn series_of_one_run() {
+    let d = tmpdir("series");
+    scenario(&["--config", "scenarios/curvy-follow.toml", "--out", d.to_str().expect("utf-8 path")]);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&d).expect("read dir").map(|e| e.expect("entry").path()).collect();
+    files.sort();
+    assert_eq!(files.len(), 1, "{files:?}");
+    check("series-curvy-follow.csv", &std::fs::read_to_string(&files[0]).expect("read series"));
+}
+
+/// FNV-1a, 64 bit: a content hash that needs no dependency.
+fn fnv(h: &mut u64, bytes: &[u8]) {
+    for b in bytes {
+        *h ^= u64::from(*b);
+        *h = h.wrapping_mul(0x100_0000_01b3);
+    }
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn mcap_message_counts_and_contents() {
+    let d = tmpdir("mcap");
+    scenario(&["--config", "scenarios/paper-70-pipeline.toml", "--record", d.to_str().expect("utf-8 path")]);
+    let file = std::fs::read_dir(&d).expect("read dir").map(|e| e.expect("entry").path()).find(|p| p.extension().is_some_and(|e| e == "mcap"));
+    let bytes = std::fs::read(file.expect("an mcap file")).expect("read mcap");
+    // topic -> (count, hash of every message's log time and data, in file order)
+    let mut per_topic: BTreeMap<String, (u64, u64)> = BTreeMap::new();
+    for m in mcap::MessageStream::new(&bytes).expect("mcap") {
+        let m = m.expect("message");
+        let e = per_topic.entry(m.channel.topic.clone()).or_insert((0, 0xcbf2_9ce4_8422_2325));
+        e.0 += 1;
+        fnv(&mut e.1, &m.log_time.to_le_bytes());
+        fnv(&mut e.1, &m.data);
+    }
+    let mut out = String::from("topic,messages,fnv1a64\n");
+    for (topic, (n, h)) in per_topic {
+        out.push_str(&format!("{topic},{n},{h:016x}\n"));
+    }
+    check("mcap-paper-70-pipeline.csv", &out);
+}
