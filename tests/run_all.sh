@@ -28,6 +28,9 @@ cargo test --locked -p flc-core --test c_header --test c_api
 echo "== Rust: tests"
 cargo test --locked
 
+echo "== Rust: golden outputs, byte for byte (release; tests/golden/README.md)"
+cargo test --locked --release -p flc-sim --test golden
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"
