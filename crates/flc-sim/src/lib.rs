@@ -15,6 +15,7 @@ pub mod platoon;
 pub mod record;
 pub mod report;
 pub mod scenario;
+pub mod series;
 pub mod sim;
 pub mod string_stability;
 pub mod sweep;

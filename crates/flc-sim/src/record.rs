@@ -282,8 +282,8 @@ struct StateMessage<'a> {
 /// descriptions; `null` stands for NaN) plus the two names.
 pub fn state_json_schema() -> String {
     let mut props = serde_json::Map::new();
-    for (name, unit) in Series::COLUMNS {
-        let ty = if name == "active" || name == "reason" { serde_json::json!("integer") } else { serde_json::json!(["number", "null"]) };
+    for (&(name, unit), &rust_ty) in Series::COLUMNS.iter().zip(Series::COLUMN_TYPES) {
+        let ty = if rust_ty == "u8" { serde_json::json!("integer") } else { serde_json::json!(["number", "null"]) };
         props.insert(name.to_string(), serde_json::json!({ "type": ty, "description": format!("{name}, {unit} (null = NaN)") }));
     }
     props
