@@ -6,12 +6,13 @@
 //! scenario files ([`scenario`]), the closed loop ([`sim`]) with platoons ([`platoon`]), metrics
 //! ([`metrics`]), string-stability measures ([`string_stability`]), reports ([`report`]) and MCAP
 //! recordings for Foxglove ([`record`]).
-pub mod calibration;
 pub mod error;
 pub mod lead;
 pub mod lidar;
 pub mod metrics;
+pub mod paper;
 pub mod platoon;
+pub mod presets;
 pub mod record;
 pub mod report;
 pub mod scenario;
@@ -20,6 +21,7 @@ pub mod sim;
 pub mod string_stability;
 pub mod sweep;
 pub mod track;
+pub mod units;
 pub mod v2v;
 pub mod vehicle;
 pub mod world;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::metrics::{Metrics, Series};
+use crate::paper::paper_result;
 use crate::scenario::Scenario;
 use crate::sim::RunResult;
 use crate::string_stability::StringStability;
@@ -126,19 +127,6 @@ impl RunRecord {
     /// Some vehicle collided (follower 1, or any follower of a platoon).
     pub fn any_collision(&self) -> bool {
         self.metrics.collision || self.platoon.as_ref().is_some_and(|p| p.any_collision)
-    }
-}
-
-/// The paper's results (Sec. IV): clearance at standstill in m, or `None` for a collision.
-pub fn paper_result(controller: &str, speed_kmh: f64) -> Option<Option<f64>> {
-    let speeds = [30.0, 50.0, 70.0, 90.0];
-    let i = speeds.iter().position(|s| (s - speed_kmh).abs() < 1e-9)?;
-    let flc = [Some(3.8), Some(4.0), Some(2.3), None];
-    let pid = [Some(7.9), Some(1.2), None, None];
-    match controller {
-        "flc" => flc.get(i).copied(),
-        "pid" => pid.get(i).copied(),
-        _ => None,
     }
 }
 

@@ -1,6 +1,6 @@
 //! Scenario files: everything one closed-loop run needs, as TOML (schema in `docs/scenarios.md`).
 //!
-//! A scenario names the track, both vehicles, the lead's manoeuvre as a list of [`Phase`]s, the
+//! A scenario names the track, both vehicles, the lead's manoeuvre as a list of [`crate::lead::Phase`]s, the
 //! controller, every sensor / V2V / actuator impairment, the rates, the seed and the stop
 //! conditions. Unknown keys and out-of-range values are errors that name the dotted key and the
 //! allowed range ([`ConfigError`]).
@@ -12,14 +12,14 @@ use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFl
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, SimError, check_range};
+use crate::lead::LeadSpec;
 use crate::lidar::LidarParams;
 use crate::platoon::{FollowerConfig, PlatoonSpec};
 use crate::track::Track;
 use crate::v2v::V2vParams;
 use crate::vehicle::{SpeedControllerParams, VehicleParams};
 
-/// km/h -> m/s. Only used where the user interface speaks km/h (keys ending in `_kmh`).
-pub const KMH: f64 = 1.0 / 3.6;
+pub use crate::units::KMH;
 
 /// Which longitudinal controller drives the follower.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -121,141 +121,6 @@ impl TrackSpec {
                 Ok(t.clone())
             }
         }
-    }
-}
-
-/// One phase of the lead's manoeuvre. Phases run in order; after the last one the lead holds its
-/// speed.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Phase {
-    /// Accelerate at `accel` (m/s², > 0) until `speed` (m/s) or `speed_kmh` (km/h) is reached.
-    Accelerate {
-        /// Acceleration, m/s².
-        accel: f64,
-        /// Target speed, m/s (give this or `speed_kmh`).
-        #[serde(default)]
-        speed: Option<f64>,
-        /// Target speed, km/h (give this or `speed`).
-        #[serde(default)]
-        speed_kmh: Option<f64>,
-    },
-    /// Hold the current speed until the lead's travelled distance reaches `until_x` (m), the
-    /// simulation time reaches `until_t` (s), or for `duration` (s); exactly one of them.
-    Hold {
-        /// Distance travelled by the lead since the start, m.
-        #[serde(default)]
-        until_x: Option<f64>,
-        /// Simulation time, s.
-        #[serde(default)]
-        until_t: Option<f64>,
-        /// Duration of the phase, s.
-        #[serde(default)]
-        duration: Option<f64>,
-    },
-    /// Brake at `decel` (m/s², > 0) to `speed` / `speed_kmh` (default: to a stop). Its onset is
-    /// the "brake onset" event (V2V `outage_on_brake`, metrics).
-    Brake {
-        /// Deceleration, m/s² (positive number).
-        decel: f64,
-        /// Final speed, m/s (default 0).
-        #[serde(default)]
-        speed: Option<f64>,
-        /// Final speed, km/h.
-        #[serde(default)]
-        speed_kmh: Option<f64>,
-    },
-    /// Move laterally to `offset` (m, + left, relative to the lane centre) over `duration` (s):
-    /// a cut out (lead leaves the lane) or a cut back in. Speed is held.
-    LaneChange {
-        /// Final lateral offset from the lane centre, m.
-        offset: f64,
-        /// Duration of the manoeuvre, s.
-        duration: f64,
-    },
-    /// Drive a sinusoidal speed `v0 + amplitude sin(2 pi freq_hz (t - t_start))` around the speed
-    /// held before (`v0`) for `duration` (s), then hold `v0` again (string-stability frequency
-    /// response).
-    Sine {
-        /// Speed amplitude, m/s.
-        amplitude: f64,
-        /// Frequency, Hz.
-        freq_hz: f64,
-        /// Duration of the phase, s.
-        duration: f64,
-    },
-}
-
-impl Phase {
-    fn target_speed(key: &str, speed: Option<f64>, speed_kmh: Option<f64>, default: Option<f64>) -> Result<f64, ConfigError> {
-        let v = match (speed, speed_kmh) {
-            (Some(v), None) => v,
-            (None, Some(k)) => k * KMH,
-            (None, None) => default.ok_or_else(|| ConfigError::new(key, "give `speed` (m/s) or `speed_kmh` (km/h)"))?,
-            (Some(_), Some(_)) => return Err(ConfigError::new(key, "give either `speed` (m/s) or `speed_kmh` (km/h), not both")),
-        };
-        check_range(if speed_kmh.is_some() { "speed_kmh" } else { "speed" }, v, 0.0, 70.0, "m/s (0-252 km/h)")?;
-        Ok(v)
-    }
-
-    /// The phase's target speed in m/s (accelerate / brake), validated.
-    pub fn speed_target(&self) -> Result<Option<f64>, ConfigError> {
-        match self {
-            Phase::Accelerate { speed, speed_kmh, .. } => Self::target_speed("speed", *speed, *speed_kmh, None).map(Some),
-            Phase::Brake { speed, speed_kmh, .. } => Self::target_speed("speed", *speed, *speed_kmh, Some(0.0)).map(Some),
-            _ => Ok(None),
-        }
-    }
-
-    fn validate(&self) -> Result<(), ConfigError> {
-        self.speed_target()?;
-        match self {
-            Phase::Accelerate { accel, .. } => check_range("accel", *accel, 0.01, 15.0, "m/s²"),
-            Phase::Brake { decel, .. } => check_range("decel", *decel, 0.01, 15.0, "m/s² (positive number)"),
-            Phase::Hold { until_x, until_t, duration } => {
-                let given = [until_x, until_t, duration].iter().filter(|o| o.is_some()).count();
-                if given != 1 {
-                    return Err(ConfigError::new("until_x", "give exactly one of `until_x` (m), `until_t` (s), `duration` (s)"));
-                }
-                if let Some(x) = until_x {
-                    check_range("until_x", *x, 0.0, 1.0e6, "m")?;
-                }
-                if let Some(t) = until_t {
-                    check_range("until_t", *t, 0.0, 1.0e5, "s")?;
-                }
-                if let Some(d) = duration {
-                    check_range("duration", *d, 0.0, 1.0e5, "s")?;
-                }
-                Ok(())
-            }
-            Phase::LaneChange { offset, duration } => {
-                check_range("offset", *offset, -10.0, 10.0, "m")?;
-                check_range("duration", *duration, 0.1, 60.0, "s")
-            }
-            Phase::Sine { amplitude, freq_hz, duration } => {
-                check_range("amplitude", *amplitude, 0.0, 20.0, "m/s")?;
-                check_range("freq_hz", *freq_hz, 0.001, 5.0, "Hz")?;
-                check_range("duration", *duration, 0.0, 1.0e5, "s")
-            }
-        }
-    }
-}
-
-/// The lead vehicle.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct LeadSpec {
-    /// Initial speed, m/s.
-    pub initial_speed: f64,
-    /// Vehicle model.
-    pub vehicle: VehicleParams,
-    /// The manoeuvre.
-    pub phases: Vec<Phase>,
-}
-
-impl Default for LeadSpec {
-    fn default() -> Self {
-        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new() }
     }
 }
 
@@ -404,105 +269,7 @@ pub struct Variant {
     pub patch: toml::Table,
 }
 
-impl Default for Scenario {
-    /// The paper's experiment at 50 km/h with the FLC and the realistic vehicle, unnamed (file
-    /// scenarios take their file name).
-    fn default() -> Self {
-        Self { name: String::new(), speed_kmh: None, ..Self::paper_experiment(50.0, ControllerKind::Flc, Calibration::Realistic) }
-    }
-}
-
-/// Which set of choices for what the paper leaves open.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Calibration {
-    /// The physically realistic default vehicle (`VehicleParams::default()`).
-    Realistic,
-    /// Calibrated (within plausible ranges) to reproduce the paper's outcome pattern
-    /// (`docs/sim-model.md`, "paper preset").
-    Paper,
-}
-
-impl Calibration {
-    /// `"realistic"` or `"paper"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Calibration::Realistic => "realistic",
-            Calibration::Paper => "paper",
-        }
-    }
-}
-
-/// How far above the lead's cruise speed the baselines' set speed is in the paper experiment, km/h.
-pub const BASELINE_SET_SPEED_MARGIN_KMH: f64 = 20.0;
-
-/// The four maximum speeds of the paper's experiment, km/h.
-pub const PAPER_SPEEDS_KMH: [f64; 4] = [30.0, 50.0, 70.0, 90.0];
-
 impl Scenario {
-    /// The paper's experiment (Sec. IV): both vehicles at standstill 7 m apart on the straight
-    /// track; the lead accelerates to `speed_kmh`, covers about 650 m and brakes at -6 m/s² to a
-    /// stop. For [`ControllerKind::Pipeline`], V2V is lost at the brake onset.
-    pub fn paper_experiment(speed_kmh: f64, controller: ControllerKind, calibration: Calibration) -> Self {
-        let mut v2v = V2vParams::default();
-        let follower = FollowerSpec::default();
-        let flc = FlcParams::paper();
-        let lead = LeadSpec {
-            initial_speed: 0.0,
-            vehicle: VehicleParams::default(),
-            phases: vec![
-                Phase::Accelerate { accel: 2.5, speed: None, speed_kmh: Some(speed_kmh) },
-                Phase::Hold { until_x: Some(650.0), until_t: None, duration: None },
-                Phase::Brake { decel: 6.0, speed: None, speed_kmh: None },
-            ],
-        };
-        match controller {
-            ControllerKind::Pid => {}
-            ControllerKind::Pipeline => v2v.outage_on_brake = true,
-            // LiDAR-only controllers: no V2V at all.
-            _ => v2v.enabled = false,
-        }
-        // The baselines' set speed (they are cruise controllers, the lead is a follower's
-        // business only while it is ahead): 20 km/h above the lead's cruise speed, so that they
-        // follow the lead rather than cruise behind it (`docs/baselines.md`, "In the simulator").
-        let set_speed = (speed_kmh + BASELINE_SET_SPEED_MARGIN_KMH) * KMH;
-        let idm = IdmParams { desired_speed: set_speed, ..Default::default() };
-        let acc = AccParams { desired_speed: set_speed, ..Default::default() };
-        let rss = RssParams { desired_speed: set_speed, ..Default::default() };
-        let carla_behavior = CarlaBehaviorParams { cruise_speed: set_speed, speed_limit: set_speed, ..Default::default() };
-        let mut s = Self {
-            name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
-            seed: 1,
-            controller,
-            duration: 150.0,
-            physics_dt: 0.01,
-            track: TrackSpec::Straight { length: 2000.0 },
-            lead,
-            follower,
-            lidar: LidarParams::default(),
-            v2v,
-            detector: DetectorParams::default(),
-            flc,
-            pid: PidParams::paper(),
-            pure_pursuit: PurePursuitParams::default(),
-            supervisor: SupervisorSpec::default(),
-            idm,
-            acc,
-            rss,
-            carla_behavior,
-            flc_robust: RobustFlcParams::default(),
-            stop: StopSpec::default(),
-            speed_kmh: Some(speed_kmh),
-            platoon: None,
-            variants: Vec::new(),
-            variant: None,
-        };
-        if calibration == Calibration::Paper {
-            crate::calibration::apply_paper(&mut s);
-        }
-        s
-    }
-
     /// Checks every value; the error names the dotted key and the allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_range("duration", self.duration, 0.01, 36_000.0, "s")?;

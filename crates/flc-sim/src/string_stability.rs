@@ -27,7 +27,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, SimError};
 use crate::platoon::{FollowerConfig, StringStabilitySpec};
-use crate::scenario::{Phase, Scenario};
+use crate::lead::Phase;
+use crate::scenario::Scenario;
 use crate::sim::FollowerRun;
 use crate::v2v::Outage;
 

@@ -30,7 +30,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::error::{ConfigError, SimError};
-use crate::scenario::{Calibration, ControllerKind, Scenario};
+use crate::paper::Calibration;
+use crate::scenario::{ControllerKind, Scenario};
 
 /// One axis of the sweep.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

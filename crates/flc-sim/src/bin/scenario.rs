@@ -8,7 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use clap::Parser;
 use flc_sim::record;
 use flc_sim::report::{self, RunRecord};
-use flc_sim::scenario::{Calibration, ControllerKind, PAPER_SPEEDS_KMH, Scenario};
+use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
+use flc_sim::scenario::{ControllerKind, Scenario};
 use flc_sim::{SimError, run_batch};
 
 /// Closed-loop simulation of the flc vehicle-following pipeline.

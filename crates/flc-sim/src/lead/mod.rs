@@ -1,7 +1,32 @@
 //! The lead vehicle's driver: runs the scenario's [`Phase`]s in order and produces an
 //! acceleration command and a lateral offset target for every physics step.
 
-use crate::scenario::Phase;
+mod phase;
+
+pub use phase::Phase;
+
+use serde::{Deserialize, Serialize};
+
+use crate::vehicle::VehicleParams;
+
+/// The lead vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LeadSpec {
+    /// Initial speed, m/s.
+    pub initial_speed: f64,
+    /// Vehicle model.
+    pub vehicle: VehicleParams,
+    /// The manoeuvre.
+    pub phases: Vec<Phase>,
+}
+
+impl Default for LeadSpec {
+    fn default() -> Self {
+        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new() }
+    }
+}
+
 
 /// Gain of the speed-holding loop (hold phases, end of accelerate / brake), 1/s.
 const HOLD_GAIN: f64 = 3.0;
@@ -34,7 +59,7 @@ pub struct LeadDriver {
 }
 
 impl LeadDriver {
-    /// Builds the driver; `phases` must have been validated ([`crate::scenario::Scenario::validate`]).
+    /// Builds the driver; `phases` must have been validated ([`crate::Scenario::validate`]).
     pub fn new(phases: &[Phase], initial_speed: f64) -> Self {
         let targets = phases.iter().map(|p| p.speed_target().ok().flatten()).collect();
         Self {
