@@ -2,9 +2,9 @@
 
 use std::path::PathBuf;
 
-use flc_sim::metrics::Series;
+use flc_sim::Series;
 use flc_sim::report::PlatoonRecord;
-use flc_sim::scenario::{Calibration, ControllerKind, Scenario};
+use flc_sim::{Calibration, ControllerKind, Scenario};
 use flc_sim::string_stability::Signals;
 use flc_sim::{RunResult, SimError};
 use pyo3::prelude::*;
@@ -97,7 +97,7 @@ fn expand_variants(scenario_json: &str) -> PyResult<Vec<String>> {
 /// The platoon brake demo (`scenarios/platoon-brakedemo.toml`) as scenario JSON.
 #[pyfunction]
 fn brakedemo_scenario() -> PyResult<String> {
-    to_json(&flc_sim::platoon::brakedemo())
+    to_json(&flc_sim::presets::brakedemo())
 }
 
 /// `|Gamma(jw)|` of a platoon scenario at `freqs_hz` (default: its

@@ -2,7 +2,7 @@
 //! Results and the machine are recorded in docs/benchmarks.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flc_sim::scenario::{Calibration, ControllerKind, PAPER_SPEEDS_KMH, Scenario};
+use flc_sim::{Calibration, ControllerKind, PAPER_SPEEDS_KMH, Scenario};
 use flc_sim::{run, run_batch};
 
 fn single_run(c: &mut Criterion) {

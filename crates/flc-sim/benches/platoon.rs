@@ -5,8 +5,8 @@
 //! `cargo bench -p flc-sim --bench platoon`
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flc_sim::scenario::{Phase, Scenario, TrackSpec};
-use flc_sim::{run, track::Track};
+use flc_sim::{Phase, Scenario, TrackSpec};
+use flc_sim::{Track, run};
 
 /// The brake demo's string with 15 followers for 120 s: cruise at 120 km/h, brake at -6 m/s² to
 /// 72 km/h, cruise, accelerate back to 120 km/h (the run lasts the full 120 s).

@@ -3,7 +3,7 @@
 //! docs/foxglove.md ("Size and cost") and docs/benchmarks.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flc_sim::scenario::{Calibration, ControllerKind, Scenario};
+use flc_sim::{Calibration, ControllerKind, Scenario};
 use flc_sim::{run, run_with};
 
 fn recording(c: &mut Criterion) {

@@ -1,31 +1,53 @@
 //! # flc-sim
 //!
-//! Closed-loop simulator for the flc pipeline (the paper's CARLA experiment, Secs. III-IV): a
-//! rapier2d world with vehicles and road-side clutter ([`world`]), a ray-cast LiDAR ([`lidar`]), a
-//! lossy V2V channel ([`v2v`]), vehicle dynamics ([`vehicle`]), tracks as data ([`track`]),
-//! scenario files ([`scenario`]), the closed loop ([`sim`]) with platoons ([`platoon`]), metrics
-//! ([`metrics`]), string-stability measures ([`string_stability`]), reports ([`report`]) and MCAP
-//! recordings for Foxglove ([`record`]).
-pub mod error;
-pub mod lead;
-pub mod lidar;
-pub mod metrics;
+//! Closed-loop simulator for the flc pipeline (the paper's CARLA experiment, Secs. III-IV). The
+//! layers, lowest first (a module uses only the layers below it; `docs/architecture.md`, checked
+//! by `tests/layers.rs`):
+//!
+//! 1. **components**: tracks as data ([`Track`]), the rapier2d world (`world`), vehicle dynamics
+//!    ([`Vehicle`]), the ray-cast LiDAR ([`Lidar`]), the V2V channel ([`V2vChannel`]), the lead's
+//!    driver and [`Phase`]s (`lead`); each owns its parameter struct;
+//! 2. **data**: the per-step [`Series`] (columns declared once), [`Metrics`];
+//! 3. **configuration**: [`Scenario`], controller registry ([`ControllerKind`]), followers and
+//!    platoons ([`FollowerConfig`], [`PlatoonSpec`]), the one key-patch mechanism ([`Patch`]),
+//!    the paper's Sec. IV ([`paper`]) and other built-in scenarios ([`presets`]);
+//! 4. **the loop**: [`Simulation`], talking to sinks only through [`Observer`];
+//! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]);
+//! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
+//! 7. **experiments**: [`sweep`], the string-stability frequency response ([`string_stability`]),
+//!    and the `scenario` binary.
+mod error;
+mod lead;
+mod lidar;
+mod metrics;
 pub mod paper;
-pub mod platoon;
+mod patch;
+mod platoon;
 pub mod presets;
 pub mod record;
 pub mod report;
-pub mod scenario;
-pub mod series;
-pub mod sim;
+mod scenario;
+mod series;
+mod sim;
 pub mod string_stability;
 pub mod sweep;
-pub mod track;
-pub mod units;
-pub mod v2v;
-pub mod vehicle;
-pub mod world;
+mod track;
+mod units;
+mod v2v;
+mod vehicle;
+mod world;
 
-pub use error::{ConfigError, SimError};
-pub use scenario::Scenario;
+pub use error::{ConfigError, SimError, check_range};
+pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
+pub use lidar::{Lidar, LidarParams, Scan};
+pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};
+pub use paper::{Calibration, PAPER_SPEEDS_KMH};
+pub use patch::Patch;
+pub use platoon::{FollowerConfig, FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
+pub use scenario::{ControllerKind, FollowerSpec, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
+pub use series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
 pub use sim::{FollowerRun, PlatoonResult, RunResult, Simulation, run, run_batch, run_with};
+pub use track::{Projection, RoadsideObject, Track};
+pub use units::KMH;
+pub use v2v::{GilbertElliott, Outage, V2vChannel, V2vPacket, V2vParams, V2vStats};
+pub use vehicle::{SpeedController, SpeedControllerParams, Vehicle, VehicleParams, VehicleState};

@@ -31,6 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
 use crate::lidar::LidarParams;
+use crate::patch::Patch;
 use crate::scenario::{ControllerKind, FollowerSpec, SupervisorSpec};
 use crate::v2v::V2vParams;
 
@@ -331,36 +332,6 @@ impl FollowerConfig {
     /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:
     /// tables merge key by key, anything else is replaced. Errors name the key within the patch.
     pub fn patched(&self, patch: &toml::Table) -> Result<Self, ConfigError> {
-        patch_value(self, patch)
-    }
-}
-
-/// Serialises `base`, merges `patch` into it key by key (tables merge recursively, other values
-/// and arrays are replaced) and deserialises the result. Errors name the dotted key.
-pub(crate) fn patch_value<T: Serialize + serde::de::DeserializeOwned>(base: &T, patch: &toml::Table) -> Result<T, ConfigError> {
-    let mut value = toml::Value::try_from(base).map_err(|e| ConfigError::new("", e.to_string()))?;
-    merge(&mut value, &toml::Value::Table(patch.clone()));
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let path = e.path().to_string();
-        let msg = e.into_inner().to_string();
-        let msg = msg.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or_default().to_string();
-        ConfigError::new(if path == "." { String::new() } else { path }, msg)
-    })
-}
-
-/// Deep merge of TOML values: tables key by key, everything else replaced.
-pub(crate) fn merge(base: &mut toml::Value, patch: &toml::Value) {
-    match (base, patch) {
-        (toml::Value::Table(b), toml::Value::Table(p)) => {
-            for (k, v) in p {
-                match b.get_mut(k) {
-                    Some(slot) => merge(slot, v),
-                    None => {
-                        b.insert(k.clone(), v.clone());
-                    }
-                }
-            }
-        }
-        (b, p) => *b = p.clone(),
+        Patch::from_table(patch).apply(self)
     }
 }

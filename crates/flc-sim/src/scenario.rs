@@ -14,12 +14,16 @@ use serde::{Deserialize, Serialize};
 use crate::error::{ConfigError, SimError, check_range};
 use crate::lead::LeadSpec;
 use crate::lidar::LidarParams;
+use crate::patch::Patch;
 use crate::platoon::{FollowerConfig, PlatoonSpec};
 use crate::track::Track;
 use crate::v2v::V2vParams;
 use crate::vehicle::{SpeedControllerParams, VehicleParams};
 
 pub use crate::units::KMH;
+
+/// Family key of [`Scenario::patched`]: the deceleration of every brake phase of the lead.
+pub const LEAD_DECEL_KEY: &str = "lead_decel";
 
 /// Which longitudinal controller drives the follower.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -358,9 +362,31 @@ impl Scenario {
             return Err(ConfigError::new(format!("{key}.name"), "must not be empty"));
         }
         let base = Scenario { variants: Vec::new(), ..self.clone() };
-        let mut out: Scenario = crate::platoon::patch_value(&base, &v.patch).map_err(|e| e.within(&key))?;
+        let mut out = base.patched(&Patch::from_table(&v.patch)).map_err(|e| e.within(&key))?;
         out.variant = Some(v.name.clone());
         Ok(out)
+    }
+
+    /// This scenario with `patch` applied ([`crate::patch`]), plus the family key `lead_decel`
+    /// (m/s², positive): the deceleration of **every** brake phase of the lead (sweeps, Python
+    /// envelopes). Errors name the dotted key; the result is not validated.
+    pub fn patched(&self, patch: &Patch) -> Result<Scenario, ConfigError> {
+        let mut resolved = Patch::new();
+        for (key, value) in patch.entries() {
+            if key == LEAD_DECEL_KEY {
+                let brakes: Vec<usize> =
+                    self.lead.phases.iter().enumerate().filter(|(_, p)| matches!(p, crate::lead::Phase::Brake { .. })).map(|(i, _)| i).collect();
+                if brakes.is_empty() {
+                    return Err(ConfigError::new(key, "the scenario's lead has no brake phase"));
+                }
+                for i in brakes {
+                    resolved.set(format!("lead.phases[{i}].decel"), value.clone());
+                }
+            } else {
+                resolved.set(key, value.clone());
+            }
+        }
+        resolved.apply(self)
     }
 
     /// The scenarios to run for this one: each variant if it has `[[variants]]`, else itself.

@@ -12,7 +12,7 @@
 //! key = "speed_kmh"           # paper family: rebuilds the experiment at this speed
 //! values = [30, 50, 70, 90]
 //! [[axes]]
-//! key = "lead_decel"          # the brake phase's deceleration, m/s²
+//! key = "lead_decel"          # every brake phase's deceleration, m/s²
 //! from = 2.0
 //! to = 9.0
 //! steps = 8
@@ -30,6 +30,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::error::{ConfigError, SimError};
+use crate::patch::Patch;
 use crate::paper::Calibration;
 use crate::scenario::{ControllerKind, Scenario};
 
@@ -214,48 +215,18 @@ impl SweepSpec {
                 Scenario::paper_experiment(speed, controller, self.calibration)
             }
         };
-        let mut json = serde_json::to_value(&s).map_err(|e| SimError::File { path: "sweep".into(), message: e.to_string() })?;
+        let mut patch = Patch::new();
         for (k, v) in values {
-            match k.as_str() {
-                "speed_kmh" | "controller" if base.is_none() => {}
-                "lead_decel" => {
-                    let d = num(k, v)?;
-                    let phases = json.pointer_mut("/lead/phases").and_then(Value::as_array_mut);
-                    let brake = phases.and_then(|p| p.iter_mut().find(|ph| ph.get("kind").and_then(Value::as_str) == Some("brake")));
-                    match brake {
-                        Some(b) => b["decel"] = Value::from(d),
-                        None => return Err(ConfigError::new(k, "the base scenario has no brake phase").into()),
-                    }
-                }
-                _ => set_path(&mut json, k, v.clone())?,
+            if base.is_none() && (k == "speed_kmh" || k == "controller") {
+                continue;
             }
+            patch.set_json(k.as_str(), v)?;
         }
-        s = serde_path_to_error::deserialize(json).map_err(|e| {
-            let key = e.path().to_string();
-            ConfigError::new(key, e.into_inner().to_string())
-        })?;
+        s = s.patched(&patch)?;
         s.seed = run_seed(self.seed, id);
         s.validate()?;
         Ok(s)
     }
-}
-
-/// Sets a dotted key (`a.b[2].c`) in a JSON value; every segment must already exist, so a typo
-/// is an error naming the key.
-fn set_path(root: &mut Value, key: &str, v: Value) -> Result<(), ConfigError> {
-    let mut node = root;
-    for part in key.split('.') {
-        let (name, index) = match part.split_once('[') {
-            Some((n, rest)) => (n, Some(rest.trim_end_matches(']').parse::<usize>().map_err(|_| ConfigError::new(key, "bad list index"))?)),
-            None => (part, None),
-        };
-        node = node.get_mut(name).ok_or_else(|| ConfigError::new(key, format!("unknown scenario key `{name}`")))?;
-        if let Some(i) = index {
-            node = node.get_mut(i).ok_or_else(|| ConfigError::new(key, format!("index {i} out of range")))?;
-        }
-    }
-    *node = v;
-    Ok(())
 }
 
 /// Metric columns of a sweep row, in order (the names of `scenario --json`).

@@ -2,7 +2,7 @@
 //! their scenario sections, fed only the LiDAR detector's distance and the own speed.
 
 use flc_sim::run;
-use flc_sim::scenario::{ControllerKind, Phase, Scenario};
+use flc_sim::{ControllerKind, Phase, Scenario};
 
 const BASELINES: [ControllerKind; 4] = [ControllerKind::Idm, ControllerKind::Acc, ControllerKind::Rss, ControllerKind::CarlaBehavior];
 
@@ -100,7 +100,7 @@ fn bad_baseline_parameters_name_the_key() {
 #[test]
 fn baselines_ignore_v2v() {
     for c in BASELINES {
-        let mut a = Scenario::paper_experiment(50.0, c, flc_sim::scenario::Calibration::Realistic);
+        let mut a = Scenario::paper_experiment(50.0, c, flc_sim::Calibration::Realistic);
         a.duration = 20.0;
         let mut b = a.clone();
         b.v2v.enabled = true;

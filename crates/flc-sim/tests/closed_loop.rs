@@ -1,9 +1,9 @@
 //! Closed-loop integration tests of the simulator (issue: simulator acceptance).
 
-use flc_sim::scenario::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::{run, run_batch};
 
-fn paper(speed: f64, c: ControllerKind, cal: Calibration) -> flc_sim::metrics::Metrics {
+fn paper(speed: f64, c: ControllerKind, cal: Calibration) -> flc_sim::Metrics {
     run(&Scenario::paper_experiment(speed, c, cal)).expect("run").metrics
 }
 
@@ -71,7 +71,7 @@ fn flc_follows_at_its_desired_gap() {
 fn v2v_outage_switches_to_flc_and_back() {
     let mut s = steady(ControllerKind::Pipeline);
     s.duration = 60.0;
-    s.v2v.outages = vec![flc_sim::v2v::Outage { start: 30.0, end: 35.0 }];
+    s.v2v.outages = vec![flc_sim::Outage { start: 30.0, end: 35.0 }];
     let r = run(&s).expect("run");
     let m = &r.metrics;
     // Starts on the FLC (no V2V yet) -> PID after 5 messages -> FLC in the outage -> PID again.

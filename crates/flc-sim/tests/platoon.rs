@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use flc_sim::metrics::{ACTIVE_FLC, Series};
-use flc_sim::platoon::{FollowerOverride, PlatoonSpec, V2vSource};
-use flc_sim::scenario::{ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{ACTIVE_FLC, Series};
+use flc_sim::{FollowerOverride, PlatoonSpec, V2vSource};
+use flc_sim::{ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::string_stability::frequency_response_at;
 use flc_sim::{RunResult, run};
 
@@ -220,7 +220,7 @@ fn platoon_keys_are_validated_with_dotted_names() {
 
 #[test]
 fn the_brake_demo_file_is_the_built_in_scenario() {
-    assert_eq!(file("platoon-brakedemo.toml"), flc_sim::platoon::brakedemo());
+    assert_eq!(file("platoon-brakedemo.toml"), flc_sim::presets::brakedemo());
 }
 
 #[test]

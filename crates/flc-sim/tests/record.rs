@@ -11,7 +11,7 @@ use flc_sim::record::{
     self, METADATA_METRICS, METADATA_SCENARIO, TOPIC_DETECTOR, TOPIC_LOOKAHEAD, TOPIC_SCAN, TOPIC_STATE, TOPIC_TF, TOPIC_TRACK,
     TOPIC_VEHICLES,
 };
-use flc_sim::scenario::{Calibration, ControllerKind, Scenario};
+use flc_sim::{Calibration, ControllerKind, Scenario};
 use flc_sim::{Simulation, run, run_with};
 use foxglove::Encode;
 use foxglove::messages::{FrameTransforms, PointCloud, SceneUpdate};
@@ -26,7 +26,7 @@ fn tmpdir(tag: &str) -> PathBuf {
 /// Short pipeline run with a V2V outage at brake onset: switches, NaN v2v ages, detections.
 fn short_pipeline() -> Scenario {
     let mut s = Scenario::paper_experiment(30.0, ControllerKind::Pipeline, Calibration::Realistic);
-    s.lead.phases[1] = flc_sim::scenario::Phase::Hold { until_x: Some(60.0), until_t: None, duration: None };
+    s.lead.phases[1] = flc_sim::Phase::Hold { until_x: Some(60.0), until_t: None, duration: None };
     s.duration = 25.0;
     s
 }
@@ -84,7 +84,7 @@ fn state_column(msgs: &[&Msg], key: &str) -> Vec<f64> {
 }
 
 /// Equal column by column, bit for bit (NaN == NaN).
-fn same_bits(a: &flc_sim::metrics::Series, b: &flc_sim::metrics::Series) -> bool {
+fn same_bits(a: &flc_sim::Series, b: &flc_sim::Series) -> bool {
     a.columns()
         .iter()
         .zip(b.columns())
@@ -129,7 +129,7 @@ fn recording_has_foxglove_schemas_rates_monotonic_times_and_the_run_series() {
     let st = state.schema.as_ref().expect("state schema");
     assert_eq!((st.name.as_str(), st.encoding.as_str(), state.message_encoding.as_str()), ("flc.State", "jsonschema", "json"));
     let js: serde_json::Value = serde_json::from_slice(&st.data).expect("json schema");
-    for (name, _) in flc_sim::metrics::Series::COLUMNS {
+    for (name, _) in flc_sim::Series::COLUMNS {
         assert!(js["properties"].get(name).is_some(), "schema lacks {name}");
     }
 

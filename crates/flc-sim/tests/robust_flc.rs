@@ -7,10 +7,10 @@
 //! follower that knows the lead's (or obstacle's) state one LiDAR frame after it changes and then
 //! demands full braking.
 
-use flc_sim::metrics::{Metrics, MetricsParams};
-use flc_sim::scenario::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
-use flc_sim::track::{RoadsideObject, Track};
-use flc_sim::vehicle::{Vehicle, VehicleParams, VehicleState};
+use flc_sim::{Metrics, MetricsParams};
+use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{RoadsideObject, Track};
+use flc_sim::{Vehicle, VehicleParams, VehicleState};
 use flc_sim::{RunResult, run_batch};
 
 const KMH: f64 = 1.0 / 3.6;

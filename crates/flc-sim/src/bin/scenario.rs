@@ -9,7 +9,7 @@ use clap::Parser;
 use flc_sim::record;
 use flc_sim::report::{self, RunRecord};
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
-use flc_sim::scenario::{ControllerKind, Scenario};
+use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{SimError, run_batch};
 
 /// Closed-loop simulation of the flc vehicle-following pipeline.
@@ -125,7 +125,7 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
         };
         let controllers = cli.controllers.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
         for &speed in &cli.speeds {
-            flc_sim::error::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
+            flc_sim::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
         }
         for &preset in &presets {
             for &speed in &cli.speeds {
