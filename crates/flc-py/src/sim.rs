@@ -108,7 +108,7 @@ fn brakedemo_scenario() -> PyResult<String> {
 fn frequency_response(py: Python<'_>, scenario_json: &str, freqs_hz: Option<Vec<f64>>) -> PyResult<String> {
     let s = parse_scenario(scenario_json)?;
     let freqs = freqs_hz.unwrap_or_else(|| s.platoon.as_ref().map(|p| p.string_stability.frequencies_hz.clone()).unwrap_or_default());
-    let points = py.detach(|| flc_sim::string_stability::frequency_response_at(&s, &freqs)).map_err(scenario_err)?;
+    let points = py.detach(|| flc_sim::frequency_response::frequency_response_at(&s, &freqs)).map_err(scenario_err)?;
     to_json(&points)
 }
 

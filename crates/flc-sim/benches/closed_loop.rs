@@ -3,7 +3,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use flc_sim::{Calibration, ControllerKind, PAPER_SPEEDS_KMH, Scenario};
-use flc_sim::{run, run_batch};
+use flc_sim::{RunOptions, run};
 
 fn single_run(c: &mut Criterion) {
     let s = Scenario::paper_experiment(70.0, ControllerKind::Flc, Calibration::Realistic);
@@ -22,7 +22,7 @@ fn default_experiment(c: &mut Criterion) {
         .collect();
     let mut g = c.benchmark_group("closed_loop");
     g.sample_size(10);
-    g.bench_function("default_experiment_8_runs_all_cores", |b| b.iter(|| run_batch(std::hint::black_box(&scenarios), false)));
+    g.bench_function("default_experiment_8_runs_all_cores", |b| b.iter(|| RunOptions::default().run_batch(std::hint::black_box(&scenarios))));
     g.finish();
 }
 

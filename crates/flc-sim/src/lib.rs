@@ -17,6 +17,7 @@
 //! 7. **experiments**: [`sweep`], the string-stability frequency response ([`string_stability`]),
 //!    and the `scenario` binary.
 mod error;
+pub mod frequency_response;
 mod lead;
 mod lidar;
 mod metrics;
@@ -27,6 +28,7 @@ pub mod presets;
 pub mod record;
 pub mod report;
 mod scenario;
+mod runner;
 mod series;
 mod sim;
 pub mod string_stability;
@@ -46,7 +48,8 @@ pub use patch::Patch;
 pub use platoon::{FollowerConfig, FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
 pub use scenario::{ControllerKind, FollowerSpec, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
 pub use series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
-pub use sim::{FollowerRun, PlatoonResult, RunResult, Simulation, run, run_batch, run_with};
+pub use runner::{RunOptions, run};
+pub use sim::{FollowerRun, Observer, PlatoonResult, RunResult, Simulation};
 pub use track::{Projection, RoadsideObject, Track};
 pub use units::KMH;
 pub use v2v::{GilbertElliott, Outage, V2vChannel, V2vPacket, V2vParams, V2vStats};

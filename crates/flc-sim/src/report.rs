@@ -181,21 +181,11 @@ pub fn table(records: &[RunRecord]) -> String {
     out
 }
 
-/// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
-/// `[A-Za-z0-9._-]` replaced by `_`.
-pub fn run_file_stem(scenario: &Scenario) -> String {
-    let raw = match &scenario.variant {
-        Some(v) => format!("{}-{v}-{}", scenario.name, scenario.controller.as_str()),
-        None => format!("{}-{}", scenario.name, scenario.controller.as_str()),
-    };
-    raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
-}
-
 /// Writes the run's time series as `<dir>/<stem>.csv` (header = column names with units); for a
 /// platoon also followers 2..N as `<dir>/<stem>-follower<k>.csv` (their `lead_*` columns are the
 /// vehicle in front). Returns the first file.
 pub fn write_series_csv(dir: &Path, run: &RunResult) -> std::io::Result<PathBuf> {
-    let stem = run_file_stem(&run.scenario);
+    let stem = run.scenario.run_file_stem();
     let path = dir.join(format!("{stem}.csv"));
     write_csv(&path, &run.series)?;
     if let Some(p) = &run.platoon {

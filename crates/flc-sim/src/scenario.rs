@@ -412,6 +412,16 @@ impl Scenario {
         self.base_follower_config().baseline_desired_gap(v)
     }
 
+    /// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
+    /// `[A-Za-z0-9._-]` replaced by `_`.
+    pub fn run_file_stem(&self) -> String {
+        let raw = match &self.variant {
+            Some(v) => format!("{}-{v}-{}", self.name, self.controller.as_str()),
+            None => format!("{}-{}", self.name, self.controller.as_str()),
+        };
+        raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
+    }
+
     /// Parses TOML text. Errors name the dotted key (`lidar.rate_hz`) and the problem; `origin`
     /// (a file name) prefixes the message.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, SimError> {

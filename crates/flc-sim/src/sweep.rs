@@ -322,7 +322,7 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
     let results: Vec<Result<(), SimError>> = todo
         .par_iter()
         .map(|p| {
-            let r = crate::sim::run(&p.scenario)?;
+            let r = crate::runner::run(&p.scenario)?;
             let line = row(p, &r.metrics);
             let mut w = writer.lock().map_err(|_| SimError::File { path: out.display().to_string(), message: "writer poisoned".into() })?;
             writeln!(w, "{line}")?;

@@ -1,7 +1,7 @@
 //! Closed-loop integration tests of the simulator (issue: simulator acceptance).
 
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
-use flc_sim::{run, run_batch};
+use flc_sim::{RunOptions, run};
 
 fn paper(speed: f64, c: ControllerKind, cal: Calibration) -> flc_sim::Metrics {
     run(&Scenario::paper_experiment(speed, c, cal)).expect("run").metrics
@@ -95,8 +95,8 @@ fn deterministic_across_runs_and_thread_counts() {
     s.v2v.loss_prob = 0.2;
     let scenarios = vec![s.clone(), s.clone(), s];
     let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("pool");
-    let one = pool(1).install(|| run_batch(&scenarios, false));
-    let two = pool(2).install(|| run_batch(&scenarios, false));
+    let one = pool(1).install(|| RunOptions::default().run_batch(&scenarios));
+    let two = pool(2).install(|| RunOptions::default().run_batch(&scenarios));
     let key = |r: &Result<flc_sim::RunResult, flc_sim::SimError>| {
         let r = r.as_ref().expect("run");
         (serde_json::to_string(&r.metrics).expect("json"), r.series.gap.iter().map(|g| g.to_bits()).collect::<Vec<_>>())

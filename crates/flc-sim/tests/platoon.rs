@@ -6,7 +6,7 @@ use std::path::Path;
 use flc_sim::{ACTIVE_FLC, Series};
 use flc_sim::{FollowerOverride, PlatoonSpec, V2vSource};
 use flc_sim::{ControllerKind, Phase, Scenario, TrackSpec};
-use flc_sim::string_stability::frequency_response_at;
+use flc_sim::frequency_response::frequency_response_at;
 use flc_sim::{RunResult, run};
 
 /// Every column equal bit for bit (NaN included).
@@ -229,7 +229,7 @@ fn the_brake_demo_stops_every_variant_without_collision() {
     let variants = demo.expand_variants().expect("variants");
     let names: Vec<&str> = variants.iter().map(|v| v.variant.as_deref().unwrap_or("")).collect();
     assert_eq!(names, ["pid-v2v", "flc", "pipeline-outage"]);
-    let results = flc_sim::run_batch(&variants, false);
+    let results = flc_sim::RunOptions::default().run_batch(&variants);
     let mut gap_peak = Vec::new();
     for (v, r) in variants.iter().zip(results) {
         let r = r.expect("run");

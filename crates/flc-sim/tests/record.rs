@@ -12,7 +12,15 @@ use flc_sim::record::{
     TOPIC_VEHICLES,
 };
 use flc_sim::{Calibration, ControllerKind, Scenario};
-use flc_sim::{Simulation, run, run_with};
+use flc_sim::{RunOptions, Simulation, run};
+
+fn run_with(s: &Scenario, dir: Option<&Path>) -> Result<flc_sim::RunResult, flc_sim::SimError> {
+    RunOptions { record: dir, ..RunOptions::default() }.run(s)
+}
+
+fn run_interruptible(s: &Scenario, dir: Option<&Path>, stop: &AtomicBool) -> Result<flc_sim::RunResult, flc_sim::SimError> {
+    RunOptions { record: dir, stop: Some(stop), ..RunOptions::default() }.run(s)
+}
 use foxglove::Encode;
 use foxglove::messages::{FrameTransforms, PointCloud, SceneUpdate};
 
@@ -213,8 +221,10 @@ fn a_dropped_or_panicking_run_leaves_a_complete_file() {
     // Dropped without finish().
     let dir = tmpdir("drop");
     let s = short_pipeline();
-    let mut sim = Simulation::new(&s).expect("sim");
-    let path = sim.record_to(&dir).expect("record");
+    let sim = Simulation::new(&s).expect("sim");
+    let rec = record::Recorder::for_simulation(&dir, &sim).expect("record");
+    let path = rec.path().to_path_buf();
+    let mut sim = sim.with_observer(rec);
     for _ in 0..300 {
         assert!(sim.step().expect("step"));
     }
@@ -226,8 +236,9 @@ fn a_dropped_or_panicking_run_leaves_a_complete_file() {
     let path = dir.join(record::recording_file_name(&s));
     let d = dir.clone();
     let joined = std::thread::spawn(move || {
-        let mut sim = Simulation::new(&s).expect("sim");
-        sim.record_to(&d).expect("record");
+        let sim = Simulation::new(&s).expect("sim");
+        let rec = record::Recorder::for_simulation(&d, &sim).expect("record");
+        let mut sim = sim.with_observer(rec);
         for _ in 0..250 {
             let _ = sim.step();
         }
@@ -245,7 +256,7 @@ fn a_stop_flag_ends_the_run_and_finishes_the_file() {
     let stop = AtomicBool::new(false);
     let full = run(&s).expect("run").series.len();
     let r = std::thread::scope(|scope| {
-        let h = scope.spawn(|| record::run_interruptible(&s, Some(&dir), &stop));
+        let h = scope.spawn(|| run_interruptible(&s, Some(&dir), &stop));
         // Stop once the first chunk is on disk (the file grows chunk by chunk), mid-run.
         let path = dir.join(record::recording_file_name(&s));
         while !h.is_finished() && std::fs::metadata(&path).map_or(true, |m| m.len() < 200_000) {
@@ -263,7 +274,7 @@ fn a_stop_flag_ends_the_run_and_finishes_the_file() {
     }
     // Already set: nothing runs, the file holds the static scene.
     let dir = tmpdir("stop-set");
-    let r = record::run_interruptible(&s, Some(&dir), &AtomicBool::new(true)).expect("run");
+    let r = run_interruptible(&s, Some(&dir), &AtomicBool::new(true)).expect("run");
     assert!(r.series.is_empty());
     assert_eq!(assert_partial(&dir.join(record::recording_file_name(&s)), 0), 0);
 }

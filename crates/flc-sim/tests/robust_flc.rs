@@ -11,7 +11,7 @@ use flc_sim::{Metrics, MetricsParams};
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::{RoadsideObject, Track};
 use flc_sim::{Vehicle, VehicleParams, VehicleState};
-use flc_sim::{RunResult, run_batch};
+use flc_sim::{RunOptions, RunResult};
 
 const KMH: f64 = 1.0 / 3.6;
 const ROBUST: ControllerKind = ControllerKind::FlcRobust;
@@ -23,7 +23,7 @@ const PAPER: ControllerKind = ControllerKind::Flc;
 const DETECTION_RANGE: f64 = 69.5;
 
 fn batch(scenarios: &[Scenario]) -> Vec<RunResult> {
-    run_batch(scenarios, false).into_iter().map(|r| r.expect("run")).collect()
+    RunOptions::default().run_batch(scenarios).into_iter().map(|r| r.expect("run")).collect()
 }
 
 /// The gap the controller keeps behind a lead at its own speed `v`.

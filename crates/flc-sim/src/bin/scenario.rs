@@ -6,11 +6,10 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
-use flc_sim::record;
 use flc_sim::report::{self, RunRecord};
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
 use flc_sim::{ControllerKind, Scenario};
-use flc_sim::{SimError, run_batch};
+use flc_sim::{RunOptions, SimError};
 
 /// Closed-loop simulation of the flc vehicle-following pipeline.
 ///
@@ -146,35 +145,6 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
     Ok(out)
 }
 
-/// Runs the |Gamma(jw)| sine runs of every platoon scenario with `frequencies_hz` (all in
-/// parallel) and adds them to the records.
-fn frequency_responses(list: &[(Scenario, Option<Calibration>)], records: &mut [RunRecord]) -> Result<(), SimError> {
-    use flc_sim::string_stability::{gamma_from_run, sine_scenario};
-    let mut jobs = Vec::new();
-    for (i, (s, _)) in list.iter().enumerate() {
-        let freqs = s.platoon.as_ref().map(|p| p.string_stability.frequencies_hz.clone()).unwrap_or_default();
-        for f in freqs {
-            jobs.push((i, f, sine_scenario(s, f).map_err(|e| SimError::File { path: s.name.clone(), message: e.to_string() })?));
-        }
-    }
-    if jobs.is_empty() {
-        return Ok(());
-    }
-    let scenarios: Vec<Scenario> = jobs.iter().map(|(_, _, s)| s.clone()).collect();
-    let results = run_batch(&scenarios, true);
-    let mut points: Vec<Vec<flc_sim::string_stability::GammaPoint>> = vec![Vec::new(); list.len()];
-    for ((i, f, s), r) in jobs.iter().zip(results) {
-        let r = r?;
-        points[*i].push(gamma_from_run(s, &r, *f));
-    }
-    for (rec, pts) in records.iter_mut().zip(points) {
-        if let Some(p) = rec.platoon.as_mut() {
-            p.string_stability.set_frequency_response(pts);
-        }
-    }
-    Ok(())
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
@@ -201,8 +171,9 @@ fn main() -> ExitCode {
         }
     }
     let scenarios: Vec<Scenario> = list.iter().map(|(s, _)| s.clone()).collect();
+    let progress = list.len() > 1;
     let results = match &cli.record {
-        None => run_batch(&scenarios, list.len() > 1),
+        None => RunOptions { progress, ..RunOptions::default() }.run_batch(&scenarios),
         Some(dir) => {
             if let Err(e) = std::fs::create_dir_all(dir) {
                 return bad_input(format!("`--record` {}: {e}", dir.display()));
@@ -216,7 +187,7 @@ fn main() -> ExitCode {
             }) {
                 eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted recording may be incomplete");
             }
-            let results = record::run_batch_interruptible(&scenarios, list.len() > 1, Some(dir), stop);
+            let results = RunOptions { record: Some(dir), stop: Some(stop), progress }.run_batch(&scenarios);
             if stop.load(Ordering::SeqCst) {
                 eprintln!("interrupted: the recordings in {} are finished up to the interrupt", dir.display());
                 return ExitCode::from(130);
@@ -240,7 +211,7 @@ fn main() -> ExitCode {
     }
     // Platoons with `string_stability.frequencies_hz`: |Gamma(jw)|, one sine run per frequency.
     if cli.record.is_none() {
-        if let Err(e) = frequency_responses(&list, &mut records) {
+        if let Err(e) = flc_sim::frequency_response::add_to_records(&scenarios, &mut records, true) {
             return bad_input(e);
         }
     }

@@ -23,14 +23,15 @@
 //! The simulation thread encodes the messages and a writer thread per recording compresses and
 //! writes them, so the compression runs alongside the simulation. The writer is finished on every
 //! exit path: [`Recorder::finish`] at the end of a run, and [`Drop`] when the run stops early (an
-//! error, a panic, a dropped [`crate::Simulation`]); [`run_interruptible`] stops a run cleanly when
-//! a flag is set (the CLI's Ctrl-C handler).
+//! error, a panic, a dropped [`crate::Simulation`]); a run stopped by `RunOptions::stop` (the
+//! CLI's Ctrl-C handler) ends with a complete file.
+//!
+//! The recorder is one [`crate::Observer`] of the loop; the loop does not know it.
 
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender};
 use std::thread::JoinHandle;
 
@@ -43,12 +44,20 @@ use foxglove::messages::{
 };
 use serde::Serialize;
 
+mod scene;
+mod state;
+mod writer;
+
+pub use state::state_json_schema;
+use scene::*;
+use state::*;
+use writer::*;
+
 use crate::error::SimError;
 use crate::lidar::Scan;
 use crate::metrics::{Metrics, Series, StepRecord};
-use crate::report::run_file_stem;
 use crate::scenario::Scenario;
-use crate::sim::{RunResult, Simulation};
+use crate::sim::{Observer, Simulation};
 use crate::track::{RoadsideObject, Track};
 use crate::vehicle::VehicleState;
 
@@ -85,7 +94,7 @@ pub const METADATA_METRICS: &str = "flc.metrics";
 /// File name of a run's recording: `<scenario>-<controller>[-<speed_kmh>kmh].mcap`, with
 /// characters other than ASCII letters, digits, `.`, `_` and `-` replaced by `_`.
 pub fn recording_file_name(scenario: &Scenario) -> String {
-    let mut stem = run_file_stem(scenario);
+    let mut stem = scenario.run_file_stem();
     if let Some(v) = scenario.speed_kmh {
         let speed: String = format!("{v}").chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect();
         stem.push_str(&format!("-{speed}kmh"));
@@ -98,14 +107,14 @@ pub fn time_ns(t: f64) -> u64 {
     if t.is_finite() && t > 0.0 { (t * 1e9).round() as u64 } else { 0 }
 }
 
-fn stamp(ns: u64) -> Timestamp {
+pub(super) fn stamp(ns: u64) -> Timestamp {
     Timestamp::new((ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32)
 }
 
 /// Point coordinates as float32 on a grid of [`POINT_GRID`] m (2^-10 m, about 1 mm; the LiDAR's
 /// range noise is 2 cm by default): exact in float32 with the low mantissa bits zero, which zstd
 /// compresses well, unlike full-precision floats.
-fn quantize(v: f64) -> f32 {
+pub(super) fn quantize(v: f64) -> f32 {
     // Round to nearest by adding and removing 1.5 * 2^52 (|v| < 2^41 m); no libm call.
     const MAGIC: f64 = 6_755_399_441_055_744.0;
     let scaled = v * (1.0 / POINT_GRID);
@@ -115,233 +124,12 @@ fn quantize(v: f64) -> f32 {
 /// Grid of the recorded point coordinates, m.
 pub const POINT_GRID: f64 = 1.0 / 1024.0;
 
-fn io_err(path: &Path, e: impl std::fmt::Display) -> SimError {
+pub(super) fn io_err(path: &Path, e: impl std::fmt::Display) -> SimError {
     SimError::File { path: path.display().to_string(), message: format!("MCAP recording: {e}") }
 }
 
-// ---------------------------------------------------------------- geometry helpers
-
-fn v3(x: f64, y: f64, z: f64) -> Vector3 {
-    Vector3 { x, y, z }
-}
-
-fn yaw_quat(yaw: f64) -> Quaternion {
-    let h = 0.5 * yaw;
-    Quaternion { x: 0.0, y: 0.0, z: h.sin(), w: h.cos() }
-}
-
-fn pose(x: f64, y: f64, z: f64, yaw: f64) -> Pose {
-    Pose { position: Some(v3(x, y, z)), orientation: Some(yaw_quat(yaw)) }
-}
-
-const fn rgba(r: f64, g: f64, b: f64, a: f64) -> Color {
-    Color { r, g, b, a }
-}
-
-const LEAD_COLOR: Color = rgba(0.95, 0.35, 0.2, 0.9);
-const FOLLOWER_COLOR: Color = rgba(0.2, 0.55, 0.95, 0.9);
-const LOOKAHEAD_COLOR: Color = rgba(1.0, 0.2, 0.9, 1.0);
-
-/// Entity names (`clusters/<name>` on [`TOPIC_DETECTOR`]) and colours of the detector's clusters:
-/// the accepted lead, the other vehicle-like clusters, then one per `flc_core::RejectReason`
-/// (named by its `as_str`).
-pub const CLUSTER_STATUS: [(&str, Color); 7] = [
-    ("lead", rgba(0.1, 0.9, 0.2, 0.6)),
-    ("candidate", rgba(0.95, 0.85, 0.1, 0.5)),
-    ("too_few_points", rgba(0.5, 0.5, 0.5, 0.25)),
-    ("too_narrow", rgba(0.3, 0.6, 0.9, 0.35)),
-    ("too_wide", rgba(0.9, 0.5, 0.2, 0.35)),
-    ("too_deep", rgba(0.7, 0.3, 0.8, 0.35)),
-    ("off_path", rgba(0.75, 0.75, 0.75, 0.35)),
-];
-
-fn line(kind: line_primitive::Type, points: Vec<Point3>, thickness: f64, color: Color) -> LinePrimitive {
-    LinePrimitive {
-        r#type: kind as i32,
-        pose: Some(pose(0.0, 0.0, 0.0, 0.0)),
-        thickness,
-        scale_invariant: false,
-        points,
-        color: Some(color),
-        ..Default::default()
-    }
-}
-
-fn entity(ns: u64, frame: &str, id: &str) -> SceneEntity {
-    SceneEntity { timestamp: Some(stamp(ns)), frame_id: frame.to_string(), id: id.to_string(), ..Default::default() }
-}
-
-fn kv(key: &str, value: impl Into<String>) -> KeyValuePair {
-    KeyValuePair { key: key.to_string(), value: value.into() }
-}
-
-/// Centreline shifted sideways by `offset` (+ left), one point per centreline point.
-fn offset_polyline(c: &[[f64; 2]], offset: f64, z: f64) -> Vec<Point3> {
-    let n = c.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (c[i.saturating_sub(1)], c[(i + 1).min(n - 1)]);
-            let h = (b[1] - a[1]).atan2(b[0] - a[0]);
-            Point3 { x: c[i][0] - offset * h.sin(), y: c[i][1] + offset * h.cos(), z }
-        })
-        .collect()
-}
-
-/// The road as a scene entity: centreline, lane edges and the road-side objects.
-fn track_entity(ns: u64, track: &Track) -> SceneEntity {
-    let mut e = entity(ns, FRAME_WORLD, "road");
-    e.metadata = vec![kv("track", track.name.clone()), kv("lane_width_m", format!("{}", track.lane_width))];
-    let c = &track.centerline;
-    if c.len() >= 2 {
-        let half = track.lane_width / 2.0;
-        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, 0.0, 0.0), 0.08, rgba(0.9, 0.9, 0.9, 0.5)));
-        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, half, 0.0), 0.15, rgba(1.0, 1.0, 1.0, 0.9)));
-        e.lines.push(line(line_primitive::Type::LineStrip, offset_polyline(c, -half, 0.0), 0.15, rgba(1.0, 1.0, 1.0, 0.9)));
-    }
-    for o in &track.objects {
-        match *o {
-            RoadsideObject::GuardRail { offset, from_s, to_s } => {
-                let n = (((to_s - from_s) / 2.0).ceil() as usize).clamp(1, 100_000);
-                let pts = (0..=n)
-                    .map(|k| {
-                        let s = from_s + (to_s - from_s) * k as f64 / n as f64;
-                        let (x, y, h) = track.pose_at(s);
-                        Point3 { x: x - offset * h.sin(), y: y + offset * h.cos(), z: 0.5 }
-                    })
-                    .collect();
-                e.lines.push(line(line_primitive::Type::LineStrip, pts, 0.2, rgba(0.75, 0.75, 0.8, 1.0)));
-            }
-            RoadsideObject::Post { s, offset, radius } => {
-                let (x, y, h) = track.pose_at(s);
-                e.cylinders.push(CylinderPrimitive {
-                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.6, 0.0)),
-                    size: Some(v3(2.0 * radius, 2.0 * radius, 1.2)),
-                    bottom_scale: 1.0,
-                    top_scale: 1.0,
-                    color: Some(rgba(0.9, 0.9, 0.3, 1.0)),
-                });
-            }
-            RoadsideObject::ParkedCar { s, offset, heading_offset } => {
-                let (x, y, h) = track.pose_at(s);
-                e.cubes.push(CubePrimitive {
-                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.75, h + heading_offset)),
-                    size: Some(v3(4.7, 1.8, 1.5)),
-                    color: Some(rgba(0.55, 0.55, 0.6, 1.0)),
-                });
-            }
-        }
-    }
-    e
-}
-
-fn vehicle_entity(ns: u64, frame: &str, length: f64, width: f64, color: Color) -> SceneEntity {
-    let mut e = entity(ns, frame, frame);
-    e.frame_locked = true;
-    e.cubes.push(CubePrimitive { pose: Some(pose(0.0, 0.0, 0.75, 0.0)), size: Some(v3(length, width, 1.5)), color: Some(color) });
-    e.texts.push(TextPrimitive {
-        pose: Some(pose(0.0, 0.0, 2.2, 0.0)),
-        billboard: true,
-        font_size: 14.0,
-        scale_invariant: true,
-        color: Some(rgba(1.0, 1.0, 1.0, 1.0)),
-        text: frame.to_string(),
-    });
-    e
-}
-
-fn transform(ns: u64, parent: &str, child: &str, x: f64, y: f64, yaw: f64) -> FrameTransform {
-    FrameTransform {
-        timestamp: Some(stamp(ns)),
-        parent_frame_id: parent.to_string(),
-        child_frame_id: child.to_string(),
-        translation: Some(v3(x, y, 0.0)),
-        rotation: Some(yaw_quat(yaw)),
-    }
-}
-
-fn reason_name(code: u8) -> &'static str {
-    const REASONS: [SwitchReason; 5] =
-        [SwitchReason::V2vFresh, SwitchReason::NoV2v, SwitchReason::V2vStale, SwitchReason::Recovering, SwitchReason::InvalidV2v];
-    REASONS.iter().find(|r| **r as u8 == code).map_or("unknown", |r| r.as_str())
-}
-
-fn active_name(code: u8) -> &'static str {
-    if code == ActiveController::Pid as u8 { ActiveController::Pid.as_str() } else { ActiveController::Flc.as_str() }
-}
-
-/// The JSON message of [`TOPIC_STATE`].
-#[derive(Serialize)]
-struct StateMessage<'a> {
-    #[serde(flatten)]
-    step: &'a StepRecord,
-    active_name: &'static str,
-    reason_name: &'static str,
-}
-
-/// The JSON schema of [`TOPIC_STATE`]: one property per [`Series::COLUMNS`] entry (units in the
-/// descriptions; `null` stands for NaN) plus the two names.
-pub fn state_json_schema() -> String {
-    let mut props = serde_json::Map::new();
-    for (&(name, unit), &rust_ty) in Series::COLUMNS.iter().zip(Series::COLUMN_TYPES) {
-        let ty = if rust_ty == "u8" { serde_json::json!("integer") } else { serde_json::json!(["number", "null"]) };
-        props.insert(name.to_string(), serde_json::json!({ "type": ty, "description": format!("{name}, {unit} (null = NaN)") }));
-    }
-    props
-        .insert("active_name".into(), serde_json::json!({ "type": "string", "description": "active longitudinal controller: flc or pid" }));
-    props.insert("reason_name".into(), serde_json::json!({ "type": "string", "description": "supervisor switch reason" }));
-    serde_json::json!({
-        "$schema": "http://json-schema.org/draft-07/schema#",
-        "title": STATE_SCHEMA,
-        "description": "One physics step of an flc-sim run (the run's StepRecord; docs/v2v-and-metrics.md)",
-        "type": "object",
-        "properties": props,
-    })
-    .to_string()
-}
-
-// ---------------------------------------------------------------- the recorder
-
-#[derive(Clone, Copy)]
-enum Ch {
-    Scan,
-    Detector,
-    Lookahead,
-    Tf,
-    Track,
-    Vehicles,
-    State,
-}
-
-const N_CHANNELS: usize = 7;
-
-struct Channel {
-    id: u16,
-    sequence: u32,
-}
-
-type McapWriter = mcap::Writer<BufWriter<File>>;
-
-/// What the simulation thread hands to the writer thread: encoded messages back to back in one
-/// buffer (no allocation per message; the writer thread hands emptied batches back for reuse).
-#[derive(Default)]
-struct Batch {
-    data: Vec<u8>,
-    items: Vec<Item>,
-}
-
-enum Item {
-    Message(mcap::records::MessageHeader, std::ops::Range<usize>),
-    Metadata(mcap::records::Metadata),
-}
-
-/// A batch goes to the writer thread once it holds this many messages or bytes.
-const BATCH_ITEMS: usize = 256;
-const BATCH_BYTES: usize = 256 << 10;
-/// Batches queued for the writer thread at most (then the simulation waits for it).
-const QUEUE: usize = 8;
-
-/// Writes one run as an MCAP file. Created by [`crate::Simulation::record_to`] (or
-/// [`crate::run_with`] with a directory), fed by the closed loop, finished by [`Recorder::finish`]
+/// Writes one run as an MCAP file. Created by [`Recorder::for_simulation`]
+/// (`RunOptions::record`), fed by the closed loop as its [`Observer`], finished by [`Recorder::finish`]
 /// or, if the run stops early, by [`Drop`].
 ///
 /// The simulation thread encodes the messages; a writer thread of the recorder's own compresses
@@ -361,33 +149,6 @@ impl std::fmt::Debug for Recorder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Recorder").field("path", &self.path).field("open", &self.tx.is_some()).finish_non_exhaustive()
     }
-}
-
-/// The writer thread: writes what arrives until the channel closes (or a write fails), then
-/// finishes the file (summary, indexes, footer) and flushes it.
-fn writer_loop(mut w: McapWriter, rx: Receiver<Batch>, spare: Sender<Batch>) -> mcap::McapResult<()> {
-    for mut batch in rx {
-        for item in batch.items.drain(..) {
-            match item {
-                Item::Message(header, range) => w.write_to_known_channel(&header, &batch.data[range])?,
-                Item::Metadata(m) => w.write_metadata(&m)?,
-            }
-        }
-        batch.data.clear();
-        let _ = spare.send(batch);
-    }
-    w.finish()?;
-    w.into_inner().flush()?;
-    Ok(())
-}
-
-fn add_channel<T: Encode>(w: &mut McapWriter, topic: &str) -> mcap::McapResult<Channel> {
-    let schema_id = match T::get_schema() {
-        Some(s) => w.add_schema(&s.name, &s.encoding, &s.data)?,
-        None => 0,
-    };
-    let id = w.add_channel(schema_id, topic, &T::get_message_encoding(), &BTreeMap::new())?;
-    Ok(Channel { id, sequence: 0 })
 }
 
 impl Recorder {
@@ -463,6 +224,13 @@ impl Recorder {
         rec.write(Ch::Vehicles, ns, &SceneUpdate { deletions: vec![], entities: vehicles })?;
         rec.poses(ns, lead, follower)?;
         Ok(rec)
+    }
+
+    /// Starts the recording of `sim` (before its first step, to record the whole run) in `dir`;
+    /// a platoon's recording holds the lead and follower 1.
+    pub fn for_simulation<O: Observer>(dir: &Path, sim: &Simulation<O>) -> Result<Self, SimError> {
+        let follower = sim.follower_state(0).ok_or_else(|| crate::error::ConfigError::new("platoon.followers", "at least one follower"))?;
+        Self::create(dir, sim.scenario(), sim.track(), sim.time(), sim.lead_state(), follower)
     }
 
     /// The file being written.
@@ -643,6 +411,12 @@ impl Recorder {
 
     /// Writes the metrics (if given), the summary and the index, and closes the file.
     pub fn finish(mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
+        self.finish_in_place(metrics)
+    }
+
+    /// [`Recorder::finish`] through a reference (the [`Observer`] end of a run); a second call
+    /// is an error.
+    fn finish_in_place(&mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
         if let Some(m) = metrics {
             let meta = BTreeMap::from([("metrics".to_string(), serde_json::to_string(m).unwrap_or_default())]);
             self.push(Item::Metadata(mcap::records::Metadata { name: METADATA_METRICS.into(), metadata: meta }))?;
@@ -660,61 +434,15 @@ impl Drop for Recorder {
     }
 }
 
-// ---------------------------------------------------------------- interruptible runs
-
-/// Like [`crate::run_with`], but checks `stop` before every physics step: once it is set, the run
-/// ends there, the recording is finished (without `flc.metrics`) and the partial result returned.
-/// Callers tell an interrupted run by the flag.
-pub fn run_interruptible(scenario: &Scenario, record: Option<&Path>, stop: &AtomicBool) -> Result<RunResult, SimError> {
-    scenario.validate()?;
-    let mut sim = Simulation::new(scenario)?;
-    if let Some(dir) = record {
-        sim.record_to(dir)?;
+/// The recorder as the loop's sink.
+impl Observer for Recorder {
+    fn scan(&mut self, t: f64, scan: &Scan, clusters: &[ClusterInfo], detected: Option<f64>, lookahead: (f64, f64)) -> Result<(), SimError> {
+        Recorder::scan(self, t, scan, clusters, detected, lookahead)
     }
-    loop {
-        if stop.load(Ordering::Relaxed) {
-            sim.finish_recording(false)?;
-            return Ok(sim.finish());
-        }
-        if !sim.step()? {
-            break;
-        }
+    fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
+        Recorder::step(self, record, lead, follower)
     }
-    sim.finish_recording(true)?;
-    Ok(sim.finish())
-}
-
-/// [`crate::run_batch`] with recordings into `record` and the `stop` flag of
-/// [`run_interruptible`]; runs not started when `stop` is set are not started (an error each).
-pub fn run_batch_interruptible(
-    scenarios: &[Scenario],
-    progress: bool,
-    record: Option<&Path>,
-    stop: &AtomicBool,
-) -> Vec<Result<RunResult, SimError>> {
-    use rayon::prelude::*;
-    let bar = progress.then(|| {
-        let b = indicatif::ProgressBar::new(scenarios.len() as u64);
-        if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed_precise} {msg}") {
-            b.set_style(style);
-        }
-        b
-    });
-    let out = scenarios
-        .par_iter()
-        .map(|s| {
-            if stop.load(Ordering::Relaxed) {
-                return Err(SimError::File { path: s.name.clone(), message: "interrupted before it started".into() });
-            }
-            let r = run_interruptible(s, record, stop);
-            if let Some(b) = &bar {
-                b.inc(1);
-            }
-            r
-        })
-        .collect();
-    if let Some(b) = bar {
-        b.finish_and_clear();
+    fn finish(&mut self, metrics: Option<&Metrics>) -> Result<(), SimError> {
+        self.finish_in_place(metrics).map(|_| ())
     }
-    out
 }

@@ -1,0 +1,240 @@
+//! One follower of the loop: its vehicle, sensors, links, pipeline and records.
+
+use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
+use flc_core::{
+    ActiveController, Baseline, FallbackController, LeadDetector, PidController, Point2, PurePursuit, RobustFallbackController, Supervisor,
+    SwitchReason, V2vMessage,
+};
+
+use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
+use super::links::{follower_stream, sub_seed};
+use crate::error::SimError;
+use crate::lidar::Lidar;
+use crate::metrics::CollisionInfo;
+use crate::platoon::{FollowerConfig, V2vSource};
+use crate::scenario::{ControllerKind, Scenario};
+use crate::series::{Series, StepRecord};
+use crate::track::Track;
+use crate::v2v::V2vChannel;
+use crate::vehicle::{SpeedController, Vehicle, VehicleState};
+use crate::world::Body;
+
+/// The longitudinal controller of one follower: one arm per [`ControllerKind`].
+enum Longitudinal {
+    Flc(FallbackController),
+    Pid(PidController),
+    Pipeline(Box<Supervisor>),
+    Baseline(Baseline),
+    FlcRobust(RobustFallbackController),
+}
+
+impl Longitudinal {
+    /// The controller of a follower configured by `c` (`s`: the whole scenario).
+    fn new(_s: &Scenario, c: &FollowerConfig) -> Result<Self, SimError> {
+        Ok(match c.controller {
+            ControllerKind::Flc => Longitudinal::Flc(FallbackController::new(c.flc)?),
+            ControllerKind::Pid => Longitudinal::Pid(PidController::new(c.pid)?),
+            ControllerKind::Pipeline => Longitudinal::Pipeline(Box::new(Supervisor::new(c.supervisor_params())?)),
+            ControllerKind::Idm => Longitudinal::Baseline(IdmController::new(c.idm)?.into()),
+            ControllerKind::Acc => Longitudinal::Baseline(AccController::new(c.acc)?.into()),
+            ControllerKind::Rss => Longitudinal::Baseline(RssController::new(c.rss)?.into()),
+            ControllerKind::CarlaBehavior => Longitudinal::Baseline(CarlaBehaviorController::new(c.carla_behavior)?.into()),
+            ControllerKind::FlcRobust => Longitudinal::FlcRobust(RobustFallbackController::new(c.flc_robust)?),
+        })
+    }
+}
+
+/// One follower: its vehicle, sensors, links, pipeline state and records.
+pub(super) struct Follower {
+    /// 1-based position in the string.
+    pub(super) index: usize,
+    pub(super) cfg: FollowerConfig,
+    pub(super) body: Body,
+    pub(super) vehicle: Vehicle,
+    pub(super) speed_ctrl: SpeedController,
+    pub(super) lidar: Lidar,
+    /// The link its PID / supervisor listens to: from the predecessor (`predecessor`, `both`) or
+    /// from the lead (`lead`; relayed by the predecessor with `relay`).
+    pub(super) v2v: V2vChannel,
+    /// `both`, followers 2..N: the link carrying the lead's speed (direct or relayed).
+    pub(super) v2v_lead: Option<V2vChannel>,
+    pub(super) detector: Box<LeadDetector>,
+    pub(super) pursuit: PurePursuit,
+    pub(super) longitudinal: Longitudinal,
+    pub(super) distance_offset: f64,
+    /// The scan's points that can fall into the detector's grid (reused buffer).
+    pub(super) grid_buf: Vec<[f64; 2]>,
+    pub(super) mailbox: Option<V2vMessage>,
+    /// `both`: the lead's last speed and the control ticks since it arrived.
+    pub(super) lead_info: Option<(f64, u32)>,
+    /// Relay: a lead speed received and not yet forwarded to the follower behind.
+    pub(super) relay_pending: Option<f64>,
+    pub(super) last_lead_speed: Option<f64>,
+    pub(super) speed_cmd: f64,
+    pub(super) steer_cmd: f64,
+    pub(super) path_curvature: f64,
+    pub(super) last_tick_t: Option<f64>,
+    pub(super) active: ActiveController,
+    pub(super) reason: SwitchReason,
+    pub(super) v2v_age: u32,
+    pub(super) switches: u32,
+    pub(super) detected: Option<f64>,
+    pub(super) lookahead: (f64, f64),
+    pub(super) accel_cmd: f64,
+    pub(super) collision: Option<CollisionInfo>,
+    pub(super) series: Series,
+}
+
+impl Follower {
+    pub(super) fn new(s: &Scenario, index: usize, cfg: FollowerConfig, body: Body, state: VehicleState, lead_link: bool) -> Result<Self, SimError> {
+        let longitudinal = Longitudinal::new(s, &cfg)?;
+        let active = match cfg.controller {
+            ControllerKind::Pid => ActiveController::Pid,
+            _ => ActiveController::Flc,
+        };
+        let distance_offset = cfg.follower.distance_offset.unwrap_or(cfg.follower.vehicle.length / 2.0 - cfg.lidar.mount_x);
+        let v2v_lead = lead_link.then(|| V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 3))));
+        Ok(Self {
+            index,
+            body,
+            vehicle: Vehicle::new(cfg.follower.vehicle, state),
+            speed_ctrl: SpeedController::new(cfg.follower.speed_controller),
+            lidar: Lidar::new(cfg.lidar.clone(), sub_seed(s.seed, follower_stream(index, 1))),
+            v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
+            v2v_lead,
+            detector: Box::new(<LeadDetector>::new(cfg.detector)?),
+            pursuit: PurePursuit::new(cfg.pure_pursuit)?,
+            longitudinal,
+            distance_offset,
+            grid_buf: Vec::new(),
+            mailbox: None,
+            lead_info: None,
+            relay_pending: None,
+            last_lead_speed: None,
+            speed_cmd: cfg.follower.initial_speed,
+            steer_cmd: 0.0,
+            path_curvature: 0.0,
+            last_tick_t: None,
+            active,
+            reason: SwitchReason::NoV2v,
+            v2v_age: u32::MAX,
+            switches: 0,
+            detected: None,
+            lookahead: (0.0, 0.0),
+            accel_cmd: 0.0,
+            collision: None,
+            // Room for the whole run (up to 2^18 steps, 45 min at 10 ms; longer runs grow): no
+            // reallocation while recording.
+            series: Series::with_capacity(((s.duration / s.physics_dt).ceil() as usize + 2).min(1 << 18)),
+            cfg,
+        })
+    }
+
+    pub(super) fn control_tick(&mut self, t: f64, points: &[[f64; 2]], fs: &VehicleState, road: &Road<'_>, source: V2vSource, lead_weight: f64) {
+        let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
+        let detection = det.detection;
+        let distance = detection.map(|d| d.distance - self.distance_offset);
+        self.detected = distance;
+        if self.cfg.follower.lane_keeping {
+            // Lane keeping (lead-change scenarios): steer along the lane centre like the lead's
+            // driver; the detector's corridor follows the lane.
+            let s = road.track.project(fs.x, fs.y).s;
+            self.steer_cmd = centreline_steer(road.track, road.steer, fs, s, 0.0);
+            self.path_curvature = road.track.curvature_at(s);
+        } else {
+            // Pure pursuit in the vehicle frame (sensor offset added).
+            let (mx, my) = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
+            let lead_pos = detection.map(|d| Point2::new(d.position.x + mx, d.position.y + my));
+            let steer = self.pursuit.step(lead_pos, fs.speed);
+            self.steer_cmd = steer.steer;
+            self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
+            // Path for the detector's corridor on the next scan: the arc from the sensor through
+            // the lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight
+            // without one.
+            self.path_curvature = detection.map_or(0.0, |d| {
+                let (x, y) = (d.position.x, d.position.y);
+                let r2 = x * x + y * y;
+                if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
+            });
+        }
+        let dt = self.last_tick_t.map_or(1.0 / self.cfg.lidar.rate_hz, |p| t - p);
+        self.last_tick_t = Some(t);
+        let mut msg = self.mailbox.take();
+        if source == V2vSource::Both && self.index > 1 {
+            // The predecessor's message carries the weighted speed while the lead's is fresh.
+            let fresh_lead = self.lead_info.filter(|(_, age)| *age <= self.cfg.supervisor.max_age_ticks).map(|(v, _)| v);
+            if let (Some(m), Some(vl)) = (msg.as_mut(), fresh_lead) {
+                m.lead_speed = (1.0 - lead_weight) * m.lead_speed + lead_weight * vl;
+            }
+            if let Some((_, age)) = self.lead_info.as_mut() {
+                *age = age.saturating_add(1);
+            }
+        }
+        if let Some(m) = msg {
+            self.last_lead_speed = Some(m.lead_speed);
+        }
+        let cmd = match &mut self.longitudinal {
+            Longitudinal::Flc(c) => c.step(distance, fs.speed),
+            Longitudinal::Pid(c) => {
+                // PID only: the last received lead speed is held (own speed before any message).
+                let sl = self.last_lead_speed.unwrap_or(fs.speed);
+                c.step(sl, fs.speed, distance, dt)
+            }
+            Longitudinal::Pipeline(s) => {
+                let out = s.step(msg, distance, fs.speed, dt);
+                if out.switched {
+                    self.switches += 1;
+                }
+                self.active = out.active;
+                self.reason = out.reason;
+                self.v2v_age = out.v2v_age_ticks;
+                out.command
+            }
+            // The baselines get what the FLC gets plus the frame interval (their range-rate
+            // estimator needs it).
+            Longitudinal::Baseline(b) => b.step(distance, fs.speed, dt),
+            // The robust FLC gets exactly what the FLC gets (no dt).
+            Longitudinal::FlcRobust(c) => c.step(distance, fs.speed),
+        };
+        self.speed_cmd = cmd.speed;
+    }
+
+    /// Records the step (and returns its record).
+    pub(super) fn record(&mut self, t: f64, track: &Track, gap: f64, ls: &VehicleState, fs: &VehicleState) -> StepRecord {
+        let proj = track.project(fs.x, fs.y);
+        let heading_error = wrap_angle(fs.yaw - proj.heading);
+        // The desired gap of the controller that drives.
+        let desired = match (&self.longitudinal, self.active) {
+            (Longitudinal::Baseline(_), _) => self.cfg.baseline_desired_gap(fs.speed),
+            (Longitudinal::FlcRobust(c), _) => c.params().desired_gap(fs.speed),
+            (_, ActiveController::Pid) => self.cfg.pid.desired_distance(fs.speed),
+            (_, ActiveController::Flc) => self.cfg.flc.desired_distance(fs.speed) + self.cfg.flc.f_shift(fs.speed),
+        };
+        let rec = StepRecord {
+            t,
+            lead_x: ls.x,
+            lead_y: ls.y,
+            lead_speed: ls.speed,
+            lead_accel: ls.accel,
+            follower_x: fs.x,
+            follower_y: fs.y,
+            follower_yaw: fs.yaw,
+            follower_speed: fs.speed,
+            follower_accel: fs.accel,
+            gap,
+            desired_gap: desired,
+            detected_distance: self.detected.unwrap_or(f64::NAN),
+            speed_command: self.speed_cmd,
+            accel_command: self.accel_cmd,
+            steer_command: self.steer_cmd,
+            active: self.active as u8,
+            reason: self.reason as u8,
+            v2v_age: if self.v2v_age == u32::MAX { f64::NAN } else { f64::from(self.v2v_age) },
+            lateral_offset: proj.lateral_offset,
+            heading_error,
+        };
+        self.series.push(rec);
+        rec
+    }
+}
+

@@ -1,0 +1,105 @@
+//! Geometry helpers of the loop: steering along the centreline, the detector's grid
+//! prefilter, the bumper gap, angle wrapping.
+
+use flc_core::{LeadDetector, Point2, PurePursuit};
+
+use crate::track::Track;
+use crate::vehicle::VehicleState;
+
+/// The road a follower's pipeline may need: the track and the lead driver's pure pursuit (lane
+/// keeping steers like the lead's driver).
+pub(super) struct Road<'a> {
+    pub(super) track: &'a Track,
+    pub(super) steer: &'a PurePursuit,
+}
+
+/// Steering along the track's centreline (plus `offset`, m, + left) with pure pursuit `pp`, for a
+/// vehicle at `state` whose projection on the centreline is at `s`.
+pub(super) fn centreline_steer(track: &Track, pp: &PurePursuit, state: &VehicleState, s: f64, offset: f64) -> f64 {
+    let d_ahead = pp.lookahead(state.speed);
+    let (tx, ty, th) = track.pose_at(s + d_ahead);
+    let (nx, ny) = (-th.sin(), th.cos());
+    let (gx, gy) = (tx + offset * nx - state.x, ty + offset * ny - state.y);
+    let (c, sn) = (state.yaw.cos(), state.yaw.sin());
+    let local = Point2::new(c * gx + sn * gy, -sn * gx + c * gy);
+    pp.step(Some(local), state.speed).steer
+}
+
+/// The points of a scan the detector can use: those within 1 cm of its grid (plus any
+/// non-finite ones, which it counts). The detector ignores every other point (`cell_of` is
+/// `None` for them), so its result is the same as on the whole scan, with less work: on a road
+/// with guard rails about half the returns lie outside the grid. Scans longer than
+/// `max_points` are passed whole (the detector truncates them).
+pub(super) fn grid_points<'a>(
+    det: &LeadDetector,
+    params: &flc_core::DetectorParams,
+    points: &'a [[f64; 2]],
+    buf: &'a mut Vec<[f64; 2]>,
+) -> &'a [[f64; 2]] {
+    if points.len() > params.max_points {
+        return points;
+    }
+    let ((x0, x1), (y0, y1)) = (det.x_range(), det.y_range());
+    let (x0, x1, y0, y1) = (x0 - 0.01, x1 + 0.01, y0 - 0.01, y1 + 0.01);
+    buf.clear();
+    buf.extend(points.iter().filter(|[x, y]| !(x.is_finite() && y.is_finite()) || (*x >= x0 && *x <= x1 && *y >= y0 && *y <= y1)));
+    buf
+}
+
+/// Bumper-to-bumper distance along the front vehicle's heading (the "gap").
+pub(super) fn bumper_gap(front: &VehicleState, front_length: f64, back: &VehicleState, back_length: f64) -> f64 {
+    let (dx, dy) = (front.x - back.x, front.y - back.y);
+    let centre = dx * front.yaw.cos() + dy * front.yaw.sin();
+    centre - front_length / 2.0 - back_length / 2.0
+}
+
+pub(super) fn wrap_angle(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    (a + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn grid_prefilter_does_not_change_the_detection() {
+        // Random scans with points inside, outside and within a few mm of the detector's grid:
+        // the detector sees the same scan whether or not the points outside are dropped.
+        let params = flc_core::DetectorParams::default();
+        let mut a = <LeadDetector>::new(params).unwrap();
+        let mut b = <LeadDetector>::new(params).unwrap();
+        let ((x0, x1), (y0, y1)) = (a.x_range(), a.y_range());
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut buf = Vec::new();
+        for _ in 0..300 {
+            let mut pts: Vec<[f64; 2]> = Vec::new();
+            // A car somewhere ahead, rails, clutter, edge points.
+            let (cx, cy) = (rng.random_range(3.0..80.0), rng.random_range(-5.0..5.0));
+            for i in 0..30 {
+                pts.push([cx + rng.random_range(-0.02..0.02), cy - 0.9 + 1.8 * f64::from(i) / 29.0]);
+            }
+            for _ in 0..300 {
+                let x: f64 = rng.random_range(-2.0..110.0);
+                pts.push([x, if rng.random_bool(0.5) { -3.15 } else { 6.65 } + rng.random_range(-0.03..0.03)]);
+            }
+            for _ in 0..40 {
+                let e = rng.random_range(-0.005..0.005);
+                pts.push(match rng.random_range(0..4) {
+                    0 => [x0 + e, rng.random_range(y0..y1)],
+                    1 => [x1 + e, rng.random_range(y0..y1)],
+                    2 => [rng.random_range(x0..x1), y0 + e],
+                    _ => [rng.random_range(x0..x1), y1 + e],
+                });
+            }
+            let kappa = rng.random_range(-0.01..0.01);
+            let full = a.detect(&pts, kappa);
+            let filtered = b.detect(grid_points(&b, &params, &pts, &mut buf), kappa);
+            assert_eq!(full.detection, filtered.detection);
+            assert_eq!(a.clusters(), b.clusters());
+            assert!(buf.len() < pts.len());
+        }
+    }
+}

@@ -1,0 +1,382 @@
+//! The closed loop: world, vehicles, LiDAR, V2V and the `flc-core` pipeline, stepped together.
+//!
+//! Per physics step (`physics_dt`, default 10 ms):
+//! 1. the lead's driver turns its phases into an acceleration command, pure pursuit on the
+//!    track's centreline (plus the phase's lateral offset) steers it;
+//! 2. the V2V channel may deliver a message (kept in the follower's mailbox);
+//! 3. the LiDAR may deliver a scan (its own rate, jitter, latency, drops); on each delivered scan
+//!    the follower's pipeline runs once: detector -> pure pursuit + longitudinal controller
+//!    (FLC, PID or the supervisor); the resulting speed command is held until the next scan;
+//! 4. the follower's low-level speed controller turns the held speed command into an
+//!    acceleration command; both vehicle models step; rapier moves the bodies and reports contacts.
+//!
+//! Collisions come from rapier's contact events between the vehicle colliders.
+
+mod follower;
+mod geometry;
+mod links;
+mod observer;
+
+pub use observer::Observer;
+pub(crate) use links::sub_seed;
+
+use flc_core::PurePursuit;
+
+use self::follower::Follower;
+use self::geometry::{Road, bumper_gap, centreline_steer};
+use self::links::relay_tick;
+use crate::error::{ConfigError, SimError};
+use crate::lead::LeadDriver;
+use crate::metrics::{CollisionInfo, Metrics};
+use crate::platoon::{FollowerConfig, V2vSource};
+use crate::scenario::Scenario;
+use crate::series::Series;
+use crate::string_stability::StringStability;
+use crate::track::Track;
+use crate::vehicle::{Vehicle, VehicleState};
+use crate::world::{Body, World};
+
+/// Everything a run produced.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    /// The scenario that ran.
+    pub scenario: Scenario,
+    /// The metrics (of follower 1 in a platoon).
+    pub metrics: Metrics,
+    /// The per-step time series (of follower 1 and the lead in a platoon).
+    pub series: Series,
+    /// With `[platoon]`: every follower's series and metrics and the string-stability measures.
+    pub platoon: Option<PlatoonResult>,
+}
+
+/// One follower of a platoon run. Its series' `lead_*` columns are those of the vehicle in front
+/// of it (the lead for follower 1), `gap` the gap to that vehicle.
+#[derive(Debug, Clone)]
+pub struct FollowerRun {
+    /// Per-step time series.
+    pub series: Series,
+    /// Metrics against the vehicle in front.
+    pub metrics: Metrics,
+    /// Its first contact with the vehicle in front, if any.
+    pub collision: Option<CollisionInfo>,
+}
+
+/// What a platoon run produced besides follower 1's [`RunResult::series`] / [`RunResult::metrics`].
+#[derive(Debug, Clone)]
+pub struct PlatoonResult {
+    /// Followers 1..N (index 0 = follower 1).
+    pub followers: Vec<FollowerRun>,
+    /// The string-stability measures of this run (time domain; `frequency_response` is filled
+    /// by [`crate::string_stability::frequency_response`]).
+    pub string_stability: StringStability,
+}
+
+/// A running closed-loop simulation (step it, then [`Simulation::finish`]). A scenario without
+/// `[platoon]` is the one-follower case of the same loop.
+pub struct Simulation<O: Observer = ()> {
+    scenario: Scenario,
+    track: Track,
+    world: World,
+    lead_body: Body,
+    lead: Vehicle,
+    lead_driver: LeadDriver,
+    lead_steer: PurePursuit,
+    lead_x0: f64,
+    followers: Vec<Follower>,
+    source: V2vSource,
+    lead_weight: f64,
+    relay: bool,
+    /// Speeds of the vehicles at the start of the step (0 = lead), reused.
+    speeds: Vec<f64>,
+    // bookkeeping
+    t: f64,
+    k: u64,
+    standstill_since: Option<f64>,
+    /// The sink that sees follower 1's scans and steps ([`Observer`]).
+    observer: O,
+}
+
+impl Simulation {
+    /// Builds the world and every component from a validated scenario, with no sink.
+    pub fn new(s: &Scenario) -> Result<Self, SimError> {
+        let track = s.track.build()?;
+        let configs = s.follower_configs()?;
+        let platoon = s.platoon.clone().unwrap_or_default();
+        let mut world = World::new(&track);
+        // Every vehicle starts on the centreline, the last follower's rear bumper 1 m after the
+        // track's start, each front bumper its initial gap behind the rear bumper in front
+        // (one follower: its front bumper `initial_gap` behind the lead's rear bumper).
+        let ll = &s.lead.vehicle;
+        let n = configs.len();
+        let mut s_pos = vec![0.0; n + 1];
+        if let Some(last) = configs.last() {
+            s_pos[n] = last.follower.vehicle.length / 2.0 + 1.0;
+        }
+        for k in (1..=n).rev() {
+            let c = &configs[k - 1];
+            let gap = if platoon.equilibrium_start {
+                c.reference_gap(c.follower.initial_speed).unwrap_or(c.follower.initial_gap)
+            } else {
+                c.follower.initial_gap
+            };
+            let front_len = if k == 1 { ll.length } else { configs[k - 2].follower.vehicle.length };
+            s_pos[k - 1] = s_pos[k] + c.follower.vehicle.length / 2.0 + gap + front_len / 2.0;
+        }
+        let state_at = |sp: f64, speed: f64| {
+            let (x, y, yaw) = track.pose_at(sp);
+            VehicleState { x, y, yaw, speed, ..VehicleState::default() }
+        };
+        let lead_state = state_at(s_pos[0], s.lead.initial_speed);
+        // Bodies: follower 1, the lead, then followers 2..N.
+        let mut bodies = Vec::with_capacity(n);
+        let mut lead_body = None;
+        for (k, c) in configs.iter().enumerate() {
+            bodies.push(world.add_vehicle(&c.follower.vehicle, &state_at(s_pos[k + 1], c.follower.initial_speed)));
+            if k == 0 {
+                lead_body = Some(world.add_vehicle(ll, &lead_state));
+            }
+        }
+        let lead_body = lead_body.ok_or_else(|| ConfigError::new("platoon.followers", "at least one follower"))?;
+        let mut followers = Vec::with_capacity(n);
+        for (k, (c, body)) in configs.into_iter().zip(bodies).enumerate() {
+            let state = state_at(s_pos[k + 1], c.follower.initial_speed);
+            let lead_link = platoon.v2v_source == V2vSource::Both && k >= 1;
+            followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
+        }
+        let lead_pp = flc_core::PurePursuitParams {
+            base_lookahead: 6.0,
+            lookahead_gain: 0.8,
+            law: flc_core::PursuitLaw::Standard,
+            wheelbase: ll.wheelbase,
+            max_steer: ll.max_steer,
+        };
+        Ok(Self {
+            scenario: s.clone(),
+            lead_x0: s_pos[0],
+            world,
+            lead_body,
+            lead: Vehicle::new(*ll, lead_state),
+            lead_driver: LeadDriver::new(&s.lead.phases, s.lead.initial_speed),
+            lead_steer: PurePursuit::new(lead_pp)?,
+            followers,
+            source: platoon.v2v_source,
+            lead_weight: platoon.lead_weight,
+            relay: platoon.relay,
+            speeds: Vec::with_capacity(n + 1),
+            t: 0.0,
+            k: 0,
+            standstill_since: None,
+            observer: (),
+            track,
+        })
+    }
+
+    /// This simulation with `observer` as its sink (call it before the first step to observe the
+    /// whole run).
+    pub fn with_observer<P: Observer>(self, observer: P) -> Simulation<P> {
+        let Simulation { scenario, track, world, lead_body, lead, lead_driver, lead_steer, lead_x0, followers, source, lead_weight, relay, speeds, t, k, standstill_since, observer: _ } = self;
+        Simulation { scenario, track, world, lead_body, lead, lead_driver, lead_steer, lead_x0, followers, source, lead_weight, relay, speeds, t, k, standstill_since, observer }
+    }
+}
+
+impl<O: Observer> Simulation<O> {
+    /// The scenario being run.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// The track.
+    pub fn track(&self) -> &Track {
+        &self.track
+    }
+
+    /// The lead's state now.
+    pub fn lead_state(&self) -> &VehicleState {
+        self.lead.state()
+    }
+
+    /// Follower `k`'s state now (`k = 0`: right behind the lead).
+    pub fn follower_state(&self, k: usize) -> Option<&VehicleState> {
+        self.followers.get(k).map(|f| f.vehicle.state())
+    }
+
+    /// The sink.
+    pub fn observer(&self) -> &O {
+        &self.observer
+    }
+
+    /// Simulation time, s.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Number of followers.
+    pub fn n_followers(&self) -> usize {
+        self.followers.len()
+    }
+
+    /// One physics step. Returns `Ok(false)` when the run is over.
+    pub fn step(&mut self) -> Result<bool, SimError> {
+        let dt = self.scenario.physics_dt;
+        let t = self.t;
+
+        // 1. Lead driver and lateral control along the centreline.
+        let ls = *self.lead.state();
+        let lproj = self.track.project(ls.x, ls.y);
+        let lcmd = self.lead_driver.step(t, ls.speed, lproj.s - self.lead_x0);
+        let lead_steer = self.lead_centreline_steer(&ls, lproj.s, lcmd.lateral_offset);
+        if let Some(onset) = self.lead_driver.brake_onset() {
+            for f in &mut self.followers {
+                if f.cfg.v2v.outage_on_brake {
+                    f.v2v.start_outage(onset);
+                    if let Some(l) = f.v2v_lead.as_mut() {
+                        l.start_outage(onset);
+                    }
+                }
+            }
+        }
+
+        // 2. V2V: every link broadcasts its sender's speed at the start of the step.
+        self.speeds.clear();
+        self.speeds.push(ls.speed);
+        self.speeds.extend(self.followers.iter().map(|f| f.vehicle.state().speed));
+        for k in 0..self.followers.len() {
+            let pending = if self.relay && k >= 1 { self.followers[k - 1].relay_pending } else { None };
+            let mut consumed = false;
+            let f = &mut self.followers[k];
+            match self.source {
+                V2vSource::Predecessor => {
+                    if let Some(m) = f.v2v.tick(t, self.speeds[k]) {
+                        f.mailbox = Some(m);
+                    }
+                }
+                V2vSource::Lead => {
+                    let m = if self.relay && k >= 1 { relay_tick(&mut f.v2v, t, pending, &mut consumed) } else { f.v2v.tick(t, ls.speed) };
+                    if let Some(m) = m {
+                        f.mailbox = Some(m);
+                        f.relay_pending = Some(m.lead_speed);
+                    }
+                }
+                V2vSource::Both => {
+                    let pred = f.v2v.tick(t, self.speeds[k]);
+                    if let Some(m) = pred {
+                        f.mailbox = Some(m);
+                    }
+                    let lead_msg = match f.v2v_lead.as_mut() {
+                        // Follower 1: its predecessor is the lead.
+                        None => pred,
+                        Some(ch) if self.relay => relay_tick(ch, t, pending, &mut consumed),
+                        Some(ch) => ch.tick(t, ls.speed),
+                    };
+                    if let Some(m) = lead_msg {
+                        f.lead_info = Some((m.lead_speed, 0));
+                        f.relay_pending = Some(m.lead_speed);
+                    }
+                }
+            }
+            if consumed {
+                self.followers[k - 1].relay_pending = None;
+            }
+        }
+
+        // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
+        for f in &mut self.followers {
+            let fs = *f.vehicle.state();
+            if let Some(scan) = f.lidar.tick(t, &self.world, f.body, &fs) {
+                f.control_tick(t, &scan.points, &fs, &Road { track: &self.track, steer: &self.lead_steer }, self.source, self.lead_weight);
+                if f.index == 1 {
+                    self.observer.scan(t, &scan, f.detector.clusters(), f.detected, f.lookahead)?;
+                }
+            }
+        }
+
+        // 4. Low-level control and dynamics.
+        for f in &mut self.followers {
+            let v = f.vehicle.state().speed;
+            f.accel_cmd = f.speed_ctrl.step(f.speed_cmd, v, dt);
+            f.vehicle.step(f.accel_cmd, f.steer_cmd, dt);
+        }
+        self.lead.step(lcmd.accel, lead_steer, dt);
+        for (i, f) in self.followers.iter().enumerate() {
+            self.world.set_pose(f.body, f.vehicle.state());
+            if i == 0 {
+                self.world.set_pose(self.lead_body, self.lead.state());
+            }
+        }
+        let contacts = self.world.step(dt);
+        self.t += dt;
+        self.k += 1;
+
+        // 5. Records: each follower against the vehicle in front of it.
+        let ls = *self.lead.state();
+        let (mut front, mut front_len, mut front_body) = (ls, self.scenario.lead.vehicle.length, self.lead_body);
+        let mut all_still = ls.speed < 0.05;
+        let mut collided = false;
+        for f in &mut self.followers {
+            let fs = *f.vehicle.state();
+            let len = f.cfg.follower.vehicle.length;
+            let gap = bumper_gap(&front, front_len, &fs, len);
+            if f.collision.is_none() && contacts.iter().any(|c| c.involves(front_body) && c.involves(f.body)) {
+                f.collision = Some(CollisionInfo {
+                    time: self.t,
+                    impact_speed: (fs.speed - front.speed).max(0.0),
+                    lead_speed: front.speed,
+                    follower_speed: fs.speed,
+                });
+            }
+            collided |= f.collision.is_some();
+            all_still &= fs.speed < 0.05;
+            let rec = f.record(self.t, &self.track, gap, &front, &fs);
+            if f.index == 1 {
+                self.observer.step(&rec, &ls, &fs)?;
+            }
+            (front, front_len, front_body) = (fs, len, f.body);
+        }
+
+        // Stop conditions.
+        if collided && self.scenario.stop.on_collision {
+            return Ok(false);
+        }
+        if self.lead_driver.finished() && all_still {
+            let since = *self.standstill_since.get_or_insert(self.t);
+            if self.t - since >= self.scenario.stop.standstill_time {
+                return Ok(false);
+            }
+        } else {
+            self.standstill_since = None;
+        }
+        Ok(self.t < self.scenario.duration - 0.5 * dt)
+    }
+
+    fn lead_centreline_steer(&self, ls: &VehicleState, s: f64, offset: f64) -> f64 {
+        centreline_steer(&self.track, &self.lead_steer, ls, s, offset)
+    }
+
+    /// Tells the observer that the run ended: with follower 1's metrics so far if `completed`
+    /// (the run reached its end), without if it was stopped early.
+    pub fn finish_observer(&mut self, completed: bool) -> Result<(), SimError> {
+        let metrics = match (completed, self.followers.first()) {
+            (true, Some(f)) => Some(Metrics::compute(&f.series, f.collision)),
+            _ => None,
+        };
+        self.observer.finish(metrics.as_ref())
+    }
+
+    /// Ends the run and computes the metrics (follower 1's as [`RunResult::metrics`]; with
+    /// `[platoon]` every follower's and the string-stability measures in [`RunResult::platoon`]).
+    pub fn finish(self) -> RunResult {
+        let Simulation { scenario, followers, lead_driver, .. } = self;
+        let configs: Vec<FollowerConfig> = followers.iter().map(|f| f.cfg.clone()).collect();
+        let mut runs: Vec<FollowerRun> = followers
+            .into_iter()
+            .map(|f| FollowerRun { metrics: Metrics::compute(&f.series, f.collision), series: f.series, collision: f.collision })
+            .collect();
+        let platoon = scenario.platoon.as_ref().map(|p| {
+            let string_stability = StringStability::measure(&p.string_stability, &runs, &configs, lead_driver.brake_onset());
+            PlatoonResult { followers: runs.clone(), string_stability }
+        });
+        let first = runs.swap_remove(0);
+        RunResult { scenario, metrics: first.metrics, series: first.series, platoon }
+    }
+}
+
