@@ -33,7 +33,7 @@ use crate::detector::{
 };
 use crate::flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 use crate::params::ParamError;
-use crate::pid::{GainSet, PidController, PidGains, PidParams, PidTerms};
+use crate::pid::{GainSet, PidCore, PidGains, PidParams, PidTerms};
 use crate::pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};
 use crate::supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
 use nalgebra::Point2;
@@ -685,7 +685,7 @@ macro_rules! storage {
 }
 
 storage!(FlcFallback, FallbackController, 0x464C_435F_464C_4301); // "FLC_FLC\x01"
-storage!(FlcPid, PidController, 0x464C_435F_5049_4401); // "FLC_PID\x01"
+storage!(FlcPid, PidCore, 0x464C_435F_5049_4401); // "FLC_PID\x01"
 storage!(FlcSupervisor, Supervisor, 0x464C_435F_5355_5001); // "FLC_SUP\x01"
 storage!(FlcPursuit, PurePursuit, 0x464C_435F_5050_5501); // "FLC_PPU\x01"
 storage!(FlcDetector, LeadDetector, 0x464C_435F_4445_5401); // "FLC_DET\x01"
@@ -1197,7 +1197,7 @@ pub unsafe extern "C" fn flc_pid_init(pid: *mut FlcPid, params: *const FlcPidPar
     tri!(check_ptr(pid.cast_const()));
     // SAFETY: caller contract.
     let p = tri!(unsafe { read_in(params) });
-    match PidController::new(p.into()) {
+    match PidCore::new(p.into()) {
         // SAFETY: checked, caller contract.
         Ok(c) => unsafe { put(pid, c) },
         // SAFETY: caller contract.
