@@ -29,6 +29,13 @@
 //! * the gap the laws use is the measured distance itself (what the FLC sees); only the lead speed
 //!   comes from the filter.
 //!
+//! Each baseline is its equations only, a [`CarFollowingLaw`] (e.g. [`Idm`]); the shared skeleton
+//! (input checks, no-lead policy, range-rate estimator, command mapping) is [`EstimatingFollower`]
+//! ([`follower`]), and the controllers are `pub type IdmController = EstimatingFollower<Idm>` etc.,
+//! all implementing [`crate::LongitudinalController`]. A new law is one file: its parameters (with
+//! the six shared fields of [`FollowerSettings`] kept flat, for the scenario files), its terms and
+//! its `impl CarFollowingLaw`.
+//!
 //! [`Baseline`] wraps any of the four behind one `step` (no allocation), and [`BaselineKind`]
 //! gives the names used by the scenario files (`"idm" | "acc" | "rss" | "carla-behavior"`).
 //! Sources, equations, defaults and the choices made where a source is silent:
@@ -37,18 +44,19 @@
 pub mod acc;
 pub mod carla_behavior;
 pub mod estimator;
+pub mod follower;
 pub mod idm;
 pub mod rss;
 
-pub use acc::{AccController, AccMode, AccParams, AccTerms};
-pub use carla_behavior::{CarlaBand, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
+pub use acc::{Acc, AccController, AccMode, AccParams, AccTerms};
+pub use carla_behavior::{CarlaBand, CarlaBehavior, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
 pub use estimator::{EstimatorParams, RangeEstimate, RangeRateEstimator};
-pub use idm::{IdmController, IdmParams, IdmTerms};
-pub use rss::{RssController, RssParams, RssTerms};
+pub use follower::{CarFollowingLaw, Demand, EstimatingFollower, FollowerParams, FollowerSettings, LeadEstimate};
+pub use idm::{Idm, IdmController, IdmParams, IdmTerms};
+pub use rss::{Rss, RssController, RssParams, RssTerms};
 
 use crate::command::{LongitudinalCommand, Status, clamp, valid_speed};
-use crate::longitudinal::{ControlOutput, LongitudinalController, Terms, flag};
-use crate::supervisor::ActiveController;
+use crate::longitudinal::{ControlOutput, LongitudinalController};
 
 /// `x^y`: the standard library's `f64::powf` with the `std` feature (bit for bit what a `std`
 /// user computes), `libm::pow` without it.
@@ -64,104 +72,6 @@ pub(crate) fn powf(x: f64, y: f64) -> f64 {
     libm::pow(x, y)
 }
 
-impl IdmTerms {
-    /// The names of [`IdmTerms::to_terms`], in field order (flags as 0 / 1).
-    pub const NAMES: &'static [&'static str] =
-        &["lead", "gap", "range_rate", "lead_speed", "desired_gap", "free_accel", "interaction_accel", "accel"];
-
-    /// The terms as a named list ([`Terms`]).
-    pub fn to_terms(&self) -> Terms {
-        let t = self;
-        Terms::new(Self::NAMES, &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.desired_gap, t.free_accel, t.interaction_accel, t.accel])
-    }
-}
-
-impl AccTerms {
-    /// The names of [`AccTerms::to_terms`], in field order (`mode` as its [`AccMode`] discriminant).
-    pub const NAMES: &'static [&'static str] =
-        &["lead", "gap", "range_rate", "lead_speed", "mode", "spacing_error", "law_accel", "safe_speed", "overridden", "accel"];
-
-    /// The terms as a named list ([`Terms`]).
-    pub fn to_terms(&self) -> Terms {
-        let t = self;
-        Terms::new(
-            Self::NAMES,
-            &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, f64::from(t.mode as u8), t.spacing_error, t.law_accel, t.safe_speed, flag(t.overridden), t.accel],
-        )
-    }
-}
-
-impl RssTerms {
-    /// The names of [`RssTerms::to_terms`], in field order (flags as 0 / 1).
-    pub const NAMES: &'static [&'static str] =
-        &["lead", "gap", "range_rate", "lead_speed", "safe_distance", "target_gap", "gap_accel", "cruise_accel", "proper_response", "accel"];
-
-    /// The terms as a named list ([`Terms`]).
-    pub fn to_terms(&self) -> Terms {
-        let t = self;
-        Terms::new(
-            Self::NAMES,
-            &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.safe_distance, t.target_gap, t.gap_accel, t.cruise_accel, flag(t.proper_response), t.accel],
-        )
-    }
-}
-
-impl CarlaTerms {
-    /// The names of [`CarlaTerms::to_terms`], in field order (`band` as its [`CarlaBand`] discriminant).
-    pub const NAMES: &'static [&'static str] = &["lead", "gap", "range_rate", "lead_speed", "ttc", "band", "target_speed"];
-
-    /// The terms as a named list ([`Terms`]).
-    pub fn to_terms(&self) -> Terms {
-        let t = self;
-        Terms::new(Self::NAMES, &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.ttc, f64::from(t.band as u8), t.target_speed])
-    }
-}
-
-/// The steady-state gaps at equal speeds `v` (clamped at 0), m: the formulas the simulator used.
-impl IdmParams {
-    /// IDM equilibrium gap at equal speeds: `s* / sqrt(1 - (v/v0)^delta)` (`s*` alone when the
-    /// root vanishes), `v` clamped at 0.
-    pub fn equilibrium_gap(&self, v: f64) -> f64 {
-        let v = v.max(0.0);
-        let s_star = self.desired_gap(v, v);
-        let free = 1.0 - powf(v / self.desired_speed, self.delta);
-        if free > 1e-6 { s_star / libm::sqrt(free) } else { s_star }
-    }
-}
-
-macro_rules! baseline_controller {
-    ($ctl:ty, $gap:expr, $doc:literal) => {
-        #[doc = $doc]
-        impl LongitudinalController for $ctl {
-            fn step(&mut self, frame: &crate::longitudinal::Frame) -> ControlOutput {
-                let command = <$ctl>::step(self, frame.distance, frame.own_speed, frame.dt);
-                ControlOutput::single(command, self.terms().to_terms(), ActiveController::Flc)
-            }
-
-            fn reset(&mut self) {
-                <$ctl>::reset(self);
-            }
-
-            fn desired_gap(&self, v: f64) -> f64 {
-                let gap: fn(&Self, f64) -> f64 = $gap;
-                gap(self, v.max(0.0))
-            }
-
-            fn uses_dt(&self) -> bool {
-                true
-            }
-        }
-    };
-}
-
-baseline_controller!(IdmController, |c, v| c.params().equilibrium_gap(v), "The IDM through the common interface.");
-baseline_controller!(AccController, |c, v| c.params().min_gap + c.params().headway_time * v, "The ACC through the common interface.");
-baseline_controller!(RssController, |c, v| c.params().safe_distance(v, v) + c.params().margin, "RSS through the common interface.");
-baseline_controller!(
-    CarlaBehaviorController,
-    |c, _v| 2.0 * c.params().safety_time * c.params().min_closing_speed,
-    "CARLA behaviour through the common interface."
-);
 
 /// What a baseline does on a frame without a lead (`distance = None`).
 ///
@@ -275,6 +185,35 @@ impl Baseline {
             Baseline::CarlaBehavior(c) => (c.terms().lead, c.terms().lead_speed),
         };
         lead.then_some(v)
+    }
+}
+
+/// Dispatches to the wrapped controller.
+impl LongitudinalController for Baseline {
+    fn step(&mut self, frame: &crate::longitudinal::Frame) -> ControlOutput {
+        match self {
+            Baseline::Idm(c) => LongitudinalController::step(c, frame),
+            Baseline::Acc(c) => LongitudinalController::step(c, frame),
+            Baseline::Rss(c) => LongitudinalController::step(c, frame),
+            Baseline::CarlaBehavior(c) => LongitudinalController::step(c, frame),
+        }
+    }
+
+    fn reset(&mut self) {
+        Baseline::reset(self);
+    }
+
+    fn desired_gap(&self, v: f64) -> f64 {
+        match self {
+            Baseline::Idm(c) => c.desired_gap(v),
+            Baseline::Acc(c) => c.desired_gap(v),
+            Baseline::Rss(c) => c.desired_gap(v),
+            Baseline::CarlaBehavior(c) => c.desired_gap(v),
+        }
+    }
+
+    fn uses_dt(&self) -> bool {
+        true
     }
 }
 
