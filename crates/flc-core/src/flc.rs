@@ -23,7 +23,9 @@
 //! `docs/paper-notes.md`.
 
 use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
+use crate::longitudinal::{flag, ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{check_positive, check_range, ParamError};
+use crate::supervisor::ActiveController;
 
 /// How the "`dist_s` is overridden to be -3" rule of Sec. III-B is applied in the fast-braking
 /// branch (`Delta_d <= brake_threshold`). The paper states the value, not the form.
@@ -301,6 +303,54 @@ impl FallbackController {
             return safe_brake(own_speed, speed_ok, p.fault_brake_step, Status::InvalidDistance);
         }
         LongitudinalCommand { speed, accel: a, status: Status::Ok }
+    }
+}
+
+impl FlcTerms {
+    /// The names of [`FlcTerms::to_terms`], in field order (flags as 0 / 1).
+    pub const NAMES: &'static [&'static str] =
+        &["tau_d", "d_d", "scale_f", "f_shift", "delta_d", "dist_s_raw", "dist_s", "braking_branch", "overridden", "a_law", "a"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(
+            Self::NAMES,
+            &[t.tau_d, t.d_d, t.scale_f, t.f_shift, t.delta_d, t.dist_s_raw, t.dist_s, flag(t.braking_branch), flag(t.overridden), t.a_law, t.a],
+        )
+    }
+}
+
+/// The FLC through the common interface: `step(distance, own_speed)`; `dt` and V2V are never read.
+///
+/// ```
+/// use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
+///
+/// let mut flc = FallbackController::new(FlcParams::paper())?;
+/// let out = LongitudinalController::step(&mut flc, &Frame::new(Some(18.0), 10.0, 0.05));
+/// // Eqs. (2)-(5): dist_s = 18 - 16 - 4 = -2, a = 2 * (-2) (1 - cos(2 pi / 11)) = -0.63498...
+/// assert!((out.command.accel + 0.6349858686752752).abs() < 1e-12);
+/// // Eqs. (2)-(4): D_d + F_shift at 10 m/s = 16 + 4 = 20 m.
+/// assert!((flc.desired_gap(10.0) - 20.0).abs() < 1e-12);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+impl LongitudinalController for FallbackController {
+    fn step(&mut self, frame: &Frame) -> ControlOutput {
+        let command = FallbackController::step(self, frame.distance, frame.own_speed);
+        ControlOutput::single(command, self.terms.to_terms(), ActiveController::Flc)
+    }
+
+    fn reset(&mut self) {
+        FallbackController::reset(self);
+    }
+
+    /// Eqs. (2)-(4): `D_d + F_shift`.
+    fn desired_gap(&self, v: f64) -> f64 {
+        self.params.desired_distance(v) + self.params.f_shift(v)
+    }
+
+    fn uses_dt(&self) -> bool {
+        false
     }
 }
 

@@ -37,7 +37,9 @@
 //! `V = (x_1^2 + x_2^2) / 2` is only partly decreasing).
 
 use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
+use crate::supervisor::ActiveController;
 
 /// What the very first detection is taken to be (later ones follow the latch rules).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
@@ -309,6 +311,54 @@ impl RobustFallbackController {
             return safe_brake(own_speed, speed_ok, p.fault_brake_step, Status::InvalidDistance);
         }
         LongitudinalCommand { speed, accel: a, status: Status::Ok }
+    }
+}
+
+impl RobustFlcTerms {
+    /// The names of [`RobustFlcTerms::to_terms`], in field order (flags as 0 / 1).
+    pub const NAMES: &'static [&'static str] =
+        &["desired_gap", "gap_error", "gap_speed", "envelope_speed", "target_speed", "revealed", "latched", "latch_min_distance", "a"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(
+            Self::NAMES,
+            &[t.desired_gap, t.gap_error, t.gap_speed, t.envelope_speed, t.target_speed, flag(t.revealed), flag(t.latched), t.latch_min_distance, t.a],
+        )
+    }
+}
+
+/// The robust FLC through the common interface: `step(distance, own_speed)`; `dt` and V2V are
+/// never read.
+///
+/// ```
+/// use flc_core::{Frame, LongitudinalController, RobustFallbackController, RobustFlcParams};
+///
+/// let mut c = RobustFallbackController::new(RobustFlcParams::default())?;
+/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
+/// // (R1)-(R5): D_r(20) = 3 + 1.5 * 20 = 33 = d, so V* = (33 - 3) / 1.5 = 20 = v and a = 0.
+/// assert_eq!(out.command.accel, 0.0);
+/// assert_eq!(c.desired_gap(20.0), 33.0);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+impl LongitudinalController for RobustFallbackController {
+    fn step(&mut self, frame: &Frame) -> ControlOutput {
+        let command = RobustFallbackController::step(self, frame.distance, frame.own_speed);
+        ControlOutput::single(command, self.terms.to_terms(), ActiveController::Flc)
+    }
+
+    fn reset(&mut self) {
+        RobustFallbackController::reset(self);
+    }
+
+    /// (R1): `d_0 + h max(v, 0)`.
+    fn desired_gap(&self, v: f64) -> f64 {
+        self.params.desired_gap(v)
+    }
+
+    fn uses_dt(&self) -> bool {
+        false
     }
 }
 

@@ -11,6 +11,7 @@
 //! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
 //! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
 //! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
+//! | [`longitudinal`] | - | [`LongitudinalController`], the one interface of every longitudinal law (FLC, robust FLC, PID, supervisor, baselines) |
 //! | [`detector`] | Sec. III-A.1 | the BEV-grid LiDAR lead-vehicle detector |
 //!
 //! Units are SI everywhere (m, m/s, m/s², s, rad). Every step function returns a defined command
@@ -41,6 +42,7 @@ pub mod command;
 pub mod detector;
 pub mod flc;
 pub mod flc_robust;
+pub mod longitudinal;
 pub mod params;
 pub mod pid;
 pub mod pure_pursuit;
@@ -51,8 +53,9 @@ pub use command::{LongitudinalCommand, Status};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
+pub use longitudinal::{ControlOutput, Frame, LongitudinalController, MAX_TERMS, Terms};
 pub use params::ParamError;
-pub use pid::{GainSet, PidController, PidGains, PidParams, PidTerms};
+pub use pid::{GainSet, PidController, PidCore, PidGains, PidParams, PidTerms};
 pub use pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};
 pub use supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
 pub use nalgebra::Point2;

@@ -18,7 +18,9 @@
 
 use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
 use crate::flc::{desired_distance, f_shift};
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{check_positive, check_range, ParamError};
+use crate::supervisor::ActiveController;
 
 /// One set of PID gains (the output `u` is a speed increment in m/s).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]
@@ -150,16 +152,18 @@ pub struct PidTerms {
     pub u: f64,
 }
 
-/// The PID gap controller.
+/// The PID gap controller law: the lead speed is an argument of every step. This is what the
+/// [`crate::supervisor`] and the C interface run; [`PidController`] adds the hold of the last
+/// received V2V lead speed used by [`LongitudinalController::step`].
 #[derive(Debug, Clone)]
-pub struct PidController {
+pub struct PidCore {
     params: PidParams,
     /// Integral term, already multiplied by `ki` (so gain switches are bumpless), m/s.
     integral: f64,
     terms: PidTerms,
 }
 
-impl PidController {
+impl PidCore {
     /// Validates `params` and builds the controller.
     pub fn new(params: PidParams) -> Result<Self, ParamError> {
         params.validate()?;
@@ -237,6 +241,112 @@ impl PidController {
             return safe_brake(own_speed, speed_ok, p.fault_brake_step, Status::InvalidDistance);
         }
         LongitudinalCommand { speed, accel: u, status: Status::Ok }
+    }
+}
+
+impl PidTerms {
+    /// The names of [`PidTerms::to_terms`], in field order (`gains`: 0 = far, 1 = near).
+    pub const NAMES: &'static [&'static str] = &["desired", "error", "error_rate", "integral", "gains", "u"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        let gains = match t.gains {
+            GainSet::Far => 0.0,
+            GainSet::Near => 1.0,
+        };
+        Terms::new(Self::NAMES, &[t.desired, t.error, t.error_rate, t.integral, gains, t.u])
+    }
+}
+
+/// The PID gap controller ([`PidCore`]) plus the hold of the last received V2V lead speed, for
+/// [`LongitudinalController::step`]: each `Some(message)` of a frame replaces the held speed
+/// before the step, and before any message the own speed stands in (zero relative speed). The
+/// inherent [`PidController::step`] takes the lead speed explicitly and leaves the hold alone.
+#[derive(Debug, Clone)]
+pub struct PidController {
+    core: PidCore,
+    held_lead_speed: Option<f64>,
+}
+
+impl PidController {
+    /// Validates `params` and builds the controller.
+    pub fn new(params: PidParams) -> Result<Self, ParamError> {
+        Ok(Self { core: PidCore::new(params)?, held_lead_speed: None })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &PidParams {
+        self.core.params()
+    }
+
+    /// Clears the integrator and the held lead speed.
+    pub fn reset(&mut self) {
+        self.core.reset();
+        self.held_lead_speed = None;
+    }
+
+    /// The terms of the last step.
+    pub fn terms(&self) -> &PidTerms {
+        self.core.terms()
+    }
+
+    /// The lead speed held from the last V2V message ([`LongitudinalController::step`] only).
+    pub fn held_lead_speed(&self) -> Option<f64> {
+        self.held_lead_speed
+    }
+
+    /// The law without the hold.
+    pub fn core(&self) -> &PidCore {
+        &self.core
+    }
+
+    /// See [`PidCore::preset_output`].
+    pub fn preset_output(&mut self, speed_command: f64, own_speed: f64) -> f64 {
+        self.core.preset_output(speed_command, own_speed)
+    }
+
+    /// See [`PidCore::step`] (the held lead speed is neither used nor changed).
+    pub fn step(&mut self, lead_speed: f64, own_speed: f64, distance: Option<f64>, dt: f64) -> LongitudinalCommand {
+        self.core.step(lead_speed, own_speed, distance, dt)
+    }
+}
+
+/// The PID through the common interface: `held = msg.lead_speed` for each `Some(msg)`, then
+/// `step(held.unwrap_or(own_speed), own_speed, distance, dt)`.
+///
+/// ```
+/// use flc_core::{Frame, LongitudinalController, PidController, PidParams, V2vMessage};
+///
+/// let mut pid = PidController::new(PidParams::paper())?;
+/// let v2v = Some(V2vMessage { lead_speed: 10.0, seq: 1 });
+/// let out = LongitudinalController::step(&mut pid, &Frame { distance: Some(15.0), own_speed: 10.0, v2v, dt: 0.1 });
+/// // desired = 0.5 * 10 + 6 + 10 * 0.4 = 15 = distance, lead speed = own speed: u = 0.
+/// assert_eq!(out.command.accel, 0.0);
+/// assert_eq!(pid.desired_gap(10.0), 15.0);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+impl LongitudinalController for PidController {
+    fn step(&mut self, frame: &Frame) -> ControlOutput {
+        if let Some(m) = frame.v2v {
+            self.held_lead_speed = Some(m.lead_speed);
+        }
+        let lead_speed = self.held_lead_speed.unwrap_or(frame.own_speed);
+        let command = self.core.step(lead_speed, frame.own_speed, frame.distance, frame.dt);
+        ControlOutput::single(command, self.core.terms.to_terms(), ActiveController::Pid)
+    }
+
+    fn reset(&mut self) {
+        PidController::reset(self);
+    }
+
+    /// `T_G,pid v + B_gap + F_shift(v)`.
+    fn desired_gap(&self, v: f64) -> f64 {
+        self.core.params.desired_distance(v)
+    }
+
+    fn uses_dt(&self) -> bool {
+        true
     }
 }
 

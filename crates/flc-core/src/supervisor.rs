@@ -15,8 +15,9 @@
 
 use crate::command::LongitudinalCommand;
 use crate::flc::{FallbackController, FlcParams};
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{ParamError, check_range};
-use crate::pid::{PidController, PidParams};
+use crate::pid::{PidCore, PidParams};
 
 /// One V2V message as received by the follower.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,7 +127,7 @@ pub struct SupervisorOutput {
 pub struct Supervisor {
     params: SupervisorParams,
     flc: FallbackController,
-    pid: PidController,
+    pid: PidCore,
     active: ActiveController,
     age: u32,
     last_seq: Option<u32>,
@@ -145,7 +146,7 @@ impl Supervisor {
         Ok(Self {
             params,
             flc: FallbackController::new(params.flc)?,
-            pid: PidController::new(params.pid)?,
+            pid: PidCore::new(params.pid)?,
             active: ActiveController::Flc,
             age: u32::MAX,
             last_seq: None,
@@ -167,8 +168,13 @@ impl Supervisor {
     }
 
     /// The PID (for its terms).
-    pub fn pid(&self) -> &PidController {
+    pub fn pid(&self) -> &PidCore {
         &self.pid
+    }
+
+    /// The controller that drove the last step ([`ActiveController::Flc`] before the first).
+    pub fn active(&self) -> ActiveController {
+        self.active
     }
 
     /// Back to the initial state (FLC, no V2V).
@@ -264,6 +270,67 @@ impl Supervisor {
                 }
             }
         }
+    }
+}
+
+impl SupervisorOutput {
+    /// The names of [`SupervisorOutput::to_terms`].
+    pub const NAMES: &'static [&'static str] = &["flc_speed", "flc_accel", "pid_speed", "pid_accel", "fresh_count"];
+
+    /// What both controllers commanded and the fresh-message count, as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        Terms::new(Self::NAMES, &[self.flc.speed, self.flc.accel, self.pid.speed, self.pid.accel, f64::from(self.fresh_count)])
+    }
+}
+
+/// The pipeline through the common interface: `step(frame.v2v, distance, own_speed, dt)`.
+///
+/// ```
+/// use flc_core::{ActiveController, Frame, LongitudinalController, Supervisor, SupervisorParams, SwitchReason};
+///
+/// let mut s = Supervisor::new(SupervisorParams::default())?;
+/// let out = LongitudinalController::step(&mut s, &Frame::new(Some(25.0), 10.0, 0.05));
+/// // No V2V yet: the FLC drives, Eqs. (2)-(5) give a = 5 (1 - cos(5 pi / 11)).
+/// assert_eq!((out.active, out.reason, out.v2v_age_ticks), (ActiveController::Flc, SwitchReason::NoV2v, u32::MAX));
+/// assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
+/// // The FLC's D_d + F_shift while it drives; the PID's spacing for the string.
+/// assert!((s.desired_gap(10.0) - 20.0).abs() < 1e-12);
+/// assert_eq!(s.formation_gap(10.0), 15.0);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+impl LongitudinalController for Supervisor {
+    fn step(&mut self, frame: &Frame) -> ControlOutput {
+        let o = Supervisor::step(self, frame.v2v, frame.distance, frame.own_speed, frame.dt);
+        ControlOutput {
+            command: o.command,
+            terms: o.to_terms(),
+            active: o.active,
+            reason: o.reason,
+            switched: o.switched,
+            v2v_age_ticks: o.v2v_age_ticks,
+        }
+    }
+
+    fn reset(&mut self) {
+        Supervisor::reset(self);
+    }
+
+    /// The driving law's: the PID's desired distance while it is active, else the FLC's
+    /// `D_d + F_shift` (Eqs. (2)-(4)), for the state after the last step.
+    fn desired_gap(&self, v: f64) -> f64 {
+        match self.active {
+            ActiveController::Pid => self.params.pid.desired_distance(v),
+            ActiveController::Flc => self.params.flc.desired_distance(v) + self.params.flc.f_shift(v),
+        }
+    }
+
+    /// The PID's desired distance (the law that drives while V2V is fresh).
+    fn formation_gap(&self, v: f64) -> f64 {
+        self.params.pid.desired_distance(v)
+    }
+
+    fn uses_dt(&self) -> bool {
+        true
     }
 }
 

@@ -17,7 +17,7 @@ mod common;
 
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
-    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidParams,
+    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidCore, PidParams,
     Point2, PurePursuit, PurePursuitParams, Reprojection, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
 use std::fmt::Write as _;
@@ -345,7 +345,7 @@ fn c_example_outputs_equal_rust() {
     let sizes: Vec<usize> = lines.next().unwrap().strip_prefix("sizes ").unwrap().split(' ').map(|s| s.parse().unwrap()).collect();
     let rust = [
         size_of::<FallbackController>(),
-        size_of::<PidController>(),
+        size_of::<PidCore>(),
         size_of::<Supervisor>(),
         size_of::<PurePursuit>(),
         size_of::<LeadDetector>(),

@@ -1,4 +1,4 @@
-//! `include/flc.h` is generated from `src/capi.rs` by cbindgen (config `cbindgen.toml`). This test
+//! `include/flc.h` is generated from `src/capi/` (`mod.rs` and its modules) by cbindgen (config `cbindgen.toml`). This test
 //! regenerates it in memory and fails when the committed header differs.
 //!
 //! Update the header: `FLC_UPDATE_HEADER=1 cargo test -p flc-core --test c_header`.
@@ -10,7 +10,7 @@ fn header_is_up_to_date() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let config = cbindgen::Config::from_file(dir.join("cbindgen.toml")).expect("cbindgen.toml");
     let bindings =
-        cbindgen::Builder::new().with_config(config).with_src(dir.join("src/capi.rs")).generate().expect("cbindgen failed on src/capi.rs");
+        cbindgen::Builder::new().with_config(config).with_src(dir.join("src/capi/mod.rs")).generate().expect("cbindgen failed on src/capi/");
     let mut generated = Vec::new();
     bindings.write(&mut generated);
     let generated = String::from_utf8(generated).expect("header is UTF-8");
@@ -30,7 +30,7 @@ fn header_is_up_to_date() {
         .position(|(a, b)| a != b)
         .unwrap_or_else(|| generated.lines().count().min(committed.lines().count()));
     panic!(
-        "crates/flc-core/include/flc.h is out of date with src/capi.rs (first difference at line {}).\n\
+        "crates/flc-core/include/flc.h is out of date with src/capi/ (first difference at line {}).\n\
          Regenerate it with:\n    FLC_UPDATE_HEADER=1 cargo test -p flc-core --test c_header\n",
         first_diff + 1
     );

@@ -7,7 +7,7 @@
 
 use flc_core::capi::*;
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams,
     Supervisor, SupervisorParams, V2vMessage,
 };
 use proptest::prelude::*;
@@ -56,7 +56,7 @@ fn defaults_mirror_rust() {
 #[test]
 fn storage_sizes_and_alignment() {
     assert!(size_of::<FlcFallback>() >= 8 + size_of::<FallbackController>());
-    assert!(size_of::<FlcPid>() >= 8 + size_of::<PidController>());
+    assert!(size_of::<FlcPid>() >= 8 + size_of::<PidCore>());
     assert!(size_of::<FlcSupervisor>() >= 8 + size_of::<Supervisor>());
     assert!(size_of::<FlcPursuit>() >= 8 + size_of::<PurePursuit>());
     assert!(size_of::<FlcDetector>() >= 8 + size_of::<LeadDetector>());

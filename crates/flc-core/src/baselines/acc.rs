@@ -34,9 +34,11 @@
 //! the C++ tests `|v - v_des| < 0.1`. With the default gains the two differ only inside the
 //! 0.2 m band where the gap and collision-avoidance laws nearly coincide.
 
-use super::estimator::{EstimatorParams, RangeRateEstimator};
-use super::{Frame, NoLeadPolicy, accel_command, check_frame, lead_speed};
-use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use super::NoLeadPolicy;
+use super::estimator::EstimatorParams;
+use super::follower::{CarFollowingLaw, Demand, EstimatingFollower, LeadEstimate, follower_params};
+use crate::command::clamp;
+use crate::longitudinal::{Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
 
 /// Parameters of the ACC. `Default`: SUMO's `MSCFModel_ACC` defaults and SUMO's default passenger
@@ -138,8 +140,8 @@ impl AccParams {
         }
     }
 
-    /// Checks every field; the error names the first offending one.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    /// Checks the law's own fields (the shared ones: [`super::FollowerSettings::validate`]).
+    fn validate_law(&self) -> Result<(), ParamError> {
         const GAIN: &str = "must be finite and in [0, 100]";
         check_positive("desired_speed", self.desired_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
         check_range("headway_time", self.headway_time, 0.0, 10.0, "must be finite and in [0, 10] s")?;
@@ -166,11 +168,6 @@ impl AccParams {
         check_positive("lead_decel", self.lead_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
         check_positive("max_accel", self.max_accel, 20.0, "must be finite and in (0, 20] m/s²")?;
         check_positive("max_decel", self.max_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
-        self.estimator.validate_named(["estimator.alpha", "estimator.beta", "estimator.max_range_rate"])?;
-        check_positive("command_gain", self.command_gain, 100.0, "must be finite and in (0, 100] s")?;
-        check_positive("max_speed", self.max_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
-        check_positive("max_distance", self.max_distance, 1.0e6, "must be finite and in (0, 1e6] m")?;
-        check_range("fault_brake_step", self.fault_brake_step, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
         Ok(())
     }
 
@@ -240,99 +237,116 @@ pub struct AccTerms {
     pub accel: f64,
 }
 
-/// The ACC follower.
-#[derive(Debug, Clone)]
-pub struct AccController {
-    params: AccParams,
-    estimator: RangeRateEstimator,
-    /// SUMO's `ACC_ControlMode`: `true` = gap control (kept between the two thresholds).
-    gap_control: bool,
-    terms: AccTerms,
+/// The ACC follower: the ACC's equations under [`EstimatingFollower`].
+///
+/// ```
+/// use flc_core::baselines::{AccController, AccParams};
+/// use flc_core::{Frame, LongitudinalController};
+///
+/// let mut acc = AccController::new(AccParams::default())?;
+/// let out = LongitudinalController::step(&mut acc, &Frame::new(Some(30.0), 20.0, 0.05));
+/// // Gap control (gap2pred = 27.5 < 100 m), e = 30 - 2.5 - 1.0 * 20 = 7.5 > 0.2, lead speed = own
+/// // speed on the first frame: gap closing a = 0.8 * 0 + 0.04 * 7.5 = 0.3.
+/// assert!((out.command.accel - 0.3).abs() < 1e-12);
+/// // min_gap + headway_time v = 2.5 + 20.
+/// assert_eq!(acc.desired_gap(20.0), 22.5);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+pub type AccController = EstimatingFollower<Acc>;
+
+/// The ACC's equations ([`CarFollowingLaw`]); the state is SUMO's control mode.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Acc {
+    /// SUMO's `ACC_ControlMode`: `true` = gap control (kept between the two thresholds). Starts
+    /// in speed control, as SUMO.
+    pub gap_control: bool,
 }
 
-impl AccController {
-    /// Validates `params` and builds the controller (initially in speed control, as SUMO).
-    pub fn new(params: AccParams) -> Result<Self, ParamError> {
-        params.validate()?;
-        Ok(Self { params, estimator: RangeRateEstimator::new_unchecked(params.estimator), gap_control: false, terms: AccTerms::default() })
+follower_params!(AccParams, Acc);
+
+impl AccTerms {
+    /// The names of [`AccTerms::to_terms`], in field order (`mode` as its [`AccMode`] discriminant).
+    pub const NAMES: &'static [&'static str] =
+        &["lead", "gap", "range_rate", "lead_speed", "mode", "spacing_error", "law_accel", "safe_speed", "overridden", "accel"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(
+            Self::NAMES,
+            &[
+                flag(t.lead),
+                t.gap,
+                t.range_rate,
+                t.lead_speed,
+                f64::from(t.mode as u8),
+                t.spacing_error,
+                t.law_accel,
+                t.safe_speed,
+                flag(t.overridden),
+                t.accel,
+            ],
+        )
+    }
+}
+
+impl CarFollowingLaw for Acc {
+    type Params = AccParams;
+    type Terms = AccTerms;
+
+    fn validate(p: &AccParams) -> Result<(), ParamError> {
+        p.validate_law()
     }
 
-    /// The parameters in use.
-    pub fn params(&self) -> &AccParams {
-        &self.params
-    }
-
-    /// The terms of the last step (all zero after a fault).
-    pub fn terms(&self) -> &AccTerms {
-        &self.terms
-    }
-
-    /// Forgets the range-rate track and returns to speed control.
-    pub fn reset(&mut self) {
-        self.estimator.reset();
-        self.gap_control = false;
-        self.terms = AccTerms::default();
-    }
-
-    /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
-    /// = time since the previous frame in s.
-    pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
-        let p = self.params;
-        let gap = match check_frame(distance, own_speed, dt, p.max_speed, p.max_distance) {
-            Ok(Frame::Lead(gap)) => Some(gap),
-            Ok(Frame::NoLead) if p.no_lead == NoLeadPolicy::Cruise => None,
-            Ok(Frame::NoLead) => return self.fault(own_speed, Status::NoLead),
-            Err(status) => return self.fault(own_speed, status),
-        };
+    /// Mode hysteresis, the mode's law, the cap at `v_des`, the emergency override, the limits.
+    fn follow(&mut self, p: &AccParams, lead: &LeadEstimate, own_speed: f64) -> (Demand, AccTerms) {
         let cap = (p.desired_speed - own_speed) / p.command_gain;
-        let mut t = AccTerms::default();
-        match gap {
-            Some(gap) => {
-                t.lead = true;
-                t.gap = gap;
-                t.range_rate = self.estimator.update(gap, dt).range_rate;
-                t.lead_speed = lead_speed(own_speed, t.range_rate, p.max_speed);
-                let gap2pred = gap - p.min_gap;
-                if gap2pred > p.speed_control_gap {
-                    self.gap_control = false;
-                } else if gap2pred < p.gap_control_gap {
-                    self.gap_control = true;
-                }
-                if self.gap_control {
-                    (t.mode, t.spacing_error, t.law_accel) = p.gap_control_accel(gap, own_speed, t.lead_speed);
-                } else {
-                    t.mode = AccMode::Speed;
-                    t.law_accel = p.speed_control_accel(own_speed);
-                }
-                let mut accel = t.law_accel.min(cap);
-                t.safe_speed = p.safe_speed(gap, t.lead_speed);
-                if p.emergency_override && t.safe_speed + p.override_threshold < own_speed + p.command_gain * accel {
-                    t.overridden = true;
-                    accel = (t.safe_speed + p.override_threshold - own_speed) / p.command_gain;
-                }
-                t.accel = clamp(accel, -p.max_decel, p.max_accel);
-            }
-            None => {
-                // Nothing in range: SUMO's speed control (mode memory kept as SUMO does).
-                self.estimator.reset();
-                t.law_accel = p.speed_control_accel(own_speed);
-                t.accel = clamp(t.law_accel.min(cap), -p.max_decel, p.max_accel);
-            }
+        let gap = lead.gap;
+        let mut t = AccTerms { lead: true, gap, range_rate: lead.range_rate, lead_speed: lead.lead_speed, ..AccTerms::default() };
+        let gap2pred = gap - p.min_gap;
+        if gap2pred > p.speed_control_gap {
+            self.gap_control = false;
+        } else if gap2pred < p.gap_control_gap {
+            self.gap_control = true;
         }
-        self.terms = t;
-        accel_command(own_speed, t.accel, p.command_gain, p.max_speed).unwrap_or_else(|| self.fault(own_speed, Status::InvalidDistance))
+        if self.gap_control {
+            (t.mode, t.spacing_error, t.law_accel) = p.gap_control_accel(gap, own_speed, t.lead_speed);
+        } else {
+            t.mode = AccMode::Speed;
+            t.law_accel = p.speed_control_accel(own_speed);
+        }
+        let mut accel = t.law_accel.min(cap);
+        t.safe_speed = p.safe_speed(gap, t.lead_speed);
+        if p.emergency_override && t.safe_speed + p.override_threshold < own_speed + p.command_gain * accel {
+            t.overridden = true;
+            accel = (t.safe_speed + p.override_threshold - own_speed) / p.command_gain;
+        }
+        t.accel = clamp(accel, -p.max_decel, p.max_accel);
+        (Demand::Accel(t.accel), t)
     }
 
-    fn fault(&mut self, own_speed: f64, status: Status) -> LongitudinalCommand {
-        self.reset();
-        let p = &self.params;
-        safe_brake(own_speed, valid_speed(own_speed, p.max_speed), p.fault_brake_step, status)
+    /// Nothing in range: SUMO's speed control (the mode memory is kept, as SUMO does).
+    fn free_road(&mut self, p: &AccParams, own_speed: f64) -> (Demand, AccTerms) {
+        let cap = (p.desired_speed - own_speed) / p.command_gain;
+        let law_accel = p.speed_control_accel(own_speed);
+        let accel = clamp(law_accel.min(cap), -p.max_decel, p.max_accel);
+        (Demand::Accel(accel), AccTerms { law_accel, accel, ..AccTerms::default() })
+    }
+
+    /// `min_gap + headway_time v`.
+    fn desired_gap(p: &AccParams, v: f64) -> f64 {
+        p.min_gap + p.headway_time * v
+    }
+
+    fn terms(t: &AccTerms) -> Terms {
+        t.to_terms()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::command::{LongitudinalCommand, Status};
     use proptest::prelude::*;
 
     fn acc() -> AccController {

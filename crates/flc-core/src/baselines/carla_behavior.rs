@@ -31,9 +31,10 @@
 //! `Normal`) and `speed_limit` (read from the CARLA map) are both 130 km/h, so that the cap is
 //! 127 km/h and does not limit the follower below the lead in the speed sweeps.
 
-use super::estimator::{EstimatorParams, RangeRateEstimator};
-use super::{Frame, NoLeadPolicy, check_frame, lead_speed};
-use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use super::NoLeadPolicy;
+use super::estimator::EstimatorParams;
+use super::follower::{CarFollowingLaw, Demand, EstimatingFollower, LeadEstimate, follower_params};
+use crate::longitudinal::{Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
 
 /// km/h to m/s.
@@ -109,8 +110,8 @@ impl CarlaBehaviorParams {
         }
     }
 
-    /// Checks every field; the error names the first offending one.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    /// Checks the law's own fields (the shared ones: [`super::FollowerSettings::validate`]).
+    fn validate_law(&self) -> Result<(), ParamError> {
         check_positive("cruise_speed", self.cruise_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
         check_positive("speed_limit", self.speed_limit, 1000.0, "must be finite and in (0, 1000] m/s")?;
         check_range("speed_lim_dist", self.speed_lim_dist, 0.0, self.speed_limit, "must be finite and in [0, speed_limit] m/s")?;
@@ -120,11 +121,6 @@ impl CarlaBehaviorParams {
         check_range("braking_distance", self.braking_distance, 0.0, 100.0, "must be finite and in [0, 100] m")?;
         check_positive("min_closing_speed", self.min_closing_speed, 100.0, "must be finite and in (0, 100] m/s")?;
         check_range("min_proximity_threshold", self.min_proximity_threshold, 0.0, 1.0e6, "must be finite and in [0, 1e6] m")?;
-        self.estimator.validate_named(["estimator.alpha", "estimator.beta", "estimator.max_range_rate"])?;
-        check_positive("command_gain", self.command_gain, 100.0, "must be finite and in (0, 100] s")?;
-        check_positive("max_speed", self.max_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
-        check_positive("max_distance", self.max_distance, 1.0e6, "must be finite and in (0, 1e6] m")?;
-        check_range("fault_brake_step", self.fault_brake_step, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
         Ok(())
     }
 
@@ -192,91 +188,85 @@ pub struct CarlaTerms {
     pub target_speed: f64,
 }
 
-/// The CARLA BehaviorAgent-style follower.
-#[derive(Debug, Clone)]
-pub struct CarlaBehaviorController {
-    params: CarlaBehaviorParams,
-    estimator: RangeRateEstimator,
-    terms: CarlaTerms,
+/// The CARLA BehaviorAgent-style follower: the agent's rules under [`EstimatingFollower`]. The law
+/// produces a target speed: `speed = clamp(target, 0, max_speed)`, `accel = (speed - v) / command_gain`.
+///
+/// ```
+/// use flc_core::baselines::{CarlaBehaviorController, CarlaBehaviorParams};
+/// use flc_core::{Frame, LongitudinalController};
+///
+/// let mut carla = CarlaBehaviorController::new(CarlaBehaviorParams::default())?;
+/// let out = LongitudinalController::step(&mut carla, &Frame::new(Some(12.0), 20.0, 0.05));
+/// // Lead speed = own speed on the first frame: TTC = 12 / max(1, 0) = 12 s >= 2 * 3 s: normal
+/// // behaviour, target = min(130, 130 - 3) km/h = 35.2778 m/s.
+/// assert!((out.command.speed - 127.0 / 3.6).abs() < 1e-12);
+/// // 2 safety_time min_closing_speed = 2 * 3 * 1 = 6 m.
+/// assert_eq!(carla.desired_gap(20.0), 6.0);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+pub type CarlaBehaviorController = EstimatingFollower<CarlaBehavior>;
+
+/// The CARLA agent's rules ([`CarFollowingLaw`]); stateless.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CarlaBehavior;
+
+follower_params!(CarlaBehaviorParams, CarlaBehavior);
+
+impl CarlaTerms {
+    /// The names of [`CarlaTerms::to_terms`], in field order (`band` as its [`CarlaBand`] discriminant).
+    pub const NAMES: &'static [&'static str] = &["lead", "gap", "range_rate", "lead_speed", "ttc", "band", "target_speed"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(Self::NAMES, &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.ttc, f64::from(t.band as u8), t.target_speed])
+    }
 }
 
-impl CarlaBehaviorController {
-    /// Validates `params` and builds the controller.
-    pub fn new(params: CarlaBehaviorParams) -> Result<Self, ParamError> {
-        params.validate()?;
-        Ok(Self { params, estimator: RangeRateEstimator::new_unchecked(params.estimator), terms: CarlaTerms::default() })
+impl CarFollowingLaw for CarlaBehavior {
+    type Params = CarlaBehaviorParams;
+    type Terms = CarlaTerms;
+
+    fn validate(p: &CarlaBehaviorParams) -> Result<(), ParamError> {
+        p.validate_law()
     }
 
-    /// The parameters in use.
-    pub fn params(&self) -> &CarlaBehaviorParams {
-        &self.params
-    }
-
-    /// The terms of the last step (all zero after a fault).
-    pub fn terms(&self) -> &CarlaTerms {
-        &self.terms
-    }
-
-    /// Forgets the range-rate track.
-    pub fn reset(&mut self) {
-        self.estimator.reset();
-        self.terms = CarlaTerms::default();
-    }
-
-    /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
-    /// = time since the previous frame in s.
-    pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
-        let p = self.params;
-        let gap = match check_frame(distance, own_speed, dt, p.max_speed, p.max_distance) {
-            // Beyond CARLA's look-ahead the agent does not see the lead: normal behaviour, and the
-            // estimator keeps tracking (it is the detector's track, not the agent's).
-            Ok(Frame::Lead(gap)) => Some(gap),
-            Ok(Frame::NoLead) if p.no_lead == NoLeadPolicy::Cruise => None,
-            Ok(Frame::NoLead) => return self.fault(own_speed, Status::NoLead),
-            Err(status) => return self.fault(own_speed, status),
+    /// `car_following_manager` / emergency stop. Beyond CARLA's look-ahead (when limited) the
+    /// agent does not see the lead: normal behaviour (the estimator keeps tracking: it is the
+    /// detector's track, not the agent's).
+    fn follow(&mut self, p: &CarlaBehaviorParams, lead: &LeadEstimate, own_speed: f64) -> (Demand, CarlaTerms) {
+        let LeadEstimate { gap, range_rate, lead_speed: v_lead } = *lead;
+        let t = if p.limit_range && gap > p.look_ahead() {
+            CarlaTerms { gap, range_rate, lead_speed: v_lead, band: CarlaBand::Normal, target_speed: p.cap(), ..CarlaTerms::default() }
+        } else {
+            let ttc = p.ttc(gap, own_speed, v_lead);
+            let (band, target_speed) = p.target(gap, own_speed, v_lead);
+            CarlaTerms { lead: true, gap, range_rate, lead_speed: v_lead, ttc, band, target_speed }
         };
-        self.terms = match gap {
-            Some(gap) => {
-                let range_rate = self.estimator.update(gap, dt).range_rate;
-                let v_lead = lead_speed(own_speed, range_rate, p.max_speed);
-                if p.limit_range && gap > p.look_ahead() {
-                    CarlaTerms {
-                        gap,
-                        range_rate,
-                        lead_speed: v_lead,
-                        band: CarlaBand::Normal,
-                        target_speed: p.cap(),
-                        ..CarlaTerms::default()
-                    }
-                } else {
-                    let ttc = p.ttc(gap, own_speed, v_lead);
-                    let (band, target_speed) = p.target(gap, own_speed, v_lead);
-                    CarlaTerms { lead: true, gap, range_rate, lead_speed: v_lead, ttc, band, target_speed }
-                }
-            }
-            None => {
-                self.estimator.reset();
-                CarlaTerms { band: CarlaBand::Normal, target_speed: p.cap(), ..CarlaTerms::default() }
-            }
-        };
-        let speed = clamp(self.terms.target_speed, 0.0, p.max_speed);
-        let accel = (speed - own_speed) / p.command_gain;
-        if !(speed.is_finite() && accel.is_finite()) {
-            return self.fault(own_speed, Status::InvalidDistance);
-        }
-        LongitudinalCommand { speed, accel, status: Status::Ok }
+        (Demand::Speed(t.target_speed), t)
     }
 
-    fn fault(&mut self, own_speed: f64, status: Status) -> LongitudinalCommand {
-        self.reset();
-        let p = &self.params;
-        safe_brake(own_speed, valid_speed(own_speed, p.max_speed), p.fault_brake_step, status)
+    /// Normal behaviour: the cap.
+    fn free_road(&mut self, p: &CarlaBehaviorParams, _own_speed: f64) -> (Demand, CarlaTerms) {
+        let t = CarlaTerms { band: CarlaBand::Normal, target_speed: p.cap(), ..CarlaTerms::default() };
+        (Demand::Speed(t.target_speed), t)
+    }
+
+    /// The gap below which a lead at the own speed is followed (TTC `< 2 safety_time` with the
+    /// closing speed floored at `min_closing_speed`): `2 safety_time min_closing_speed`.
+    fn desired_gap(p: &CarlaBehaviorParams, _v: f64) -> f64 {
+        2.0 * p.safety_time * p.min_closing_speed
+    }
+
+    fn terms(t: &CarlaTerms) -> Terms {
+        t.to_terms()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::command::{LongitudinalCommand, Status};
     use proptest::prelude::*;
 
     fn carla() -> CarlaBehaviorController {

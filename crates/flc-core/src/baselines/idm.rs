@@ -22,9 +22,11 @@
 //! `s0 = 2 m`, `delta = 4`) except the desired speed `v0`, which is 130 km/h instead of 120 km/h
 //! so that the IDM does not limit the follower below the lead in the speed sweeps.
 
-use super::estimator::{EstimatorParams, RangeRateEstimator};
-use super::{Frame, NoLeadPolicy, accel_command, check_frame, lead_speed};
-use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use super::estimator::EstimatorParams;
+use super::follower::{CarFollowingLaw, Demand, EstimatingFollower, LeadEstimate, follower_params};
+use super::{NoLeadPolicy, powf};
+use crate::command::clamp;
+use crate::longitudinal::{Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
 
 /// Parameters of the IDM follower. `Default`: Treiber et al. (2000), Table I, with `v0 = 130 km/h`.
@@ -88,8 +90,8 @@ impl IdmParams {
         }
     }
 
-    /// Checks every field; the error names the first offending one.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    /// Checks the law's own fields (the shared ones: [`super::FollowerSettings::validate`]).
+    fn validate_law(&self) -> Result<(), ParamError> {
         check_positive("desired_speed", self.desired_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
         check_range("time_headway", self.time_headway, 0.0, 10.0, "must be finite and in [0, 10] s")?;
         check_range("min_gap", self.min_gap, 0.0, 100.0, "must be finite and in [0, 100] m")?;
@@ -98,11 +100,6 @@ impl IdmParams {
         check_positive("delta", self.delta, 20.0, "must be finite and in (0, 20]")?;
         check_positive("max_decel", self.max_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
         check_positive("min_gap_floor", self.min_gap_floor, 10.0, "must be finite and in (0, 10] m")?;
-        self.estimator.validate_named(["estimator.alpha", "estimator.beta", "estimator.max_range_rate"])?;
-        check_positive("command_gain", self.command_gain, 100.0, "must be finite and in (0, 100] s")?;
-        check_positive("max_speed", self.max_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
-        check_positive("max_distance", self.max_distance, 1.0e6, "must be finite and in (0, 1e6] m")?;
-        check_range("fault_brake_step", self.fault_brake_step, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
         Ok(())
     }
 
@@ -151,78 +148,90 @@ pub struct IdmTerms {
     pub accel: f64,
 }
 
-/// The IDM follower.
-#[derive(Debug, Clone)]
-pub struct IdmController {
-    params: IdmParams,
-    estimator: RangeRateEstimator,
-    terms: IdmTerms,
+/// The IDM follower: the IDM's equations under [`EstimatingFollower`].
+///
+/// ```
+/// use flc_core::baselines::{IdmController, IdmParams};
+/// use flc_core::{Frame, LongitudinalController};
+///
+/// let mut idm = IdmController::new(IdmParams::default())?;
+/// let out = LongitudinalController::step(&mut idm, &Frame::new(Some(42.0), 25.0, 0.05));
+/// // First frame, lead speed = own speed: s* = 2 + 25 * 1.6 = 42 = s, so
+/// // a = 0.73 (1 - (25 / 36.11)^4 - 1) = -0.73 * 0.229719 = -0.167695.
+/// assert!((out.command.accel + 0.167695).abs() < 1e-6);
+/// // Equilibrium gap s* / sqrt(1 - (v/v0)^4) = 42 / sqrt(0.770281) = 47.854.
+/// assert!((idm.desired_gap(25.0) - 47.854).abs() < 1e-3);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+pub type IdmController = EstimatingFollower<Idm>;
+
+/// The IDM's equations ([`CarFollowingLaw`]); stateless.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Idm;
+
+follower_params!(IdmParams, Idm);
+
+impl IdmTerms {
+    /// The names of [`IdmTerms::to_terms`], in field order (flags as 0 / 1).
+    pub const NAMES: &'static [&'static str] =
+        &["lead", "gap", "range_rate", "lead_speed", "desired_gap", "free_accel", "interaction_accel", "accel"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(Self::NAMES, &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.desired_gap, t.free_accel, t.interaction_accel, t.accel])
+    }
 }
 
-impl IdmController {
-    /// Validates `params` and builds the controller.
-    pub fn new(params: IdmParams) -> Result<Self, ParamError> {
-        params.validate()?;
-        Ok(Self { params, estimator: RangeRateEstimator::new_unchecked(params.estimator), terms: IdmTerms::default() })
+impl CarFollowingLaw for Idm {
+    type Params = IdmParams;
+    type Terms = IdmTerms;
+
+    fn validate(p: &IdmParams) -> Result<(), ParamError> {
+        p.validate_law()
     }
 
-    /// The parameters in use.
-    pub fn params(&self) -> &IdmParams {
-        &self.params
-    }
-
-    /// The terms of the last step (all zero after a fault).
-    pub fn terms(&self) -> &IdmTerms {
-        &self.terms
-    }
-
-    /// Forgets the range-rate track.
-    pub fn reset(&mut self) {
-        self.estimator.reset();
-        self.terms = IdmTerms::default();
-    }
-
-    /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
-    /// = time since the previous frame in s.
-    pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
-        let p = self.params;
-        let frame = check_frame(distance, own_speed, dt, p.max_speed, p.max_distance);
-        let gap = match frame {
-            Ok(Frame::Lead(gap)) => Some(gap),
-            Ok(Frame::NoLead) if p.no_lead == NoLeadPolicy::Cruise => None,
-            Ok(Frame::NoLead) => return self.fault(own_speed, Status::NoLead),
-            Err(status) => return self.fault(own_speed, status),
-        };
+    /// `a_IDM` limited to `[-max_decel, a]`.
+    fn follow(&mut self, p: &IdmParams, lead: &LeadEstimate, own_speed: f64) -> (Demand, IdmTerms) {
         let free_accel = p.free_accel(own_speed);
-        self.terms = match gap {
-            Some(gap) => {
-                let range_rate = self.estimator.update(gap, dt).range_rate;
-                let v_lead = lead_speed(own_speed, range_rate, p.max_speed);
-                let interaction_accel = p.interaction_accel(own_speed, v_lead, gap);
-                let accel = clamp(free_accel + interaction_accel, -p.max_decel, p.max_accel);
-                let desired_gap = p.desired_gap(own_speed, v_lead);
-                IdmTerms { lead: true, gap, range_rate, lead_speed: v_lead, desired_gap, free_accel, interaction_accel, accel }
-            }
-            None => {
-                self.estimator.reset();
-                let accel = clamp(free_accel, -p.max_decel, p.max_accel);
-                IdmTerms { free_accel, accel, ..IdmTerms::default() }
-            }
-        };
-        accel_command(own_speed, self.terms.accel, p.command_gain, p.max_speed)
-            .unwrap_or_else(|| self.fault(own_speed, Status::InvalidDistance))
+        let interaction_accel = p.interaction_accel(own_speed, lead.lead_speed, lead.gap);
+        let accel = clamp(free_accel + interaction_accel, -p.max_decel, p.max_accel);
+        let desired_gap = p.desired_gap(own_speed, lead.lead_speed);
+        let LeadEstimate { gap, range_rate, lead_speed } = *lead;
+        (Demand::Accel(accel), IdmTerms { lead: true, gap, range_rate, lead_speed, desired_gap, free_accel, interaction_accel, accel })
     }
 
-    fn fault(&mut self, own_speed: f64, status: Status) -> LongitudinalCommand {
-        self.reset();
-        let p = &self.params;
-        safe_brake(own_speed, valid_speed(own_speed, p.max_speed), p.fault_brake_step, status)
+    /// The free-road term `a [1 - (v/v0)^delta]`, limited.
+    fn free_road(&mut self, p: &IdmParams, own_speed: f64) -> (Demand, IdmTerms) {
+        let free_accel = p.free_accel(own_speed);
+        let accel = clamp(free_accel, -p.max_decel, p.max_accel);
+        (Demand::Accel(accel), IdmTerms { free_accel, accel, ..IdmTerms::default() })
+    }
+
+    fn desired_gap(p: &IdmParams, v: f64) -> f64 {
+        p.equilibrium_gap(v)
+    }
+
+    fn terms(t: &IdmTerms) -> Terms {
+        t.to_terms()
+    }
+}
+
+impl IdmParams {
+    /// The equilibrium gap at equal speeds `v` (clamped at 0): `s* / sqrt(1 - (v/v0)^delta)`
+    /// (`s*` alone when the root vanishes), m. With `std`, `(v/v0)^delta` is std's `f64::powf`.
+    pub fn equilibrium_gap(&self, v: f64) -> f64 {
+        let v = v.max(0.0);
+        let s_star = self.desired_gap(v, v);
+        let free = 1.0 - powf(v / self.desired_speed, self.delta);
+        if free > 1e-6 { s_star / libm::sqrt(free) } else { s_star }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::command::Status;
     use proptest::prelude::*;
 
     /// The textbook example's numbers: a = 1.5, b = 2 (sqrt(a b) = sqrt(3)), T = 1.5, s0 = 2,

@@ -29,6 +29,13 @@
 //! * the gap the laws use is the measured distance itself (what the FLC sees); only the lead speed
 //!   comes from the filter.
 //!
+//! Each baseline is its equations only, a [`CarFollowingLaw`] (e.g. [`Idm`]); the shared skeleton
+//! (input checks, no-lead policy, range-rate estimator, command mapping) is [`EstimatingFollower`]
+//! ([`follower`]), and the controllers are `pub type IdmController = EstimatingFollower<Idm>` etc.,
+//! all implementing [`crate::LongitudinalController`]. A new law is one file: its parameters (with
+//! the six shared fields of [`FollowerSettings`] kept flat, for the scenario files), its terms and
+//! its `impl CarFollowingLaw`.
+//!
 //! [`Baseline`] wraps any of the four behind one `step` (no allocation), and [`BaselineKind`]
 //! gives the names used by the scenario files (`"idm" | "acc" | "rss" | "carla-behavior"`).
 //! Sources, equations, defaults and the choices made where a source is silent:
@@ -37,16 +44,34 @@
 pub mod acc;
 pub mod carla_behavior;
 pub mod estimator;
+pub mod follower;
 pub mod idm;
 pub mod rss;
 
-pub use acc::{AccController, AccMode, AccParams, AccTerms};
-pub use carla_behavior::{CarlaBand, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
+pub use acc::{Acc, AccController, AccMode, AccParams, AccTerms};
+pub use carla_behavior::{CarlaBand, CarlaBehavior, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
 pub use estimator::{EstimatorParams, RangeEstimate, RangeRateEstimator};
-pub use idm::{IdmController, IdmParams, IdmTerms};
-pub use rss::{RssController, RssParams, RssTerms};
+pub use follower::{CarFollowingLaw, Demand, EstimatingFollower, FollowerParams, FollowerSettings, LeadEstimate};
+pub use idm::{Idm, IdmController, IdmParams, IdmTerms};
+pub use rss::{Rss, RssController, RssParams, RssTerms};
 
 use crate::command::{LongitudinalCommand, Status, clamp, valid_speed};
+use crate::longitudinal::{ControlOutput, LongitudinalController};
+
+/// `x^y`: the standard library's `f64::powf` with the `std` feature (bit for bit what a `std`
+/// user computes), `libm::pow` without it.
+#[cfg(feature = "std")]
+pub(crate) fn powf(x: f64, y: f64) -> f64 {
+    x.powf(y)
+}
+
+/// `x^y`: the standard library's `f64::powf` with the `std` feature (bit for bit what a `std`
+/// user computes), `libm::pow` without it.
+#[cfg(not(feature = "std"))]
+pub(crate) fn powf(x: f64, y: f64) -> f64 {
+    libm::pow(x, y)
+}
+
 
 /// What a baseline does on a frame without a lead (`distance = None`).
 ///
@@ -160,6 +185,35 @@ impl Baseline {
             Baseline::CarlaBehavior(c) => (c.terms().lead, c.terms().lead_speed),
         };
         lead.then_some(v)
+    }
+}
+
+/// Dispatches to the wrapped controller.
+impl LongitudinalController for Baseline {
+    fn step(&mut self, frame: &crate::longitudinal::Frame) -> ControlOutput {
+        match self {
+            Baseline::Idm(c) => LongitudinalController::step(c, frame),
+            Baseline::Acc(c) => LongitudinalController::step(c, frame),
+            Baseline::Rss(c) => LongitudinalController::step(c, frame),
+            Baseline::CarlaBehavior(c) => LongitudinalController::step(c, frame),
+        }
+    }
+
+    fn reset(&mut self) {
+        Baseline::reset(self);
+    }
+
+    fn desired_gap(&self, v: f64) -> f64 {
+        match self {
+            Baseline::Idm(c) => c.desired_gap(v),
+            Baseline::Acc(c) => c.desired_gap(v),
+            Baseline::Rss(c) => c.desired_gap(v),
+            Baseline::CarlaBehavior(c) => c.desired_gap(v),
+        }
+    }
+
+    fn uses_dt(&self) -> bool {
+        true
     }
 }
 

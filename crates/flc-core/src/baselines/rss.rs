@@ -28,9 +28,11 @@
 //! 0.73`) and the cruise gain 0.4 s⁻¹ (SUMO's ACC speed-control gain). `v_lead` is the estimate of
 //! [`super::estimator`].
 
-use super::estimator::{EstimatorParams, RangeRateEstimator};
-use super::{Frame, NoLeadPolicy, accel_command, check_frame, lead_speed};
-use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use super::NoLeadPolicy;
+use super::estimator::EstimatorParams;
+use super::follower::{CarFollowingLaw, Demand, EstimatingFollower, LeadEstimate, follower_params};
+use crate::command::clamp;
+use crate::longitudinal::{Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
 
 /// Parameters of the RSS follower.
@@ -98,8 +100,8 @@ impl RssParams {
         }
     }
 
-    /// Checks every field; the error names the first offending one.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    /// Checks the law's own fields (the shared ones: [`super::FollowerSettings::validate`]).
+    fn validate_law(&self) -> Result<(), ParamError> {
         check_range("response_time", self.response_time, 0.0, 10.0, "must be finite and in [0, 10] s")?;
         check_positive("accel_max", self.accel_max, 20.0, "must be finite and in (0, 20] m/s²")?;
         check_positive("brake_min", self.brake_min, 50.0, "must be finite and in (0, 50] m/s²")?;
@@ -109,11 +111,6 @@ impl RssParams {
         check_range("speed_gain", self.speed_gain, 0.0, 100.0, "must be finite and in [0, 100]")?;
         check_positive("desired_speed", self.desired_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
         check_positive("cruise_gain", self.cruise_gain, 100.0, "must be finite and in (0, 100]")?;
-        self.estimator.validate_named(["estimator.alpha", "estimator.beta", "estimator.max_range_rate"])?;
-        check_positive("command_gain", self.command_gain, 100.0, "must be finite and in (0, 100] s")?;
-        check_positive("max_speed", self.max_speed, 1000.0, "must be finite and in (0, 1000] m/s")?;
-        check_positive("max_distance", self.max_distance, 1.0e6, "must be finite and in (0, 1e6] m")?;
-        check_range("fault_brake_step", self.fault_brake_step, 0.0, 100.0, "must be finite and in [0, 100] m/s")?;
         Ok(())
     }
 
@@ -156,93 +153,101 @@ pub struct RssTerms {
     pub accel: f64,
 }
 
-/// The RSS safe-distance follower.
-#[derive(Debug, Clone)]
-pub struct RssController {
-    params: RssParams,
-    estimator: RangeRateEstimator,
-    terms: RssTerms,
+/// The RSS safe-distance follower: the RSS equations under [`EstimatingFollower`].
+///
+/// ```
+/// use flc_core::baselines::{RssController, RssParams};
+/// use flc_core::{Frame, LongitudinalController};
+///
+/// let mut rss = RssController::new(RssParams::default())?;
+/// let out = LongitudinalController::step(&mut rss, &Frame::new(Some(40.0), 20.0, 0.05));
+/// // Lead speed = own speed = 20 on the first frame: d_min = 20 * 0.5 + 0.25 + 21^2 / 8 - 400 / 16
+/// // = 10 + 0.25 + 55.125 - 25 = 40.375 > 40: proper response, a = min(., -b_min) = -4.
+/// assert_eq!(out.command.accel, -4.0);
+/// // d_min(20, 20) + margin = 42.375.
+/// assert!((rss.desired_gap(20.0) - 42.375).abs() < 1e-12);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+pub type RssController = EstimatingFollower<Rss>;
+
+/// The RSS follower's equations ([`CarFollowingLaw`]); stateless.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Rss;
+
+follower_params!(RssParams, Rss);
+
+impl RssTerms {
+    /// The names of [`RssTerms::to_terms`], in field order (flags as 0 / 1).
+    pub const NAMES: &'static [&'static str] =
+        &["lead", "gap", "range_rate", "lead_speed", "safe_distance", "target_gap", "gap_accel", "cruise_accel", "proper_response", "accel"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(
+            Self::NAMES,
+            &[
+                flag(t.lead),
+                t.gap,
+                t.range_rate,
+                t.lead_speed,
+                t.safe_distance,
+                t.target_gap,
+                t.gap_accel,
+                t.cruise_accel,
+                flag(t.proper_response),
+                t.accel,
+            ],
+        )
+    }
 }
 
-impl RssController {
-    /// Validates `params` and builds the controller.
-    pub fn new(params: RssParams) -> Result<Self, ParamError> {
-        params.validate()?;
-        Ok(Self { params, estimator: RangeRateEstimator::new_unchecked(params.estimator), terms: RssTerms::default() })
+impl CarFollowingLaw for Rss {
+    type Params = RssParams;
+    type Terms = RssTerms;
+
+    fn validate(p: &RssParams) -> Result<(), ParamError> {
+        p.validate_law()
     }
 
-    /// The parameters in use.
-    pub fn params(&self) -> &RssParams {
-        &self.params
-    }
-
-    /// The terms of the last step (all zero after a fault).
-    pub fn terms(&self) -> &RssTerms {
-        &self.terms
-    }
-
-    /// Forgets the range-rate track.
-    pub fn reset(&mut self) {
-        self.estimator.reset();
-        self.terms = RssTerms::default();
-    }
-
-    /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
-    /// = time since the previous frame in s.
-    pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
-        let p = self.params;
-        let gap = match check_frame(distance, own_speed, dt, p.max_speed, p.max_distance) {
-            Ok(Frame::Lead(gap)) => Some(gap),
-            Ok(Frame::NoLead) if p.no_lead == NoLeadPolicy::Cruise => None,
-            Ok(Frame::NoLead) => return self.fault(own_speed, Status::NoLead),
-            Err(status) => return self.fault(own_speed, status),
-        };
+    /// `min(a_gap, a_cruise)`, the proper response below `d_min`, the limits.
+    fn follow(&mut self, p: &RssParams, lead: &LeadEstimate, own_speed: f64) -> (Demand, RssTerms) {
+        let LeadEstimate { gap, range_rate, lead_speed: v_lead } = *lead;
         let cruise_accel = p.cruise_accel(own_speed);
-        self.terms = match gap {
-            Some(gap) => {
-                let range_rate = self.estimator.update(gap, dt).range_rate;
-                let v_lead = lead_speed(own_speed, range_rate, p.max_speed);
-                let safe_distance = p.safe_distance(own_speed, v_lead);
-                let target_gap = safe_distance + p.margin;
-                let gap_accel = p.gap_gain * (gap - target_gap) + p.speed_gain * (v_lead - own_speed);
-                let mut accel = gap_accel.min(cruise_accel);
-                let proper_response = gap < safe_distance;
-                if proper_response {
-                    accel = accel.min(-p.brake_min);
-                }
-                let accel = clamp(accel, -p.brake_max, p.accel_max);
-                RssTerms {
-                    lead: true,
-                    gap,
-                    range_rate,
-                    lead_speed: v_lead,
-                    safe_distance,
-                    target_gap,
-                    gap_accel,
-                    cruise_accel,
-                    proper_response,
-                    accel,
-                }
-            }
-            None => {
-                self.estimator.reset();
-                RssTerms { cruise_accel, accel: clamp(cruise_accel, -p.brake_max, p.accel_max), ..RssTerms::default() }
-            }
-        };
-        accel_command(own_speed, self.terms.accel, p.command_gain, p.max_speed)
-            .unwrap_or_else(|| self.fault(own_speed, Status::InvalidDistance))
+        let safe_distance = p.safe_distance(own_speed, v_lead);
+        let target_gap = safe_distance + p.margin;
+        let gap_accel = p.gap_gain * (gap - target_gap) + p.speed_gain * (v_lead - own_speed);
+        let mut accel = gap_accel.min(cruise_accel);
+        let proper_response = gap < safe_distance;
+        if proper_response {
+            accel = accel.min(-p.brake_min);
+        }
+        let accel = clamp(accel, -p.brake_max, p.accel_max);
+        let t = RssTerms { lead: true, gap, range_rate, lead_speed: v_lead, safe_distance, target_gap, gap_accel, cruise_accel, proper_response, accel };
+        (Demand::Accel(accel), t)
     }
 
-    fn fault(&mut self, own_speed: f64, status: Status) -> LongitudinalCommand {
-        self.reset();
-        let p = &self.params;
-        safe_brake(own_speed, valid_speed(own_speed, p.max_speed), p.fault_brake_step, status)
+    /// The cruise term, limited.
+    fn free_road(&mut self, p: &RssParams, own_speed: f64) -> (Demand, RssTerms) {
+        let cruise_accel = p.cruise_accel(own_speed);
+        let accel = clamp(cruise_accel, -p.brake_max, p.accel_max);
+        (Demand::Accel(accel), RssTerms { cruise_accel, accel, ..RssTerms::default() })
+    }
+
+    /// `d_min(v, v) + margin`.
+    fn desired_gap(p: &RssParams, v: f64) -> f64 {
+        p.safe_distance(v, v) + p.margin
+    }
+
+    fn terms(t: &RssTerms) -> Terms {
+        t.to_terms()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::command::{LongitudinalCommand, Status};
     use proptest::prelude::*;
 
     fn rss() -> RssController {
