@@ -16,6 +16,7 @@
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
 //! 7. **experiments**: [`sweep`], the string-stability frequency response ([`string_stability`]),
 //!    and the `scenario` binary.
+mod controllers;
 mod error;
 pub mod frequency_response;
 mod lead;
@@ -39,6 +40,7 @@ mod v2v;
 mod vehicle;
 mod world;
 
+pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
 pub use lidar::{Lidar, LidarParams, Scan};

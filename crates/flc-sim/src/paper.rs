@@ -5,14 +5,14 @@
 //! 30 / 50 / 70 / 90 km/h, covers about 650 m and brakes at -6 m/s² to a stop. The follower is
 //! driven by the FLC, the PID or the switching pipeline (V2V lost at brake onset).
 
-use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
-use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFlcParams};
+use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
 use crate::lead::Phase;
 use crate::lidar::LidarParams;
 use crate::lead::LeadSpec;
-use crate::scenario::{ControllerKind, FollowerSpec, KMH, Scenario, StopSpec, SupervisorSpec, TrackSpec};
+use crate::controllers::ControllerSections;
+use crate::scenario::{ControllerKind, FollowerSpec, KMH, Scenario, StopSpec, TrackSpec};
 use crate::v2v::V2vParams;
 use crate::vehicle::VehicleParams;
 
@@ -89,8 +89,6 @@ impl Scenario {
     /// stop. For [`ControllerKind::Pipeline`], V2V is lost at the brake onset.
     pub fn paper_experiment(speed_kmh: f64, controller: ControllerKind, calibration: Calibration) -> Self {
         let mut v2v = V2vParams::default();
-        let follower = FollowerSpec::default();
-        let flc = FlcParams::paper();
         let lead = LeadSpec {
             initial_speed: 0.0,
             vehicle: VehicleParams::default(),
@@ -110,37 +108,30 @@ impl Scenario {
         // business only while it is ahead): 20 km/h above the lead's cruise speed, so that they
         // follow the lead rather than cruise behind it (`docs/baselines.md`, "In the simulator").
         let set_speed = (speed_kmh + BASELINE_SET_SPEED_MARGIN_KMH) * KMH;
-        let idm = IdmParams { desired_speed: set_speed, ..Default::default() };
-        let acc = AccParams { desired_speed: set_speed, ..Default::default() };
-        let rss = RssParams { desired_speed: set_speed, ..Default::default() };
-        let carla_behavior = CarlaBehaviorParams { cruise_speed: set_speed, speed_limit: set_speed, ..Default::default() };
-        let mut s = Self {
-            name: format!("paper-{}-{}", calibration.as_str(), speed_kmh),
-            seed: 1,
+        let mut sections = ControllerSections::default();
+        for kind in ControllerKind::ALL {
+            kind.set_cruise_speed(&mut sections, set_speed);
+        }
+        let mut s = Self::assemble(
+            format!("paper-{}-{}", calibration.as_str(), speed_kmh),
+            1,
             controller,
-            duration: 150.0,
-            physics_dt: 0.01,
-            track: TrackSpec::Straight { length: 2000.0 },
+            150.0,
+            0.01,
+            TrackSpec::Straight { length: 2000.0 },
             lead,
-            follower,
-            lidar: LidarParams::default(),
+            FollowerSpec::default(),
+            LidarParams::default(),
             v2v,
-            detector: DetectorParams::default(),
-            flc,
-            pid: PidParams::paper(),
-            pure_pursuit: PurePursuitParams::default(),
-            supervisor: SupervisorSpec::default(),
-            idm,
-            acc,
-            rss,
-            carla_behavior,
-            flc_robust: RobustFlcParams::default(),
-            stop: StopSpec::default(),
-            speed_kmh: Some(speed_kmh),
-            platoon: None,
-            variants: Vec::new(),
-            variant: None,
-        };
+            DetectorParams::default(),
+            PurePursuitParams::default(),
+            StopSpec::default(),
+            Some(speed_kmh),
+            None,
+            Vec::new(),
+            None,
+            sections,
+        );
         if calibration == Calibration::Paper {
             apply_paper(&mut s);
         }

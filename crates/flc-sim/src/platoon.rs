@@ -25,14 +25,14 @@
 //!
 //! The resolved per-follower settings are [`FollowerConfig`]s ([`crate::Scenario::follower_configs`]).
 
-use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
-use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFlcParams};
+use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
+use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, check_range};
 use crate::lidar::LidarParams;
 use crate::patch::Patch;
-use crate::scenario::{ControllerKind, FollowerSpec, SupervisorSpec};
+use crate::scenario::FollowerSpec;
 use crate::v2v::V2vParams;
 
 /// Largest number of followers.
@@ -174,7 +174,7 @@ pub struct PlatoonSpec {
     /// every follower behind it. `false`: the lead reaches every follower directly.
     pub relay: bool,
     /// Start each follower at its controller's desired gap at its initial speed
-    /// ([`FollowerConfig::reference_gap`]) instead of `initial_gap`.
+    /// (its law's `formation_gap`) instead of `initial_gap`.
     pub equilibrium_start: bool,
     /// Per-follower patches, applied in order.
     pub overrides: Vec<FollowerOverride>,
@@ -219,9 +219,11 @@ impl PlatoonSpec {
     }
 }
 
+for_each_controller!(with_controller_sections! {
 /// Everything one follower's pipeline needs: the scenario's single-follower sections, patched per
-/// follower by `[[platoon.overrides]]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// follower by `[[platoon.overrides]]`; the controllers' sections come from the registry
+/// ([`crate::ControllerKind`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FollowerConfig {
     /// Which controller drives.
@@ -234,25 +236,10 @@ pub struct FollowerConfig {
     pub v2v: V2vParams,
     /// Its lead detector.
     pub detector: DetectorParams,
-    /// Its FLC.
-    pub flc: FlcParams,
-    /// Its PID.
-    pub pid: PidParams,
     /// Its lateral controller.
     pub pure_pursuit: PurePursuitParams,
-    /// Its supervisor.
-    pub supervisor: SupervisorSpec,
-    /// Baseline: Intelligent Driver Model (`controller = "idm"`).
-    pub idm: IdmParams,
-    /// Baseline: Milanés & Shladover / SUMO ACC (`controller = "acc"`).
-    pub acc: AccParams,
-    /// Baseline: RSS safe-distance controller (`controller = "rss"`).
-    pub rss: RssParams,
-    /// Baseline: CARLA BehaviorAgent follower (`controller = "carla-behavior"`).
-    pub carla_behavior: CarlaBehaviorParams,
-    /// The robust FLC (`controller = "flc-robust"`).
-    pub flc_robust: RobustFlcParams,
 }
+});
 
 impl FollowerConfig {
     /// Checks every value; the error names the dotted key (`lidar.rate_hz`).
@@ -271,37 +258,13 @@ impl FollowerConfig {
             r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
         };
         core("detector", self.detector.validate())?;
-        core("flc", self.flc.validate())?;
-        core("pid", self.pid.validate())?;
         core("pure_pursuit", self.pure_pursuit.validate())?;
-        core("idm", self.idm.validate())?;
-        core("acc", self.acc.validate())?;
-        core("rss", self.rss.validate())?;
-        core("carla_behavior", self.carla_behavior.validate())?;
-        core("flc_robust", self.flc_robust.validate())?;
-        check_range("supervisor.return_after", f64::from(self.supervisor.return_after), 1.0, 1.0e6, "messages")
+        self.check_sections()
     }
 
-    /// The steady-state gap the selected baseline keeps behind a lead at the follower's own speed
-    /// `v` (equal speeds), m; used for `gap_error_rms` (`docs/baselines.md`, "In the simulator").
-    /// IDM: its equilibrium `s*(v) / sqrt(1 - (v/v0)^delta)` (`s*(v)` at and above `v0`); ACC:
-    /// `min_gap + headway_time v`; RSS: `d_min(v, v) + margin`; CARLA: the upper edge of its
-    /// second TTC band at the floored closing speed, `2 safety_time min_closing_speed`. `NaN` for
-    /// the FLC, PID and pipeline (they have their own).
-    pub fn baseline_desired_gap(&self, v: f64) -> f64 {
-        let v = v.max(0.0);
-        match self.controller {
-            ControllerKind::Idm => {
-                let p = &self.idm;
-                let s_star = p.desired_gap(v, v);
-                let free = 1.0 - (v / p.desired_speed).powf(p.delta);
-                if free > 1e-6 { s_star / free.sqrt() } else { s_star }
-            }
-            ControllerKind::Acc => self.acc.min_gap + self.acc.headway_time * v,
-            ControllerKind::Rss => self.rss.safe_distance(v, v) + self.rss.margin,
-            ControllerKind::CarlaBehavior => 2.0 * self.carla_behavior.safety_time * self.carla_behavior.min_closing_speed,
-            ControllerKind::Flc | ControllerKind::Pid | ControllerKind::Pipeline | ControllerKind::FlcRobust => f64::NAN,
-        }
+    /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).
+    pub fn longitudinal(&self) -> Result<BoxedLaw, ConfigError> {
+        self.controller.build(self).map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
     }
 
     /// The supervisor's parameters assembled from `supervisor`, `flc` and `pid`.
@@ -313,20 +276,6 @@ impl FollowerConfig {
             flc: self.flc,
             pid: self.pid,
         }
-    }
-
-    /// The spacing policy the string is formed with, m, at own speed `v` (m/s): the FLC's
-    /// `D_d + F_shift` for `flc`, the PID's desired distance for `pid` and `pipeline` (the PID
-    /// drives while V2V is fresh), the robust FLC's desired gap, a baseline's steady-state gap
-    /// ([`Self::baseline_desired_gap`]). `None` where that is undefined.
-    pub fn reference_gap(&self, v: f64) -> Option<f64> {
-        let g = match self.controller {
-            ControllerKind::Flc => self.flc.desired_distance(v) + self.flc.f_shift(v),
-            ControllerKind::Pid | ControllerKind::Pipeline => self.pid.desired_distance(v),
-            ControllerKind::FlcRobust => self.flc_robust.desired_gap(v),
-            ControllerKind::Idm | ControllerKind::Acc | ControllerKind::Rss | ControllerKind::CarlaBehavior => self.baseline_desired_gap(v),
-        };
-        g.is_finite().then_some(g)
     }
 
     /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:

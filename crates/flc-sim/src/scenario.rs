@@ -7,10 +7,11 @@
 
 use std::path::Path;
 
-use flc_core::baselines::{AccParams, CarlaBehaviorParams, IdmParams, RssParams};
-use flc_core::{DetectorParams, FlcParams, PidParams, PurePursuitParams, RobustFlcParams};
+use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
+pub use crate::controllers::ControllerKind;
+use crate::controllers::{for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, SimError, check_range};
 use crate::lead::LeadSpec;
 use crate::lidar::LidarParams;
@@ -24,71 +25,6 @@ pub use crate::units::KMH;
 
 /// Family key of [`Scenario::patched`]: the deceleration of every brake phase of the lead.
 pub const LEAD_DECEL_KEY: &str = "lead_decel";
-
-/// Which longitudinal controller drives the follower.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ControllerKind {
-    /// The paper's FLC only (LiDAR distance + own speed).
-    Flc,
-    /// The V2V PID only (holds the last received lead speed when V2V is lost).
-    Pid,
-    /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC otherwise).
-    Pipeline,
-    /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
-    Idm,
-    /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
-    Acc,
-    /// Baseline under identical sensing: RSS safe-distance controller (`[rss]`).
-    Rss,
-    /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
-    CarlaBehavior,
-    /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
-    /// `[flc_robust]`, `docs/robust-flc.md`).
-    FlcRobust,
-}
-
-impl ControllerKind {
-    /// The name used in scenario files, the CLI and the JSON output.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ControllerKind::Flc => "flc",
-            ControllerKind::Pid => "pid",
-            ControllerKind::Pipeline => "pipeline",
-            ControllerKind::Idm => "idm",
-            ControllerKind::Acc => "acc",
-            ControllerKind::Rss => "rss",
-            ControllerKind::CarlaBehavior => "carla-behavior",
-            ControllerKind::FlcRobust => "flc-robust",
-        }
-    }
-
-    /// Every controller, in the order of the docs.
-    pub const ALL: [ControllerKind; 8] = [
-        ControllerKind::Flc,
-        ControllerKind::Pid,
-        ControllerKind::Pipeline,
-        ControllerKind::Idm,
-        ControllerKind::Acc,
-        ControllerKind::Rss,
-        ControllerKind::CarlaBehavior,
-        ControllerKind::FlcRobust,
-    ];
-
-    /// Whether this controller uses V2V (the PID alone or inside the pipeline); the others see the
-    /// lead only through the LiDAR detector.
-    pub fn uses_v2v(self) -> bool {
-        matches!(self, ControllerKind::Pid | ControllerKind::Pipeline)
-    }
-
-    /// Parses the name used in scenario files and on the CLI.
-    pub fn parse(s: &str) -> Result<Self, ConfigError> {
-        Self::ALL.into_iter().find(|k| k.as_str() == s).ok_or_else(|| {
-            let names: Vec<&str> = Self::ALL.iter().map(|k| k.as_str()).collect();
-            ConfigError::new("controller", format!("must be one of {}, got `{s}`", names.join(", ")))
-        })
-    }
-}
 
 /// Which track to drive on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -199,8 +135,10 @@ impl Default for StopSpec {
     }
 }
 
+for_each_controller!(with_controller_sections! {
 /// A complete scenario. `Default` is the paper's experiment at 50 km/h with the FLC, realistic
-/// vehicle.
+/// vehicle ([`crate::paper`]). The controllers' parameter sections (`[flc]`, `[pid]`,
+/// `[supervisor]`, `[idm]`, ...) come from the registry ([`ControllerKind`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Scenario {
@@ -226,24 +164,8 @@ pub struct Scenario {
     pub v2v: V2vParams,
     /// The lead detector.
     pub detector: DetectorParams,
-    /// The FLC (Eqs. (2)-(5)).
-    pub flc: FlcParams,
-    /// The PID gap controller.
-    pub pid: PidParams,
     /// The lateral controller (Eq. (1)).
     pub pure_pursuit: PurePursuitParams,
-    /// The parallel longitudinal controller.
-    pub supervisor: SupervisorSpec,
-    /// Baseline: Intelligent Driver Model (`controller = "idm"`).
-    pub idm: IdmParams,
-    /// Baseline: Milanés & Shladover / SUMO ACC (`controller = "acc"`).
-    pub acc: AccParams,
-    /// Baseline: RSS safe-distance controller (`controller = "rss"`).
-    pub rss: RssParams,
-    /// Baseline: CARLA BehaviorAgent follower (`controller = "carla-behavior"`).
-    pub carla_behavior: CarlaBehaviorParams,
-    /// Beyond the paper: the robust FLC (`controller = "flc-robust"`, `docs/robust-flc.md`).
-    pub flc_robust: RobustFlcParams,
     /// Stop conditions.
     pub stop: StopSpec,
     /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
@@ -261,6 +183,7 @@ pub struct Scenario {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub variant: Option<String>,
 }
+});
 
 /// One entry of `[[variants]]`: a name and the keys it changes (any scenario keys, tables merged
 /// key by key).
@@ -305,22 +228,15 @@ impl Scenario {
     /// `[detector]`, `[flc]`, `[pid]`, `[pure_pursuit]`, `[supervisor]` and the baselines' and robust
     /// FLC's sections.
     pub fn base_follower_config(&self) -> FollowerConfig {
-        FollowerConfig {
-            controller: self.controller,
-            follower: self.follower.clone(),
-            lidar: self.lidar.clone(),
-            v2v: self.v2v.clone(),
-            detector: self.detector,
-            flc: self.flc,
-            pid: self.pid,
-            pure_pursuit: self.pure_pursuit,
-            supervisor: self.supervisor,
-            idm: self.idm,
-            acc: self.acc,
-            rss: self.rss,
-            carla_behavior: self.carla_behavior,
-            flc_robust: self.flc_robust,
-        }
+        FollowerConfig::assemble(
+            self.controller,
+            self.follower.clone(),
+            self.lidar.clone(),
+            self.v2v.clone(),
+            self.detector,
+            self.pure_pursuit,
+            self.sections(),
+        )
     }
 
     /// Number of followers (1 without `[platoon]`).
@@ -395,21 +311,6 @@ impl Scenario {
             return Ok(vec![self.clone()]);
         }
         (0..self.variants.len()).map(|i| self.expand_variant(i)).collect()
-    }
-
-    /// The supervisor's parameters assembled from `[supervisor]`, `[flc]` and `[pid]`.
-    pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
-        self.base_follower_config().supervisor_params()
-    }
-
-    /// The steady-state gap the selected baseline keeps behind a lead at the follower's own speed
-    /// `v` (equal speeds), m; used for `gap_error_rms` (`docs/baselines.md`, "In the simulator").
-    /// IDM: its equilibrium `s*(v) / sqrt(1 - (v/v0)^delta)` (`s*(v)` at and above `v0`); ACC:
-    /// `min_gap + headway_time v`; RSS: `d_min(v, v) + margin`; CARLA: the upper edge of its
-    /// second TTC band at the floored closing speed, `2 safety_time min_closing_speed`. `NaN` for
-    /// the FLC, PID and pipeline (they have their own).
-    pub fn baseline_desired_gap(&self, v: f64) -> f64 {
-        self.base_follower_config().baseline_desired_gap(v)
     }
 
     /// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but

@@ -3,7 +3,7 @@
 //! Vehicles are numbered 0 (the lead) to N; follower `k` follows vehicle `k - 1`. Per follower:
 //!
 //! * gap error `e_k(t) = gap_k(t) - g*_k(v_k(t))`, with `g*` the spacing policy the string is
-//!   formed with ([`crate::platoon::FollowerConfig::reference_gap`]: the FLC's `D_d + F_shift` for
+//!   formed with ([`reference_gap`]: the FLC's `D_d + F_shift` for
 //!   `flc`, the PID's desired distance for `pid` / `pipeline`, else the recorded `desired_gap`);
 //! * speed error `s_k(t) = v_{k-1}(t) - v_k(t)` (0 in equilibrium and at standstill).
 //!
@@ -24,7 +24,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::platoon::{FollowerConfig, StringStabilitySpec};
+use flc_core::LongitudinalController;
+
+use crate::platoon::StringStabilitySpec;
 use crate::sim::FollowerRun;
 
 /// `|Gamma(jw)|` at one frequency.
@@ -108,19 +110,27 @@ pub struct Signals {
     pub accel: Vec<Vec<f64>>,
 }
 
+/// The spacing policy a string of `law`s is formed with at own speed `v`, m (the law's
+/// `formation_gap`: the FLC's `D_d + F_shift`, the PID's desired distance for the PID and the
+/// pipeline, a baseline's steady-state gap); `None` where it is not finite.
+pub fn reference_gap(law: &dyn LongitudinalController, v: f64) -> Option<f64> {
+    let g = law.formation_gap(v);
+    g.is_finite().then_some(g)
+}
+
 impl Signals {
-    /// The signals of a platoon run (`runs` and `configs` per follower): gap errors against each
-    /// follower's [`FollowerConfig::reference_gap`] (the recorded `desired_gap` where it has
-    /// none), speed errors against the vehicle in front, accelerations.
-    pub fn of(runs: &[FollowerRun], configs: &[FollowerConfig]) -> Self {
+    /// The signals of a platoon run (`runs` and `laws` per follower): gap errors against each
+    /// follower's [`reference_gap`] (the recorded `desired_gap` where it has none), speed errors
+    /// against the vehicle in front, accelerations.
+    pub fn of(runs: &[FollowerRun], laws: &[&dyn LongitudinalController]) -> Self {
         let t = runs.first().map(|r| r.series.t.clone()).unwrap_or_default();
         let mut sig = Signals { t, ..Signals::default() };
         if let Some(first) = runs.first() {
             sig.accel.push(first.series.lead_accel.clone());
         }
-        for (r, c) in runs.iter().zip(configs) {
+        for (r, law) in runs.iter().zip(laws) {
             let s = &r.series;
-            let e: Vec<f64> = (0..s.len()).map(|i| s.gap[i] - c.reference_gap(s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
+            let e: Vec<f64> = (0..s.len()).map(|i| s.gap[i] - reference_gap(*law, s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
             sig.gap_error.push(e);
             sig.speed_error.push(s.lead_speed.iter().zip(&s.follower_speed).map(|(a, b)| a - b).collect());
             sig.accel.push(s.follower_accel.clone());
@@ -283,9 +293,9 @@ impl StringStability {
         }
     }
 
-    /// The measures of a platoon run: `runs` and `configs` per follower, `brake_onset` the lead's.
-    pub fn measure(spec: &StringStabilitySpec, runs: &[FollowerRun], configs: &[FollowerConfig], brake_onset: Option<f64>) -> Self {
-        let sig = Signals::of(runs, configs);
+    /// The measures of a platoon run: `runs` and `laws` per follower, `brake_onset` the lead's.
+    pub fn measure(spec: &StringStabilitySpec, runs: &[FollowerRun], laws: &[&dyn LongitudinalController], brake_onset: Option<f64>) -> Self {
+        let sig = Signals::of(runs, laws);
         let t0 = spec.window_start.or(brake_onset).unwrap_or(0.0);
         let t1 = sig.t.last().copied().unwrap_or(0.0);
         let collisions = runs.iter().enumerate().filter(|(_, r)| r.collision.is_some()).map(|(k, _)| k as u32 + 1).collect();

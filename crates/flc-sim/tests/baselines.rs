@@ -42,8 +42,14 @@ fn tail_stats(s: &Scenario, window: f64) -> (f64, f64, f64) {
     (mean, lo, hi)
 }
 
+/// The desired gap of the scenario's law at own speed `v`, m.
+fn law_gap(s: &Scenario, v: f64) -> f64 {
+    use flc_core::LongitudinalController;
+    s.base_follower_config().longitudinal().expect("law").desired_gap(v)
+}
+
 /// Every baseline ends up at the lead's speed and at its own law's steady-state gap
-/// (`Scenario::baseline_desired_gap`): IDM's equilibrium, the ACC's `min_gap + t_hw v`, RSS's
+/// (its `desired_gap`, the law's own formula in flc-core): IDM's equilibrium, the ACC's `min_gap + t_hw v`, RSS's
 /// `d_min + margin`; the CARLA agent, which has no gap law, settles inside its second TTC band.
 #[test]
 fn every_baseline_follows_a_steady_lead_at_its_own_gap() {
@@ -51,7 +57,7 @@ fn every_baseline_follows_a_steady_lead_at_its_own_gap() {
         let s = steady(c);
         let (gap, v, desired) = final_gap_and_speed(&s);
         assert!((v - 20.0).abs() < 0.3, "{}: speed {v}", c.as_str());
-        assert!((desired - s.baseline_desired_gap(v)).abs() < 1e-9, "{}: recorded desired gap", c.as_str());
+        assert!((desired - law_gap(&s, v)).abs() < 1e-9, "{}: recorded desired gap", c.as_str());
         assert!((gap - desired).abs() < 0.1 * desired, "{}: gap {gap} vs desired {desired}", c.as_str());
     }
     // The CARLA agent's speed bands make it hunt around the lead's speed (limit cycle) while the
@@ -60,7 +66,7 @@ fn every_baseline_follows_a_steady_lead_at_its_own_gap() {
     let (mean, lo, hi) = tail_stats(&s, 30.0);
     let p = &s.carla_behavior;
     assert!((mean - 20.0).abs() < 0.5, "carla: mean speed {mean}");
-    assert!(lo > p.braking_distance * 0.5 && hi < 2.0 * s.baseline_desired_gap(20.0), "carla: gap in [{lo}, {hi}]");
+    assert!(lo > p.braking_distance * 0.5 && hi < 2.0 * law_gap(&s, 20.0), "carla: gap in [{lo}, {hi}]");
 }
 
 /// The `[idm]` section of a scenario file reaches the controller: a 1 s longer time headway

@@ -1,48 +1,20 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
-use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
-use flc_core::{
-    ActiveController, Baseline, FallbackController, LeadDetector, PidController, Point2, PurePursuit, RobustFallbackController, Supervisor,
-    SwitchReason, V2vMessage,
-};
+use flc_core::{ActiveController, Frame, LeadDetector, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
+use crate::controllers::BoxedLaw;
 use crate::error::SimError;
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
 use crate::platoon::{FollowerConfig, V2vSource};
-use crate::scenario::{ControllerKind, Scenario};
+use crate::scenario::Scenario;
 use crate::series::{Series, StepRecord};
 use crate::track::Track;
 use crate::v2v::V2vChannel;
 use crate::vehicle::{SpeedController, Vehicle, VehicleState};
 use crate::world::Body;
-
-/// The longitudinal controller of one follower: one arm per [`ControllerKind`].
-enum Longitudinal {
-    Flc(FallbackController),
-    Pid(PidController),
-    Pipeline(Box<Supervisor>),
-    Baseline(Baseline),
-    FlcRobust(RobustFallbackController),
-}
-
-impl Longitudinal {
-    /// The controller of a follower configured by `c` (`s`: the whole scenario).
-    fn new(_s: &Scenario, c: &FollowerConfig) -> Result<Self, SimError> {
-        Ok(match c.controller {
-            ControllerKind::Flc => Longitudinal::Flc(FallbackController::new(c.flc)?),
-            ControllerKind::Pid => Longitudinal::Pid(PidController::new(c.pid)?),
-            ControllerKind::Pipeline => Longitudinal::Pipeline(Box::new(Supervisor::new(c.supervisor_params())?)),
-            ControllerKind::Idm => Longitudinal::Baseline(IdmController::new(c.idm)?.into()),
-            ControllerKind::Acc => Longitudinal::Baseline(AccController::new(c.acc)?.into()),
-            ControllerKind::Rss => Longitudinal::Baseline(RssController::new(c.rss)?.into()),
-            ControllerKind::CarlaBehavior => Longitudinal::Baseline(CarlaBehaviorController::new(c.carla_behavior)?.into()),
-            ControllerKind::FlcRobust => Longitudinal::FlcRobust(RobustFallbackController::new(c.flc_robust)?),
-        })
-    }
-}
 
 /// One follower: its vehicle, sensors, links, pipeline state and records.
 pub(super) struct Follower {
@@ -60,7 +32,8 @@ pub(super) struct Follower {
     pub(super) v2v_lead: Option<V2vChannel>,
     pub(super) detector: Box<LeadDetector>,
     pub(super) pursuit: PurePursuit,
-    pub(super) longitudinal: Longitudinal,
+    /// Its longitudinal law (the registry builds it from `cfg`).
+    pub(super) longitudinal: BoxedLaw,
     pub(super) distance_offset: f64,
     /// The scan's points that can fall into the detector's grid (reused buffer).
     pub(super) grid_buf: Vec<[f64; 2]>,
@@ -69,7 +42,6 @@ pub(super) struct Follower {
     pub(super) lead_info: Option<(f64, u32)>,
     /// Relay: a lead speed received and not yet forwarded to the follower behind.
     pub(super) relay_pending: Option<f64>,
-    pub(super) last_lead_speed: Option<f64>,
     pub(super) speed_cmd: f64,
     pub(super) steer_cmd: f64,
     pub(super) path_curvature: f64,
@@ -87,11 +59,8 @@ pub(super) struct Follower {
 
 impl Follower {
     pub(super) fn new(s: &Scenario, index: usize, cfg: FollowerConfig, body: Body, state: VehicleState, lead_link: bool) -> Result<Self, SimError> {
-        let longitudinal = Longitudinal::new(s, &cfg)?;
-        let active = match cfg.controller {
-            ControllerKind::Pid => ActiveController::Pid,
-            _ => ActiveController::Flc,
-        };
+        let longitudinal = cfg.longitudinal()?;
+        let active = cfg.controller.initial_active();
         let distance_offset = cfg.follower.distance_offset.unwrap_or(cfg.follower.vehicle.length / 2.0 - cfg.lidar.mount_x);
         let v2v_lead = lead_link.then(|| V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 3))));
         Ok(Self {
@@ -110,7 +79,6 @@ impl Follower {
             mailbox: None,
             lead_info: None,
             relay_pending: None,
-            last_lead_speed: None,
             speed_cmd: cfg.follower.initial_speed,
             steer_cmd: 0.0,
             path_curvature: 0.0,
@@ -170,32 +138,16 @@ impl Follower {
                 *age = age.saturating_add(1);
             }
         }
-        if let Some(m) = msg {
-            self.last_lead_speed = Some(m.lead_speed);
+        // Every law gets the same frame; only the PID family reads `v2v`, only the laws whose
+        // `uses_dt()` is true read `dt` (the FLC family takes neither).
+        let out = self.longitudinal.step(&Frame { distance, own_speed: fs.speed, v2v: msg, dt });
+        if out.switched {
+            self.switches += 1;
         }
-        let cmd = match &mut self.longitudinal {
-            Longitudinal::Flc(c) => c.step(distance, fs.speed),
-            Longitudinal::Pid(c) => {
-                // PID only: the last received lead speed is held (own speed before any message).
-                let sl = self.last_lead_speed.unwrap_or(fs.speed);
-                c.step(sl, fs.speed, distance, dt)
-            }
-            Longitudinal::Pipeline(s) => {
-                let out = s.step(msg, distance, fs.speed, dt);
-                if out.switched {
-                    self.switches += 1;
-                }
-                self.active = out.active;
-                self.reason = out.reason;
-                self.v2v_age = out.v2v_age_ticks;
-                out.command
-            }
-            // The baselines get what the FLC gets plus the frame interval (their range-rate
-            // estimator needs it).
-            Longitudinal::Baseline(b) => b.step(distance, fs.speed, dt),
-            // The robust FLC gets exactly what the FLC gets (no dt).
-            Longitudinal::FlcRobust(c) => c.step(distance, fs.speed),
-        };
+        self.active = out.active;
+        self.reason = out.reason;
+        self.v2v_age = out.v2v_age_ticks;
+        let cmd = out.command;
         self.speed_cmd = cmd.speed;
     }
 
@@ -203,13 +155,8 @@ impl Follower {
     pub(super) fn record(&mut self, t: f64, track: &Track, gap: f64, ls: &VehicleState, fs: &VehicleState) -> StepRecord {
         let proj = track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
-        // The desired gap of the controller that drives.
-        let desired = match (&self.longitudinal, self.active) {
-            (Longitudinal::Baseline(_), _) => self.cfg.baseline_desired_gap(fs.speed),
-            (Longitudinal::FlcRobust(c), _) => c.params().desired_gap(fs.speed),
-            (_, ActiveController::Pid) => self.cfg.pid.desired_distance(fs.speed),
-            (_, ActiveController::Flc) => self.cfg.flc.desired_distance(fs.speed) + self.cfg.flc.f_shift(fs.speed),
-        };
+        // The desired gap of the law that drives (the law's own formula).
+        let desired = self.longitudinal.desired_gap(fs.speed);
         let rec = StepRecord {
             t,
             lead_x: ls.x,

@@ -28,10 +28,10 @@ use self::links::relay_tick;
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 use crate::metrics::{CollisionInfo, Metrics};
-use crate::platoon::{FollowerConfig, V2vSource};
+use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
 use crate::series::Series;
-use crate::string_stability::StringStability;
+use crate::string_stability::{StringStability, reference_gap};
 use crate::track::Track;
 use crate::vehicle::{Vehicle, VehicleState};
 use crate::world::{Body, World};
@@ -115,7 +115,7 @@ impl Simulation {
         for k in (1..=n).rev() {
             let c = &configs[k - 1];
             let gap = if platoon.equilibrium_start {
-                c.reference_gap(c.follower.initial_speed).unwrap_or(c.follower.initial_gap)
+                reference_gap(&*c.longitudinal()?, c.follower.initial_speed).unwrap_or(c.follower.initial_gap)
             } else {
                 c.follower.initial_gap
             };
@@ -366,13 +366,17 @@ impl<O: Observer> Simulation<O> {
     /// `[platoon]` every follower's and the string-stability measures in [`RunResult::platoon`]).
     pub fn finish(self) -> RunResult {
         let Simulation { scenario, followers, lead_driver, .. } = self;
-        let configs: Vec<FollowerConfig> = followers.iter().map(|f| f.cfg.clone()).collect();
+        let mut laws = Vec::with_capacity(followers.len());
         let mut runs: Vec<FollowerRun> = followers
             .into_iter()
-            .map(|f| FollowerRun { metrics: Metrics::compute(&f.series, f.collision), series: f.series, collision: f.collision })
+            .map(|f| {
+                laws.push(f.longitudinal);
+                FollowerRun { metrics: Metrics::compute(&f.series, f.collision), series: f.series, collision: f.collision }
+            })
             .collect();
+        let laws: Vec<&dyn flc_core::LongitudinalController> = laws.iter().map(|l| &**l as &dyn flc_core::LongitudinalController).collect();
         let platoon = scenario.platoon.as_ref().map(|p| {
-            let string_stability = StringStability::measure(&p.string_stability, &runs, &configs, lead_driver.brake_onset());
+            let string_stability = StringStability::measure(&p.string_stability, &runs, &laws, lead_driver.brake_onset());
             PlatoonResult { followers: runs.clone(), string_stability }
         });
         let first = runs.swap_remove(0);

@@ -1,0 +1,225 @@
+//! The controller registry: **one row per longitudinal controller**, and everything the simulator
+//! knows about controllers is generated from it — [`ControllerKind`] (names for scenario files,
+//! the CLI, JSON and Python), the parameter section of each law in [`crate::Scenario`] and
+//! [`crate::FollowerConfig`] (`[flc]`, `[idm]`, ...), their validation, and the construction of
+//! the law behind `flc_core::LongitudinalController`. A law's own formulas (its step, its desired
+//! gap) live with the law in `flc-core`.
+//!
+//! A row: `Kind = "name", section: ParamsType, build |cfg| expr, cruise |params, v| stmt, v2v,
+//! starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
+//! parameters, how to build the law from a follower's configuration, how the paper experiment sets
+//! a cruise controller's set speed (`docs/baselines.md`), whether the law listens to V2V, and which
+//! law the `active` column shows before the first control frame.
+
+use flc_core::baselines::{
+    AccController, AccParams, CarlaBehaviorController, CarlaBehaviorParams, IdmController, IdmParams, RssController, RssParams,
+};
+use flc_core::{
+    ActiveController, FallbackController, FlcParams, LongitudinalController, PidController, PidParams, RobustFallbackController,
+    RobustFlcParams, Supervisor,
+};
+
+use crate::error::ConfigError;
+
+/// A boxed longitudinal law, as the loop holds it.
+pub type BoxedLaw = Box<dyn LongitudinalController + Send>;
+
+/// Calls `$callback! { { $($prefix)* } rows... }` with the registry's rows.
+macro_rules! for_each_controller {
+    ($callback:ident! { $($prefix:tt)* }) => {
+        $callback! { { $($prefix)* }
+            /// The paper's FLC only (LiDAR distance + own speed; Sec. III-B, Eqs. (2)-(5)).
+            Flc = "flc", flc: flc_core::FlcParams, build |c| FallbackController::new(c.flc), cruise |_p, _v| {}, v2v false, starts Flc;
+            /// The V2V PID only (holds the last received lead speed when V2V is lost; Sec. III-A.3).
+            Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, starts Pid;
+            /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC
+            /// otherwise), from `[supervisor]`, `[flc]` and `[pid]`.
+            Pipeline = "pipeline", supervisor: crate::scenario::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, starts Flc;
+            /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
+            Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
+            Acc = "acc", acc: flc_core::baselines::AccParams, build |c| AccController::new(c.acc), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            /// Baseline under identical sensing: RSS safe-distance controller (`[rss]`).
+            Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
+            CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, starts Flc;
+            /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
+            /// `[flc_robust]`, `docs/robust-flc.md`).
+            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, starts Flc;
+        }
+    };
+}
+pub(crate) use for_each_controller;
+
+/// Generates [`ControllerKind`] and [`ControllerSections`] from the rows.
+macro_rules! define_registry {
+    ({} $( $(#[doc = $doc:literal])* $kind:ident = $name:literal, $field:ident : $params:ty,
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
+        /// Which longitudinal controller drives a follower (the registry's rows, in order).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+        pub enum ControllerKind {
+            $( $(#[doc = $doc])* #[serde(rename = $name)] $kind, )*
+        }
+
+        impl ControllerKind {
+            /// Every controller, in the registry's order.
+            pub const ALL: &'static [ControllerKind] = &[$( ControllerKind::$kind, )*];
+
+            /// The name used in scenario files, the CLI, the JSON output and Python.
+            pub fn as_str(self) -> &'static str {
+                match self { $( ControllerKind::$kind => $name, )* }
+            }
+
+            /// Whether this controller uses V2V (the PID alone or inside the pipeline); the others
+            /// see the lead only through the LiDAR detector.
+            pub fn uses_v2v(self) -> bool {
+                match self { $( ControllerKind::$kind => $v2v, )* }
+            }
+
+            /// The law shown in the `active` column before the first control frame.
+            pub fn initial_active(self) -> ActiveController {
+                match self { $( ControllerKind::$kind => ActiveController::$active, )* }
+            }
+
+            /// The parameter section (scenario table) this controller is configured by.
+            pub fn section(self) -> &'static str {
+                match self { $( ControllerKind::$kind => stringify!($field), )* }
+            }
+
+            /// Builds the law for a follower configured by `cfg`.
+            pub fn build(self, cfg: &crate::platoon::FollowerConfig) -> Result<BoxedLaw, flc_core::ParamError> {
+                match self { $( ControllerKind::$kind => { let $c = cfg; Ok(Box::new($build?)) } )* }
+            }
+
+            /// Sets a cruise controller's set speed `v` (m/s) in `sections` (the paper experiment's
+            /// baselines); no-op for the FLC family and the PID.
+            pub fn set_cruise_speed(self, sections: &mut ControllerSections, v: f64) {
+                match self { $( ControllerKind::$kind => { let $p = &mut sections.$field; let $v = v; $cruise } )* }
+            }
+        }
+
+        /// The parameter sections of every controller (`[flc]`, `[pid]`, `[supervisor]`,
+        /// `[idm]`, ...): flattened into [`crate::Scenario`] and [`crate::FollowerConfig`] by
+        /// `with_controller_sections!`. `Default`: each law's documented defaults.
+        #[derive(Debug, Clone, Default, PartialEq)]
+        pub struct ControllerSections {
+            $( $(#[doc = $doc])* pub $field: $params, )*
+        }
+    };
+}
+for_each_controller!(define_registry! {});
+
+/// Declares a struct with the fields given plus one field per controller section (`pub flc:
+/// FlcParams`, ...), with `sections()` / `set_sections()` / `check_sections()` accessors: the
+/// section fields of [`crate::Scenario`] and [`crate::FollowerConfig`] come from the registry.
+macro_rules! with_controller_sections {
+    ({ $(#[$meta:meta])* pub struct $name:ident { $( $(#[$fmeta:meta])* pub $fname:ident : $fty:ty, )* } }
+     $( $(#[doc = $doc:literal])* $kind:ident = $cname:literal, $field:ident : $params:ty,
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
+        $(#[$meta])*
+        pub struct $name {
+            $( $(#[$fmeta])* pub $fname: $fty, )*
+            $( $(#[doc = $doc])* pub $field: $params, )*
+        }
+
+        impl $name {
+            /// Builds the struct from its own fields (in declaration order) and the controllers'
+            /// parameter sections.
+            #[allow(clippy::too_many_arguments)]
+            pub(crate) fn assemble($( $fname: $fty, )* sections: $crate::controllers::ControllerSections) -> Self {
+                Self { $( $fname, )* $( $field: sections.$field, )* }
+            }
+
+            /// The controllers' parameter sections.
+            pub fn sections(&self) -> $crate::controllers::ControllerSections {
+                $crate::controllers::ControllerSections { $( $field: self.$field.clone(), )* }
+            }
+
+            /// Checks every controller section; the error names `section.field` (`idm.delta`).
+            pub fn check_sections(&self) -> Result<(), $crate::error::ConfigError> {
+                $( $crate::controllers::Section::check(&self.$field).map_err(|e| e.within(stringify!($field)))?; )*
+                Ok(())
+            }
+        }
+    };
+}
+pub(crate) use with_controller_sections;
+
+/// Validation of one parameter section, the error naming `section.field`.
+pub trait Section {
+    /// Checks the section's values.
+    fn check(&self) -> Result<(), ConfigError>;
+}
+
+macro_rules! core_sections {
+    ($($t:ty),* $(,)?) => {
+        $( impl Section for $t {
+            fn check(&self) -> Result<(), ConfigError> {
+                self.validate().map_err(|e| ConfigError::new(e.field, e.problem))
+            }
+        } )*
+    };
+}
+core_sections!(FlcParams, PidParams, RobustFlcParams, IdmParams, AccParams, RssParams, CarlaBehaviorParams);
+
+/// Generates [`ControllerSections::NAMES`] from the rows.
+macro_rules! define_names {
+    ({} $( $(#[doc = $doc:literal])* $kind:ident = $name:literal, $field:ident : $params:ty,
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
+        impl ControllerSections {
+            /// The section names (scenario tables), in the registry's order.
+            pub const NAMES: &'static [&'static str] = &[$( stringify!($field), )*];
+        }
+    };
+}
+for_each_controller!(define_names! {});
+
+impl Section for crate::scenario::SupervisorSpec {
+    fn check(&self) -> Result<(), ConfigError> {
+        crate::error::check_range("return_after", f64::from(self.return_after), 1.0, 1.0e6, "messages")
+    }
+}
+
+impl Default for ControllerKind {
+    /// The paper's FLC.
+    fn default() -> Self {
+        ControllerKind::Flc
+    }
+}
+
+impl ControllerKind {
+    /// Parses the name used in scenario files and on the CLI.
+    pub fn parse(s: &str) -> Result<Self, ConfigError> {
+        Self::ALL.iter().copied().find(|k| k.as_str() == s).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|k| k.as_str()).collect();
+            ConfigError::new("controller", format!("must be one of {}, got `{s}`", names.join(", ")))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_are_unique() {
+        let mut names: Vec<&str> = ControllerKind::ALL.iter().map(|k| k.as_str()).collect();
+        for k in ControllerKind::ALL {
+            assert_eq!(ControllerKind::parse(k.as_str()).ok(), Some(*k));
+            let json = serde_json::to_string(k).unwrap_or_default();
+            assert_eq!(json, format!("\"{}\"", k.as_str()));
+        }
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), ControllerKind::ALL.len());
+        assert!(ControllerKind::parse("frobnicate").is_err());
+    }
+
+    #[test]
+    fn every_default_law_builds() {
+        let cfg = crate::Scenario::default().base_follower_config();
+        for k in ControllerKind::ALL {
+            assert!(k.build(&cfg).is_ok(), "{}", k.as_str());
+        }
+    }
+}
