@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use flc_sim::Series;
 use flc_sim::report::PlatoonRecord;
 use flc_sim::{Calibration, ControllerKind, Scenario};
-use flc_sim::string_stability::Signals;
 use flc_sim::{RunResult, SimError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -71,8 +70,7 @@ fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
                 let rows: Vec<Vec<f64>> = per_follower.iter().map(|cols| cols.get(j).map(|c| c.1.clone()).unwrap_or_default()).collect();
                 pd.set_item(*name, array2(py, &rows)?)?;
             }
-            let configs = r.scenario.follower_configs().map_err(|e| ScenarioError::new_err(e.to_string()))?;
-            let sig = Signals::of(&p.followers, &configs);
+            let sig = &p.signals;
             pd.set_item("gap_error", array2(py, &sig.gap_error)?)?;
             pd.set_item("speed_error", array2(py, &sig.speed_error)?)?;
             Some((to_json(&record)?, pd))
@@ -118,7 +116,7 @@ fn frequency_response(py: Python<'_>, scenario_json: &str, freqs_hz: Option<Vec<
 #[pyo3(signature = (scenario_json, record=None))]
 fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<RunTuple<'py>> {
     let s = parse_scenario(scenario_json)?;
-    let r = py.detach(|| flc_sim::run_with(&s, record.as_deref())).map_err(scenario_err)?;
+    let r = py.detach(|| flc_sim::RunOptions { record: record.as_deref(), ..flc_sim::RunOptions::default() }.run(&s)).map_err(scenario_err)?;
     result_to_py(py, r)
 }
 

@@ -305,6 +305,47 @@ impl Scenario {
         resolved.apply(self)
     }
 
+    /// The scenario's sections (top-level tables: `follower`, `lidar`, `flc`, `platoon`, ...),
+    /// derived from the struct itself.
+    pub fn section_names() -> Vec<String> {
+        let full = Scenario { platoon: Some(PlatoonSpec::default()), ..Scenario::default() };
+        match toml::Value::try_from(&full) {
+            Ok(toml::Value::Table(t)) => t.into_iter().filter(|(_, v)| v.is_table()).map(|(k, _)| k).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The dotted key of a keyword override: `lidar_rate_hz` -> `lidar.rate_hz` (the longest
+    /// section name followed by `_`), a dotted key and the family key `lead_decel` unchanged,
+    /// anything else as is (`seed`).
+    pub fn resolve_key(name: &str) -> String {
+        if name.contains('.') || name == LEAD_DECEL_KEY {
+            return name.to_string();
+        }
+        let mut sections = Self::section_names();
+        sections.sort_by_key(|s| std::cmp::Reverse(s.len()));
+        for section in sections {
+            if let Some(rest) = name.strip_prefix(section.as_str()).and_then(|r| r.strip_prefix('_')) {
+                if !rest.is_empty() {
+                    return format!("{section}.{rest}");
+                }
+            }
+        }
+        name.to_string()
+    }
+
+    /// This scenario with keyword overrides (`lidar_rate_hz = 10`, `"follower.vehicle.mass"`,
+    /// `lead_decel`) applied in order through [`Scenario::patched`]; validated. Errors name the key.
+    pub fn with_overrides(&self, overrides: &[(String, serde_json::Value)]) -> Result<Scenario, ConfigError> {
+        let mut patch = Patch::new();
+        for (name, value) in overrides {
+            patch.set_json(Self::resolve_key(name), value)?;
+        }
+        let s = self.patched(&patch)?;
+        s.validate()?;
+        Ok(s)
+    }
+
     /// The scenarios to run for this one: each variant if it has `[[variants]]`, else itself.
     pub fn expand_variants(&self) -> Result<Vec<Scenario>, ConfigError> {
         if self.variants.is_empty() {
@@ -364,5 +405,32 @@ fn one_line(msg: &str) -> String {
         }
         (Some(first), _) => (*first).to_string(),
         _ => msg.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sections_keys_and_overrides() {
+        let names = Scenario::section_names();
+        for s in ["follower", "lead", "lidar", "v2v", "detector", "pure_pursuit", "stop", "track", "platoon", "flc", "pid", "supervisor", "idm"] {
+            assert!(names.iter().any(|n| n == s), "{s} in {names:?}");
+        }
+        assert!(!names.iter().any(|n| n == "name" || n == "seed"));
+        assert_eq!(Scenario::resolve_key("lidar_rate_hz"), "lidar.rate_hz");
+        assert_eq!(Scenario::resolve_key("flc_robust_brake_gain"), "flc_robust.brake_gain");
+        assert_eq!(Scenario::resolve_key("follower.vehicle.mass"), "follower.vehicle.mass");
+        assert_eq!(Scenario::resolve_key("seed"), "seed");
+        let s = Scenario::default()
+            .with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(10.0)), ("lead_decel".into(), serde_json::json!(4.0))])
+            .expect("overrides");
+        assert_eq!(s.lidar.rate_hz, 10.0);
+        assert!(matches!(s.lead.phases[2], crate::lead::Phase::Brake { decel, .. } if decel == 4.0));
+        let e = Scenario::default().with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(0.0))]).expect_err("range");
+        assert!(e.to_string().contains("lidar.rate_hz"), "{e}");
+        let e = Scenario::default().with_overrides(&[("lidar_frobnicate".into(), serde_json::json!(1))]).expect_err("unknown");
+        assert!(e.to_string().contains("frobnicate"), "{e}");
     }
 }

@@ -293,13 +293,13 @@ impl StringStability {
         }
     }
 
-    /// The measures of a platoon run: `runs` and `laws` per follower, `brake_onset` the lead's.
-    pub fn measure(spec: &StringStabilitySpec, runs: &[FollowerRun], laws: &[&dyn LongitudinalController], brake_onset: Option<f64>) -> Self {
-        let sig = Signals::of(runs, laws);
+    /// The measures of a platoon run: `sig` its signals ([`Signals::of`]), `runs` per follower,
+    /// `brake_onset` the lead's.
+    pub fn measure(spec: &StringStabilitySpec, sig: &Signals, runs: &[FollowerRun], brake_onset: Option<f64>) -> Self {
         let t0 = spec.window_start.or(brake_onset).unwrap_or(0.0);
         let t1 = sig.t.last().copied().unwrap_or(0.0);
         let collisions = runs.iter().enumerate().filter(|(_, r)| r.collision.is_some()).map(|(k, _)| k as u32 + 1).collect();
-        Self::from_signals(&sig, t0, t1, spec, collisions)
+        Self::from_signals(sig, t0, t1, spec, collisions)
     }
 
     /// Adds the frequency response and updates the verdict.

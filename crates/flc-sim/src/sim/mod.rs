@@ -31,7 +31,7 @@ use crate::metrics::{CollisionInfo, Metrics};
 use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
 use crate::series::Series;
-use crate::string_stability::{StringStability, reference_gap};
+use crate::string_stability::{Signals, StringStability, reference_gap};
 use crate::track::Track;
 use crate::vehicle::{Vehicle, VehicleState};
 use crate::world::{Body, World};
@@ -66,6 +66,9 @@ pub struct FollowerRun {
 pub struct PlatoonResult {
     /// Followers 1..N (index 0 = follower 1).
     pub followers: Vec<FollowerRun>,
+    /// The signals the string-stability measures are computed from (gap errors against each
+    /// law's formation gap, speed errors, accelerations).
+    pub signals: Signals,
     /// The string-stability measures of this run (time domain; `frequency_response` is filled
     /// by [`crate::string_stability::frequency_response`]).
     pub string_stability: StringStability,
@@ -376,8 +379,9 @@ impl<O: Observer> Simulation<O> {
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> = laws.iter().map(|l| &**l as &dyn flc_core::LongitudinalController).collect();
         let platoon = scenario.platoon.as_ref().map(|p| {
-            let string_stability = StringStability::measure(&p.string_stability, &runs, &laws, lead_driver.brake_onset());
-            PlatoonResult { followers: runs.clone(), string_stability }
+            let signals = Signals::of(&runs, &laws);
+            let string_stability = StringStability::measure(&p.string_stability, &signals, &runs, lead_driver.brake_onset());
+            PlatoonResult { followers: runs.clone(), signals, string_stability }
         });
         let first = runs.swap_remove(0);
         RunResult { scenario, metrics: first.metrics, series: first.series, platoon }
