@@ -5,19 +5,14 @@
 //! the law behind `flc_core::LongitudinalController`. A law's own formulas (its step, its desired
 //! gap) live with the law in `flc-core`.
 //!
-//! A row: `Kind = "name", section: ParamsType, build |cfg| expr, cruise |params, v| stmt, v2v,
+//! A row: `Kind = "name", section: ParamsType` (with `validate() -> Result<(), ParamError>`), build |cfg| expr, cruise |params, v| stmt, v2v,
 //! starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
 //! parameters, how to build the law from a follower's configuration, how the paper experiment sets
 //! a cruise controller's set speed (`docs/baselines.md`), whether the law listens to V2V, and which
 //! law the `active` column shows before the first control frame.
 
-use flc_core::baselines::{
-    AccController, AccParams, CarlaBehaviorController, CarlaBehaviorParams, IdmController, IdmParams, RssController, RssParams,
-};
-use flc_core::{
-    ActiveController, FallbackController, FlcParams, LongitudinalController, PidController, PidParams, RobustFallbackController,
-    RobustFlcParams, Supervisor,
-};
+use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
+use flc_core::{ActiveController, FallbackController, LongitudinalController, PidController, RobustFallbackController, Supervisor};
 
 use crate::error::ConfigError;
 
@@ -137,30 +132,13 @@ macro_rules! with_controller_sections {
 
             /// Checks every controller section; the error names `section.field` (`idm.delta`).
             pub fn check_sections(&self) -> Result<(), $crate::error::ConfigError> {
-                $( $crate::controllers::Section::check(&self.$field).map_err(|e| e.within(stringify!($field)))?; )*
+                $( self.$field.validate().map_err(|e| $crate::error::ConfigError::new(format!("{}.{}", stringify!($field), e.field), e.problem))?; )*
                 Ok(())
             }
         }
     };
 }
 pub(crate) use with_controller_sections;
-
-/// Validation of one parameter section, the error naming `section.field`.
-pub trait Section {
-    /// Checks the section's values.
-    fn check(&self) -> Result<(), ConfigError>;
-}
-
-macro_rules! core_sections {
-    ($($t:ty),* $(,)?) => {
-        $( impl Section for $t {
-            fn check(&self) -> Result<(), ConfigError> {
-                self.validate().map_err(|e| ConfigError::new(e.field, e.problem))
-            }
-        } )*
-    };
-}
-core_sections!(FlcParams, PidParams, RobustFlcParams, IdmParams, AccParams, RssParams, CarlaBehaviorParams);
 
 /// Generates [`ControllerSections::NAMES`] from the rows.
 macro_rules! define_names {
@@ -173,12 +151,6 @@ macro_rules! define_names {
     };
 }
 for_each_controller!(define_names! {});
-
-impl Section for crate::scenario::SupervisorSpec {
-    fn check(&self) -> Result<(), ConfigError> {
-        crate::error::check_range("return_after", f64::from(self.return_after), 1.0, 1.0e6, "messages")
-    }
-}
 
 impl Default for ControllerKind {
     /// The paper's FLC.

@@ -111,6 +111,16 @@ pub struct SupervisorSpec {
     pub bumpless: bool,
 }
 
+impl SupervisorSpec {
+    /// Checks the values (the error names the field, as the `flc-core` parameter structs do).
+    pub fn validate(&self) -> Result<(), flc_core::ParamError> {
+        if !(1..=1_000_000).contains(&self.return_after) {
+            return Err(flc_core::ParamError { field: "return_after", problem: "must be in [1, 1000000] messages" });
+        }
+        Ok(())
+    }
+}
+
 impl Default for SupervisorSpec {
     fn default() -> Self {
         let d = flc_core::SupervisorParams::default();
