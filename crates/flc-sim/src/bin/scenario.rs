@@ -45,8 +45,8 @@ struct Cli {
     /// Maximum speeds of the paper experiment, km/h, comma separated (ignored with --config).
     #[arg(long, value_name = "KMH", value_delimiter = ',', default_values_t = PAPER_SPEEDS_KMH)]
     speeds: Vec<f64>,
-    /// Controllers of the paper experiment, comma separated: flc, pid, pipeline, idm, acc, rss,
-    /// carla-behavior, flc-robust (ignored with --config).
+    /// Controllers of the paper experiment, comma separated, by their scenario-file names (flc,
+    /// pid, pipeline, the baselines, ...; a wrong name lists them all). Ignored with --config.
     #[arg(long, value_name = "NAME", value_delimiter = ',', default_value = "flc,pid,pipeline")]
     controllers: Vec<String>,
     /// Which presets of the paper experiment to run: realistic, paper or both (ignored with --config).
