@@ -41,6 +41,8 @@ macro_rules! for_each_controller {
             /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
             /// `[flc_robust]`, `docs/robust-flc.md`).
             FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, starts Flc;
+            /// Baseline under identical sensing: Gipps (1981) safe-speed car following (`[gipps]`).
+            Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
         }
     };
 }

@@ -12,6 +12,7 @@
 //! | [`acc`] | [`AccController`] | Milanés & Shladover, *Transp. Res. C* 48 (2014), as implemented in SUMO's `MSCFModel_ACC` |
 //! | [`rss`] | [`RssController`] | Shalev-Shwartz, Shammah & Shashua, arXiv:1708.06374 (2017), Def. 1; cruise structure of Autoware's `obstacle_cruise_planner` |
 //! | [`carla_behavior`] | [`CarlaBehaviorController`] | CARLA `PythonAPI/carla/agents/navigation/behavior_agent.py` (`car_following_manager`, `emergency_stop`), `behavior_types.py` (`Normal`) |
+//! | [`gipps`] | [`GippsController`] | Gipps, *Transp. Res. B* 15(2), 105 (1981), Eq. (5); SUMO-compatible defaults (not in [`Baseline`] / [`BaselineKind`]) |
 //!
 //! All four return the same [`LongitudinalCommand`] as the FLC and the PID, so the simulator can
 //! swap them in: `speed = clamp(own_speed + command_gain * accel, 0, max_speed)` with
@@ -45,6 +46,7 @@ pub mod acc;
 pub mod carla_behavior;
 pub mod estimator;
 pub mod follower;
+pub mod gipps;
 pub mod idm;
 pub mod rss;
 
@@ -52,6 +54,7 @@ pub use acc::{Acc, AccController, AccMode, AccParams, AccTerms};
 pub use carla_behavior::{CarlaBand, CarlaBehavior, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
 pub use estimator::{EstimatorParams, RangeEstimate, RangeRateEstimator};
 pub use follower::{CarFollowingLaw, Demand, EstimatingFollower, FollowerParams, FollowerSettings, LeadEstimate};
+pub use gipps::{Gipps, GippsController, GippsParams, GippsTerms};
 pub use idm::{Idm, IdmController, IdmParams, IdmTerms};
 pub use rss::{Rss, RssController, RssParams, RssTerms};
 
