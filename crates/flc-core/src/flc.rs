@@ -25,7 +25,7 @@
 use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
 use crate::longitudinal::{flag, ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{check_positive, check_range, ParamError};
-use crate::supervisor::ActiveController;
+use crate::longitudinal::ActiveController;
 
 /// How the "`dist_s` is overridden to be -3" rule of Sec. III-B is applied in the fast-braking
 /// branch (`Delta_d <= brake_threshold`). The paper states the value, not the form.

@@ -39,7 +39,7 @@
 use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
-use crate::supervisor::ActiveController;
+use crate::longitudinal::ActiveController;
 
 /// What the very first detection is taken to be (later ones follow the latch rules).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]

@@ -24,7 +24,65 @@
 //! ```
 
 use crate::command::LongitudinalCommand;
-use crate::supervisor::{ActiveController, SwitchReason, V2vMessage};
+
+/// One V2V message as received by the follower.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct V2vMessage {
+    /// The lead's speed as broadcast, m/s.
+    pub lead_speed: f64,
+    /// The sender's sequence number (wrapping). Duplicates and messages older than the newest
+    /// accepted one are ignored.
+    pub seq: u32,
+}
+
+/// Which controller produced the command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum ActiveController {
+    /// The fallback longitudinal controller.
+    Flc = 0,
+    /// The V2V-based PID gap controller.
+    Pid = 1,
+}
+
+impl ActiveController {
+    /// `"flc"` or `"pid"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            ActiveController::Flc => "flc",
+            ActiveController::Pid => "pid",
+        }
+    }
+}
+
+/// Why the active controller is the one it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SwitchReason {
+    /// V2V is fresh and the PID drives.
+    V2vFresh = 0,
+    /// No valid V2V message has been received yet.
+    NoV2v = 1,
+    /// The last valid V2V message is older than `max_age_ticks`.
+    V2vStale = 2,
+    /// V2V is fresh again but fewer than `return_after` consecutive fresh messages have arrived.
+    Recovering = 3,
+    /// The last message carried an unusable lead speed (NaN, infinite, implausible).
+    InvalidV2v = 4,
+}
+
+impl SwitchReason {
+    /// Stable lower-case name.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            SwitchReason::V2vFresh => "v2v_fresh",
+            SwitchReason::NoV2v => "no_v2v",
+            SwitchReason::V2vStale => "v2v_stale",
+            SwitchReason::Recovering => "recovering",
+            SwitchReason::InvalidV2v => "invalid_v2v",
+        }
+    }
+}
 
 /// What every longitudinal law sees on one control frame (one delivered LiDAR scan).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -20,7 +20,7 @@ use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status
 use crate::flc::{desired_distance, f_shift};
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{check_positive, check_range, ParamError};
-use crate::supervisor::ActiveController;
+use crate::longitudinal::ActiveController;
 
 /// One set of PID gains (the output `u` is a speed increment in m/s).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]

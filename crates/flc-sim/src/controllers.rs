@@ -14,6 +14,8 @@
 use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
 use flc_core::{ActiveController, FallbackController, LongitudinalController, PidController, RobustFallbackController, Supervisor};
 
+use serde::{Deserialize, Serialize};
+
 use crate::error::ConfigError;
 
 /// A boxed longitudinal law, as the loop holds it.
@@ -29,7 +31,7 @@ macro_rules! for_each_controller {
             Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, starts Pid;
             /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC
             /// otherwise), from `[supervisor]`, `[flc]` and `[pid]`.
-            Pipeline = "pipeline", supervisor: crate::scenario::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, starts Flc;
+            Pipeline = "pipeline", supervisor: $crate::controllers::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, starts Flc;
             /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
             Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
             /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
@@ -83,8 +85,8 @@ macro_rules! define_registry {
                 match self { $( ControllerKind::$kind => stringify!($field), )* }
             }
 
-            /// Builds the law for a follower configured by `cfg`.
-            pub fn build(self, cfg: &crate::platoon::FollowerConfig) -> Result<BoxedLaw, flc_core::ParamError> {
+            /// Builds the law from a follower's parameter sections.
+            pub fn build(self, cfg: &ControllerSections) -> Result<BoxedLaw, flc_core::ParamError> {
                 match self { $( ControllerKind::$kind => { let $c = cfg; Ok(Box::new($build?)) } )* }
             }
 
@@ -154,6 +156,48 @@ macro_rules! define_names {
 }
 for_each_controller!(define_names! {});
 
+/// Supervisor settings (the FLC and PID parameters are the scenario's `[flc]` and `[pid]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SupervisorSpec {
+    /// V2V age, in control ticks, still counted as fresh.
+    pub max_age_ticks: u32,
+    /// Consecutive fresh messages before the PID drives again.
+    pub return_after: u32,
+    /// Bumpless return to the PID.
+    pub bumpless: bool,
+}
+
+impl SupervisorSpec {
+    /// Checks the values (the error names the field, as the `flc-core` parameter structs do).
+    pub fn validate(&self) -> Result<(), flc_core::ParamError> {
+        if !(1..=1_000_000).contains(&self.return_after) {
+            return Err(flc_core::ParamError { field: "return_after", problem: "must be in [1, 1000000] messages" });
+        }
+        Ok(())
+    }
+}
+
+impl Default for SupervisorSpec {
+    fn default() -> Self {
+        let d = flc_core::SupervisorParams::default();
+        Self { max_age_ticks: d.max_age_ticks, return_after: d.return_after, bumpless: d.bumpless }
+    }
+}
+
+impl ControllerSections {
+    /// The supervisor's parameters assembled from `[supervisor]`, `[flc]` and `[pid]`.
+    pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
+        flc_core::SupervisorParams {
+            max_age_ticks: self.supervisor.max_age_ticks,
+            return_after: self.supervisor.return_after,
+            bumpless: self.supervisor.bumpless,
+            flc: self.flc,
+            pid: self.pid,
+        }
+    }
+}
+
 impl Default for ControllerKind {
     /// The paper's FLC.
     fn default() -> Self {
@@ -191,7 +235,7 @@ mod tests {
 
     #[test]
     fn every_default_law_builds() {
-        let cfg = crate::Scenario::default().base_follower_config();
+        let cfg = ControllerSections::default();
         for k in ControllerKind::ALL {
             assert!(k.build(&cfg).is_ok(), "{}", k.as_str());
         }

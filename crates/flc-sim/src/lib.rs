@@ -18,6 +18,7 @@
 //!    and the `scenario` binary.
 mod controllers;
 mod error;
+mod follower;
 pub mod frequency_response;
 mod lead;
 mod lidar;
@@ -47,8 +48,9 @@ pub use lidar::{Lidar, LidarParams, Scan};
 pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};
 pub use paper::{Calibration, PAPER_SPEEDS_KMH};
 pub use patch::Patch;
-pub use platoon::{FollowerConfig, FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
-pub use scenario::{ControllerKind, FollowerSpec, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
+pub use follower::{FollowerConfig, FollowerSpec};
+pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
+pub use scenario::{ControllerKind, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
 pub use series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
 pub use runner::{RunOptions, run};
 pub use sim::{FollowerRun, Observer, PlatoonResult, RunResult, Simulation};

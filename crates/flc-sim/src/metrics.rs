@@ -13,6 +13,18 @@ pub use crate::series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
 /// Tolerance on time comparisons, s.
 const TIME_EPS: f64 = 1e-9;
 
+/// One follower of a platoon run. Its series' `lead_*` columns are those of the vehicle in front
+/// of it (the lead for follower 1), `gap` the gap to that vehicle.
+#[derive(Debug, Clone)]
+pub struct FollowerRun {
+    /// Per-step time series.
+    pub series: Series,
+    /// Metrics against the vehicle in front.
+    pub metrics: Metrics,
+    /// Its first contact with the vehicle in front, if any.
+    pub collision: Option<CollisionInfo>,
+}
+
 /// The first contact between the two vehicles, as reported by the physics engine.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CollisionInfo {

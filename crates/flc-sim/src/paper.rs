@@ -12,7 +12,8 @@ use crate::lead::Phase;
 use crate::lidar::LidarParams;
 use crate::lead::LeadSpec;
 use crate::controllers::ControllerSections;
-use crate::scenario::{ControllerKind, FollowerSpec, KMH, Scenario, StopSpec, TrackSpec};
+use crate::follower::FollowerSpec;
+use crate::scenario::{ControllerKind, KMH, Scenario, StopSpec, TrackSpec};
 use crate::v2v::V2vParams;
 use crate::vehicle::VehicleParams;
 

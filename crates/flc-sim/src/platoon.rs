@@ -23,17 +23,11 @@
 //! follower = { initial_gap = 12.0 }
 //! ```
 //!
-//! The resolved per-follower settings are [`FollowerConfig`]s ([`crate::Scenario::follower_configs`]).
+//! The resolved per-follower settings are [`crate::FollowerConfig`]s ([`crate::Scenario::follower_configs`]).
 
-use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
-use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, check_range};
-use crate::lidar::LidarParams;
-use crate::patch::Patch;
-use crate::scenario::FollowerSpec;
-use crate::v2v::V2vParams;
 
 /// Largest number of followers.
 pub const MAX_FOLLOWERS: u32 = 64;
@@ -148,8 +142,8 @@ impl StringStabilitySpec {
 
 /// Settings patched into chosen followers (`[[platoon.overrides]]`): `followers` lists them
 /// (1-based), every other key is a section of [`FollowerConfig`] (`controller`, `follower`,
-/// `lidar`, `v2v`, `detector`, `flc`, `pid`, `pure_pursuit`, `supervisor`, `idm`, `acc`, `rss`,
-/// `carla_behavior`, `flc_robust`) whose given keys replace the string's values.
+/// `lidar`, `v2v`, `detector`, `pure_pursuit` and the controllers' sections) whose given keys
+/// replace the string's values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FollowerOverride {
     /// The followers patched, 1 = right behind the lead.
@@ -216,71 +210,5 @@ impl PlatoonSpec {
             }
         }
         self.string_stability.validate().map_err(|e| e.within("string_stability"))
-    }
-}
-
-for_each_controller!(with_controller_sections! {
-/// Everything one follower's pipeline needs: the scenario's single-follower sections, patched per
-/// follower by `[[platoon.overrides]]`; the controllers' sections come from the registry
-/// ([`crate::ControllerKind`]).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FollowerConfig {
-    /// Which controller drives.
-    pub controller: ControllerKind,
-    /// Vehicle, low-level controller, initial state.
-    pub follower: FollowerSpec,
-    /// Its LiDAR.
-    pub lidar: LidarParams,
-    /// Its incoming V2V link(s).
-    pub v2v: V2vParams,
-    /// Its lead detector.
-    pub detector: DetectorParams,
-    /// Its lateral controller.
-    pub pure_pursuit: PurePursuitParams,
-}
-});
-
-impl FollowerConfig {
-    /// Checks every value; the error names the dotted key (`lidar.rate_hz`).
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        let f = &self.follower;
-        check_range("follower.initial_speed", f.initial_speed, 0.0, 70.0, "m/s")?;
-        check_range("follower.initial_gap", f.initial_gap, 0.5, 500.0, "m")?;
-        if let Some(o) = f.distance_offset {
-            check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
-        }
-        f.vehicle.validate().map_err(|e| e.within("follower.vehicle"))?;
-        f.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
-        self.lidar.validate().map_err(|e| e.within("lidar"))?;
-        self.v2v.validate().map_err(|e| e.within("v2v"))?;
-        let core = |section: &str, r: Result<(), flc_core::ParamError>| {
-            r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
-        };
-        core("detector", self.detector.validate())?;
-        core("pure_pursuit", self.pure_pursuit.validate())?;
-        self.check_sections()
-    }
-
-    /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).
-    pub fn longitudinal(&self) -> Result<BoxedLaw, ConfigError> {
-        self.controller.build(self).map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
-    }
-
-    /// The supervisor's parameters assembled from `supervisor`, `flc` and `pid`.
-    pub fn supervisor_params(&self) -> flc_core::SupervisorParams {
-        flc_core::SupervisorParams {
-            max_age_ticks: self.supervisor.max_age_ticks,
-            return_after: self.supervisor.return_after,
-            bumpless: self.supervisor.bumpless,
-            flc: self.flc,
-            pid: self.pid,
-        }
-    }
-
-    /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:
-    /// tables merge key by key, anything else is replaced. Errors name the key within the patch.
-    pub fn patched(&self, patch: &toml::Table) -> Result<Self, ConfigError> {
-        Patch::from_table(patch).apply(self)
     }
 }

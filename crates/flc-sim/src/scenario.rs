@@ -10,16 +10,16 @@ use std::path::Path;
 use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
-pub use crate::controllers::ControllerKind;
+pub use crate::controllers::{ControllerKind, SupervisorSpec};
 use crate::controllers::{for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, SimError, check_range};
 use crate::lead::LeadSpec;
 use crate::lidar::LidarParams;
 use crate::patch::Patch;
-use crate::platoon::{FollowerConfig, PlatoonSpec};
+use crate::follower::{FollowerConfig, FollowerSpec};
+use crate::platoon::PlatoonSpec;
 use crate::track::Track;
 use crate::v2v::V2vParams;
-use crate::vehicle::{SpeedControllerParams, VehicleParams};
 
 pub use crate::units::KMH;
 
@@ -61,70 +61,6 @@ impl TrackSpec {
                 Ok(t.clone())
             }
         }
-    }
-}
-
-/// The follower vehicle.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct FollowerSpec {
-    /// Initial speed, m/s.
-    pub initial_speed: f64,
-    /// Initial bumper-to-bumper gap to the lead, m. The paper: 7 m at standstill.
-    pub initial_gap: f64,
-    /// Vehicle model.
-    pub vehicle: VehicleParams,
-    /// Low-level speed controller (turns the pipeline's speed command into drive / brake).
-    pub speed_controller: SpeedControllerParams,
-    /// What the controllers get as `LF_dist`: the detector's distance (from the LiDAR origin to the
-    /// lead's rear face) minus this offset, m. `None` (default) = the LiDAR's distance behind the
-    /// front bumper, so the controllers see the bumper-to-bumper gap.
-    pub distance_offset: Option<f64>,
-    /// Steer along the lane centre instead of pursuing the detected lead (the paper's pipeline
-    /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
-    /// and the detector's corridor follows the lane. Default `false`.
-    pub lane_keeping: bool,
-}
-
-impl Default for FollowerSpec {
-    fn default() -> Self {
-        Self {
-            initial_speed: 0.0,
-            initial_gap: 7.0,
-            vehicle: VehicleParams::default(),
-            speed_controller: SpeedControllerParams::default(),
-            distance_offset: None,
-            lane_keeping: false,
-        }
-    }
-}
-
-/// Supervisor settings (the FLC and PID parameters are the scenario's `[flc]` and `[pid]`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct SupervisorSpec {
-    /// V2V age, in control ticks, still counted as fresh.
-    pub max_age_ticks: u32,
-    /// Consecutive fresh messages before the PID drives again.
-    pub return_after: u32,
-    /// Bumpless return to the PID.
-    pub bumpless: bool,
-}
-
-impl SupervisorSpec {
-    /// Checks the values (the error names the field, as the `flc-core` parameter structs do).
-    pub fn validate(&self) -> Result<(), flc_core::ParamError> {
-        if !(1..=1_000_000).contains(&self.return_after) {
-            return Err(flc_core::ParamError { field: "return_after", problem: "must be in [1, 1000000] messages" });
-        }
-        Ok(())
-    }
-}
-
-impl Default for SupervisorSpec {
-    fn default() -> Self {
-        let d = flc_core::SupervisorParams::default();
-        Self { max_age_ticks: d.max_age_ticks, return_after: d.return_after, bumpless: d.bumpless }
     }
 }
 

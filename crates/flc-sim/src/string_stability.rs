@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use flc_core::LongitudinalController;
 
 use crate::platoon::StringStabilitySpec;
-use crate::sim::FollowerRun;
+use crate::metrics::FollowerRun;
 
 /// `|Gamma(jw)|` at one frequency.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

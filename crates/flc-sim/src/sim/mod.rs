@@ -27,6 +27,7 @@ use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
+pub use crate::metrics::FollowerRun;
 use crate::metrics::{CollisionInfo, Metrics};
 use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
@@ -47,18 +48,6 @@ pub struct RunResult {
     pub series: Series,
     /// With `[platoon]`: every follower's series and metrics and the string-stability measures.
     pub platoon: Option<PlatoonResult>,
-}
-
-/// One follower of a platoon run. Its series' `lead_*` columns are those of the vehicle in front
-/// of it (the lead for follower 1), `gap` the gap to that vehicle.
-#[derive(Debug, Clone)]
-pub struct FollowerRun {
-    /// Per-step time series.
-    pub series: Series,
-    /// Metrics against the vehicle in front.
-    pub metrics: Metrics,
-    /// Its first contact with the vehicle in front, if any.
-    pub collision: Option<CollisionInfo>,
 }
 
 /// What a platoon run produced besides follower 1's [`RunResult::series`] / [`RunResult::metrics`].

@@ -1,0 +1,103 @@
+//! One follower's configuration: its vehicle and initial state ([`FollowerSpec`], the
+//! `[follower]` section) and everything its pipeline needs ([`FollowerConfig`]: the scenario's
+//! single-follower sections, patched per follower by `[[platoon.overrides]]`).
+
+use flc_core::{DetectorParams, PurePursuitParams};
+use serde::{Deserialize, Serialize};
+
+use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
+use crate::error::{ConfigError, check_range};
+use crate::lidar::LidarParams;
+use crate::patch::Patch;
+use crate::v2v::V2vParams;
+use crate::vehicle::{SpeedControllerParams, VehicleParams};
+
+/// The follower vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FollowerSpec {
+    /// Initial speed, m/s.
+    pub initial_speed: f64,
+    /// Initial bumper-to-bumper gap to the lead, m. The paper: 7 m at standstill.
+    pub initial_gap: f64,
+    /// Vehicle model.
+    pub vehicle: VehicleParams,
+    /// Low-level speed controller (turns the pipeline's speed command into drive / brake).
+    pub speed_controller: SpeedControllerParams,
+    /// What the controllers get as `LF_dist`: the detector's distance (from the LiDAR origin to the
+    /// lead's rear face) minus this offset, m. `None` (default) = the LiDAR's distance behind the
+    /// front bumper, so the controllers see the bumper-to-bumper gap.
+    pub distance_offset: Option<f64>,
+    /// Steer along the lane centre instead of pursuing the detected lead (the paper's pipeline
+    /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
+    /// and the detector's corridor follows the lane. Default `false`.
+    pub lane_keeping: bool,
+}
+
+impl Default for FollowerSpec {
+    fn default() -> Self {
+        Self {
+            initial_speed: 0.0,
+            initial_gap: 7.0,
+            vehicle: VehicleParams::default(),
+            speed_controller: SpeedControllerParams::default(),
+            distance_offset: None,
+            lane_keeping: false,
+        }
+    }
+}
+
+for_each_controller!(with_controller_sections! {
+/// Everything one follower's pipeline needs: the scenario's single-follower sections, patched per
+/// follower by `[[platoon.overrides]]`; the controllers' sections come from the registry
+/// ([`crate::ControllerKind`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowerConfig {
+    /// Which controller drives.
+    pub controller: ControllerKind,
+    /// Vehicle, low-level controller, initial state.
+    pub follower: FollowerSpec,
+    /// Its LiDAR.
+    pub lidar: LidarParams,
+    /// Its incoming V2V link(s).
+    pub v2v: V2vParams,
+    /// Its lead detector.
+    pub detector: DetectorParams,
+    /// Its lateral controller.
+    pub pure_pursuit: PurePursuitParams,
+}
+});
+
+impl FollowerConfig {
+    /// Checks every value; the error names the dotted key (`lidar.rate_hz`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let f = &self.follower;
+        check_range("follower.initial_speed", f.initial_speed, 0.0, 70.0, "m/s")?;
+        check_range("follower.initial_gap", f.initial_gap, 0.5, 500.0, "m")?;
+        if let Some(o) = f.distance_offset {
+            check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
+        }
+        f.vehicle.validate().map_err(|e| e.within("follower.vehicle"))?;
+        f.speed_controller.validate().map_err(|e| e.within("follower.speed_controller"))?;
+        self.lidar.validate().map_err(|e| e.within("lidar"))?;
+        self.v2v.validate().map_err(|e| e.within("v2v"))?;
+        let core = |section: &str, r: Result<(), flc_core::ParamError>| {
+            r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
+        };
+        core("detector", self.detector.validate())?;
+        core("pure_pursuit", self.pure_pursuit.validate())?;
+        self.check_sections()
+    }
+
+    /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).
+    pub fn longitudinal(&self) -> Result<BoxedLaw, ConfigError> {
+        self.controller.build(&self.sections()).map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
+    }
+
+    /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:
+    /// tables merge key by key, anything else is replaced. Errors name the key within the patch.
+    pub fn patched(&self, patch: &toml::Table) -> Result<Self, ConfigError> {
+        Patch::from_table(patch).apply(self)
+    }
+}
