@@ -128,7 +128,8 @@ class Supervisor:
 
     def step(self, v2v: Optional[Tuple[float, int]], distance: Optional[float], own_speed: float, dt: float) -> dict[str, Any]:
         """One tick. ``v2v`` = (lead_speed m/s, sequence number) received this tick, or None."""
-        return dict(self._inner.step(v2v, distance, own_speed, dt))
+        out: dict[str, Any] = json.loads(self._inner.step(v2v, distance, own_speed, dt))
+        return out
 
     def reset(self) -> None:
         """Back to the initial state (FLC, no V2V)."""

@@ -200,3 +200,30 @@ def test_one_binding_for_every_law():
         assert json.loads(c.terms_json()) == zero
         with pytest.raises(flc.ParameterError, match=cls.__name__):
             cls('{"no_such_parameter": 1}')
+
+
+@pytest.mark.parametrize("cls", [flc.FallbackController, flc.RobustFallbackController])
+def test_terms_stay_finite_numbers_on_bad_input(cls):
+    # Terms cross as JSON (no NaN in JSON): the core keeps every term finite, even on bad input.
+    bad = [None, float("nan"), float("inf"), -1.0, 0.0, 1e300, 20.0]
+    for d1 in bad:
+        for v in (float("nan"), float("inf"), -1.0, 0.0, 10.0, 1e300):
+            for d2 in bad:
+                c = cls()
+                c.step(d1, v)
+                c.step(d2, 10.0)
+                for k, x in c.terms().items():
+                    assert isinstance(x, (bool, float)) and math.isfinite(x), (d1, v, d2, k, x)
+
+
+def test_supervisor_step_keys_and_types():
+    s = flc.Supervisor()
+    out = s.step(None, 20.0, 10.0, 0.05)
+    assert list(out) == ["speed", "accel", "status", "active", "reason", "switched", "v2v_age_ticks", "fresh_count", "flc_speed", "pid_speed"]
+    assert out["v2v_age_ticks"] is None and out["switched"] is False and out["fresh_count"] == 0
+    assert (out["active"], out["reason"]) == ("flc", "no_v2v")
+    # No V2V: the FLC drives, as the FLC alone would.
+    alone = flc.FallbackController().step(20.0, 10.0)
+    assert (out["speed"], out["accel"], out["status"]) == (alone.speed, alone.accel, alone.status)
+    out = s.step((10.0, 1), 20.0, 10.0, 0.05)
+    assert out["v2v_age_ticks"] == 0 and out["fresh_count"] == 1 and isinstance(out["fresh_count"], int)

@@ -88,6 +88,22 @@ fn nalgebra_point(x: f64, y: f64) -> flc_core::Point2<f64> {
     flc_core::Point2::new(x, y)
 }
 
+/// One supervisor tick as Python sees it (`flc.Supervisor.step`).
+#[derive(serde::Serialize)]
+struct SupervisorStep {
+    speed: f64,
+    accel: f64,
+    status: &'static str,
+    active: &'static str,
+    reason: &'static str,
+    switched: bool,
+    /// `None` before any V2V message.
+    v2v_age_ticks: Option<u32>,
+    fresh_count: u32,
+    flc_speed: f64,
+    pid_speed: f64,
+}
+
 /// The parallel longitudinal controller.
 #[pyclass(module = "flc._flc")]
 struct Supervisor {
@@ -102,29 +118,22 @@ impl Supervisor {
         Ok(Self { inner: flc_core::Supervisor::new(p).map_err(|e| param_err("Supervisor", e))? })
     }
 
-    /// One tick; returns a dict with the command, the active controller and why.
-    fn step<'py>(
-        &mut self,
-        py: Python<'py>,
-        v2v: Option<(f64, u32)>,
-        distance: Option<f64>,
-        own_speed: f64,
-        dt: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    /// One tick; returns the JSON of [`SupervisorStep`]: the command, the active controller and why.
+    fn step(&mut self, v2v: Option<(f64, u32)>, distance: Option<f64>, own_speed: f64, dt: f64) -> PyResult<String> {
         let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage { lead_speed, seq });
         let o = self.inner.step(msg, distance, own_speed, dt);
-        let d = PyDict::new(py);
-        d.set_item("speed", o.command.speed)?;
-        d.set_item("accel", o.command.accel)?;
-        d.set_item("status", o.command.status.as_str())?;
-        d.set_item("active", o.active.as_str())?;
-        d.set_item("reason", o.reason.as_str())?;
-        d.set_item("switched", o.switched)?;
-        d.set_item("v2v_age_ticks", if o.v2v_age_ticks == u32::MAX { None } else { Some(o.v2v_age_ticks) })?;
-        d.set_item("fresh_count", o.fresh_count)?;
-        d.set_item("flc_speed", o.flc.speed)?;
-        d.set_item("pid_speed", o.pid.speed)?;
-        Ok(d)
+        to_json(&SupervisorStep {
+            speed: o.command.speed,
+            accel: o.command.accel,
+            status: o.command.status.as_str(),
+            active: o.active.as_str(),
+            reason: o.reason.as_str(),
+            switched: o.switched,
+            v2v_age_ticks: (o.v2v_age_ticks != u32::MAX).then_some(o.v2v_age_ticks),
+            fresh_count: o.fresh_count,
+            flc_speed: o.flc.speed,
+            pid_speed: o.pid.speed,
+        })
     }
 
     fn reset(&mut self) {
