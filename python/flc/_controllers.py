@@ -1,6 +1,7 @@
 """Step-wise controllers and the detector (typed facade over flc._flc)."""
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from typing import Any, Optional, Tuple
 
@@ -8,6 +9,12 @@ import numpy as np
 
 from . import _flc
 from ._params import params_json
+
+
+def _terms(text: str) -> dict[str, Any]:
+    """A law's terms: the JSON of ``flc_core::Terms`` (name -> value, in the law's order)."""
+    terms: dict[str, Any] = json.loads(text)
+    return terms
 
 
 @dataclass(frozen=True)
@@ -35,8 +42,11 @@ class FallbackController:
         return Command(*self._inner.step(distance, own_speed))
 
     def terms(self) -> dict[str, Any]:
-        """Intermediate terms of the last step (tau_d, d_d, scale_f, f_shift, delta_d, dist_s, a, ...)."""
-        return dict(self._inner.terms())
+        """Intermediate terms of the last step (tau_d, d_d, scale_f, f_shift, delta_d, dist_s, a, ...).
+
+        The names, their order and the values are the Rust law's (``flc_core::FlcTerms``); flags
+        (``braking_branch``, ``overridden``) are booleans."""
+        return _terms(self._inner.terms_json())
 
     def reset(self) -> None:
         """Forget the previous distance."""
@@ -60,8 +70,8 @@ class RobustFallbackController:
 
     def terms(self) -> dict[str, Any]:
         """Terms of the last step (desired_gap, gap_error, gap_speed, envelope_speed, target_speed,
-        revealed, latched, latch_min_distance, a)."""
-        return dict(self._inner.terms())
+        revealed, latched, latch_min_distance, a); flags (``revealed``, ``latched``) are booleans."""
+        return _terms(self._inner.terms_json())
 
     def reset(self) -> None:
         """Forget the history (the next detection is a first detection)."""
@@ -77,6 +87,11 @@ class PidController:
     def step(self, lead_speed: float, own_speed: float, distance: Optional[float], dt: float) -> Command:
         """One step (speeds in m/s, distance in m, dt in s)."""
         return Command(*self._inner.step(lead_speed, own_speed, distance, dt))
+
+    def terms(self) -> dict[str, Any]:
+        """Terms of the last step (desired, error, error_rate, integral, gains, u), as the Rust law
+        names them (``flc_core::PidTerms``); ``gains`` is 0 for the far gains, 1 for the near ones."""
+        return _terms(self._inner.terms_json())
 
     def reset(self) -> None:
         """Clear the integrator."""
@@ -113,7 +128,8 @@ class Supervisor:
 
     def step(self, v2v: Optional[Tuple[float, int]], distance: Optional[float], own_speed: float, dt: float) -> dict[str, Any]:
         """One tick. ``v2v`` = (lead_speed m/s, sequence number) received this tick, or None."""
-        return dict(self._inner.step(v2v, distance, own_speed, dt))
+        out: dict[str, Any] = json.loads(self._inner.step(v2v, distance, own_speed, dt))
+        return out
 
     def reset(self) -> None:
         """Back to the initial state (FLC, no V2V)."""

@@ -9,36 +9,31 @@ from typing import Any, Mapping, Optional, Union
 from . import _flc
 from ._flc import ScenarioError
 
-#: Sections of a scenario; a keyword ``<section>_<key>`` overrides ``[section] key``.
-SECTIONS = (
-    "follower", "lead", "lidar", "v2v", "detector", "flc", "pid", "pure_pursuit", "supervisor", "stop", "track",
-    "idm", "acc", "rss", "carla_behavior", "flc_robust", "platoon",
-)
+#: Sections of a scenario (from the Rust ``Scenario``); a keyword ``<section>_<key>`` overrides
+#: ``[section] key``.
+SECTIONS: tuple[str, ...] = tuple(_flc.section_names())
 
-#: Controller names accepted by ``controller=`` (``docs/scenarios.md``, ``docs/baselines.md``).
-CONTROLLERS = ("flc", "pid", "pipeline", "idm", "acc", "rss", "carla-behavior", "flc-robust")
-
-
-def _set_path(d: dict[str, Any], path: list[str], value: Any, full: str) -> None:
-    node = d
-    for part in path[:-1]:
-        nxt = node.get(part)
-        if nxt is None:
-            nxt = {}
-            node[part] = nxt
-        if not isinstance(nxt, dict):
-            raise ScenarioError(f"`{full}`: `{part}` is not a table")
-        node = nxt
-    node[path[-1]] = value
+#: Controller names accepted by ``controller=`` (the Rust controller registry, in its order;
+#: ``docs/scenarios.md``, ``docs/baselines.md``).
+CONTROLLERS: tuple[str, ...] = tuple(_flc.controller_names())
 
 
-def _override_path(name: str) -> list[str]:
-    if "." in name:
-        return name.split(".")
-    for section in sorted(SECTIONS, key=len, reverse=True):
-        if name.startswith(section + "_"):
-            return [section, name[len(section) + 1 :]]
-    return [name]
+def _overrides_json(overrides: Mapping[str, Any]) -> str:
+    # A list of [name, value] pairs: the overrides apply in keyword order.
+    return json.dumps([[name, value] for name, value in overrides.items()], allow_nan=True)
+
+
+def _key_path(key: str) -> list[Union[str, int]]:
+    """``lidar_rate_hz`` / ``lidar.rate_hz`` / ``lead.phases[2].decel`` as a path into the dict."""
+    path: list[Union[str, int]] = []
+    for part in _flc.resolve_key(key).split("."):
+        name, _, rest = part.partition("[")
+        path.append(name)
+        while rest:
+            index, _, rest = rest.partition("]")
+            path.append(int(index))
+            rest = rest.lstrip("[")
+    return path
 
 
 class Scenario:
@@ -55,14 +50,21 @@ class Scenario:
         self._data: dict[str, Any] = json.loads(self._json)
 
     @classmethod
+    def _patched(cls, scenario_json: str, overrides: Mapping[str, Any]) -> "Scenario":
+        # The one key-patch mechanism (Rust `Scenario::with_overrides`): validated, errors name the key.
+        s = cls.__new__(cls)
+        s._json = _flc.apply_overrides(scenario_json, _overrides_json(overrides))
+        s._data = json.loads(s._json)
+        return s
+
+    @classmethod
     def paper(cls, speed_kmh: float = 50.0, controller: str = "flc", preset: str = "realistic", **overrides: Any) -> "Scenario":
         """The paper's experiment at ``speed_kmh`` (km/h) with ``controller`` in
         :data:`CONTROLLERS` ("flc", "pid", "pipeline", a baseline under identical sensing:
         "idm", "acc", "rss", "carla-behavior", or the robust FLC "flc-robust") and ``preset`` in {"realistic", "paper"}."""
         if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):
             raise ScenarioError(f"`speed_kmh`: expected a number, got {type(speed_kmh).__name__}")
-        base = json.loads(_flc.paper_scenario(float(speed_kmh), controller, preset))
-        return cls.from_dict(base, **overrides)
+        return cls._patched(_flc.paper_scenario(float(speed_kmh), controller, preset), overrides)
 
     @classmethod
     def brakedemo(cls, **overrides: Any) -> "Scenario":
@@ -70,25 +72,25 @@ class Scenario:
         and 7 followers at 120 km/h, the lead brakes at -6 m/s² after 20 s; three variants
         (:meth:`variants`): ``pid-v2v``, ``flc``, ``pipeline-outage``. Keyword overrides as in
         :meth:`from_dict` (e.g. ``platoon_followers=15``)."""
-        return cls.from_dict(json.loads(_flc.brakedemo_scenario()), **overrides)
+        return cls._patched(_flc.brakedemo_scenario(), overrides)
 
     @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"], **overrides: Any) -> "Scenario":
         """Read a TOML scenario file."""
-        base = json.loads(_flc.load_scenario(os.fspath(path)))
-        return cls.from_dict(base, **overrides)
+        return cls._patched(_flc.load_scenario(os.fspath(path)), overrides)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], **overrides: Any) -> "Scenario":
-        """Build from a dict shaped like the TOML file (missing keys take their defaults)."""
-        d = copy.deepcopy(dict(data))
-        for name, value in overrides.items():
-            _set_path(d, _override_path(name), value, name)
-        return cls(d)
+        """Build from a dict shaped like the TOML file (missing keys take their defaults), with
+        keyword overrides (``lidar_rate_hz=10``, ``**{"follower.vehicle.max_brake": 7.0}``,
+        ``lead_decel=6.0`` = the deceleration of every brake phase of the lead)."""
+        if not overrides:
+            return cls(data)
+        return cls._patched(json.dumps(dict(data), allow_nan=True), overrides)
 
     def replace(self, **overrides: Any) -> "Scenario":
-        """A copy with fields overridden by keyword."""
-        return Scenario.from_dict(self._data, **overrides)
+        """A copy with fields overridden by keyword (as in :meth:`from_dict`)."""
+        return Scenario._patched(self._json, overrides)
 
     def variants(self) -> list["Scenario"]:
         """The scenarios to run for this one: each of its ``[[variants]]`` (with ``variant`` set to
@@ -127,7 +129,7 @@ class Scenario:
 
     def __getitem__(self, key: str) -> Any:
         node: Any = self._data
-        for part in _override_path(key):
+        for part in _key_path(key):
             node = node[part]
         return copy.deepcopy(node)
 

@@ -20,15 +20,18 @@ from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
+from . import _flc
+
 PathLike = Union[str, "os.PathLike[str]"]
 #: Sweep columns: text columns as string arrays, everything else as float arrays.
 Columns = dict[str, np.ndarray]
 Source = Union[PathLike, Mapping[str, np.ndarray]]
 
-#: Controllers of the default maps: the paper's FLC, the paper's PID with true V2V (the upper
-#: reference), the four baselines under identical sensing (``docs/baselines.md``) and the robust
-#: FLC (``docs/robust-flc.md``).
-CONTROLLERS = ("flc", "pid", "idm", "acc", "rss", "carla-behavior", "flc-robust")
+#: Controllers of the default maps: every controller of the Rust registry, in its order, except
+#: the switching ``pipeline`` (the paper's FLC, the paper's PID with true V2V as the upper
+#: reference, the baselines under identical sensing (``docs/baselines.md``), the robust FLC
+#: (``docs/robust-flc.md``), ...).
+CONTROLLERS: tuple[str, ...] = tuple(c for c in _flc.controller_names() if c != "pipeline")
 #: Max speeds of the default maps, km/h.
 SPEEDS_KMH = tuple(float(v) for v in range(30, 151, 10))
 #: Lead decelerations of the speed x deceleration map, m/s².
@@ -84,13 +87,10 @@ def _scenario_with(speed_kmh: float, controller: str, preset: str, seed: int, ke
     sc = Scenario.paper(speed_kmh=speed_kmh, controller=controller, preset=preset, seed=seed)
     if key == "speed_kmh":
         return sc
-    d = sc.to_dict()
     if key == "lead_decel":
-        brakes = [ph for ph in d["lead"]["phases"] if ph.get("kind") == "brake"]
-        for ph in brakes:
-            ph["decel"] = float(value)
-        return Scenario.from_dict(d)
-    return Scenario.from_dict(d, **{key: int(value) if float(value).is_integer() else value})
+        # The family key of the one patch mechanism (Rust): every brake phase's deceleration.
+        return sc.replace(lead_decel=float(value))
+    return sc.replace(**{key: int(value) if float(value).is_integer() else value})
 
 
 def run_grid(
@@ -110,8 +110,6 @@ def run_grid(
     (controller-major, ``y`` fastest) gets the seed ``scenario sweep`` gives its run ``i`` for the
     sweep seed ``seed``, so ``sweeps/envelope-decel.toml`` gives the same rows."""
     from ._run import sweep
-
-    from . import _flc
 
     keys = [(c, float(v), float(w)) for c in controllers for v in speeds_kmh for w in y_values]
     # Run i gets the seed `scenario sweep` gives run i, so a sweep file with the axes controller,

@@ -1,9 +1,11 @@
 //! `flc._flc`: thin pyo3 bindings over `flc-core` and `flc-sim`. The typed, documented Python API
 //! is the `flc` package (`python/flc`); this module is private to it.
 //!
-//! Parameters cross the boundary as JSON text (the Python facade builds it from keyword
-//! arguments), so that the Rust `serde` definitions stay the single source of truth for names,
-//! defaults and validation.
+//! Parameters, terms and scenarios cross the boundary as JSON text produced and read by `serde`
+//! (the Python facade builds parameters from keyword arguments and parses what comes back), so
+//! that the Rust definitions stay the single source of truth for names, defaults and validation.
+//! The longitudinal laws share one binding (`laws`); controller and section names and keyword
+//! overrides of scenarios come from `flc-sim` (`sim`).
 
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -12,6 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde::de::DeserializeOwned;
 
+mod laws;
 mod sim;
 
 create_exception!(_flc, FlcError, PyException, "Base class of every error raised by flc.");
@@ -37,12 +40,8 @@ pub(crate) fn to_json<T: serde::Serialize>(v: &T) -> PyResult<String> {
     serde_json::to_string(v).map_err(|e| FlcError::new_err(e.to_string()))
 }
 
-fn param_err(what: &str, e: flc_core::ParamError) -> PyErr {
+pub(crate) fn param_err(what: &str, e: flc_core::ParamError) -> PyErr {
     ParameterError::new_err(format!("{what}: invalid parameter `{}`: {}", e.field, e.problem))
-}
-
-fn command_tuple(c: flc_core::LongitudinalCommand) -> (f64, f64, &'static str) {
-    (c.speed, c.accel, c.status.as_str())
 }
 
 /// The paper's default parameters of a component as JSON (`flc`, `pid`, `pure_pursuit`,
@@ -57,132 +56,6 @@ fn default_params(kind: &str) -> PyResult<String> {
         "detector" => to_json(&flc_core::DetectorParams::default()),
         "supervisor" => to_json(&flc_core::SupervisorParams::default()),
         other => Err(ParameterError::new_err(format!("unknown component `{other}`"))),
-    }
-}
-
-/// The FLC of Eqs. (2)-(5).
-#[pyclass(module = "flc._flc")]
-struct FallbackController {
-    inner: flc_core::FallbackController,
-}
-
-#[pymethods]
-impl FallbackController {
-    #[new]
-    fn new(params_json: &str) -> PyResult<Self> {
-        let p: flc_core::FlcParams = from_json(params_json, "FallbackController")?;
-        Ok(Self { inner: flc_core::FallbackController::new(p).map_err(|e| param_err("FallbackController", e))? })
-    }
-
-    /// `(speed_command, accel, status)`.
-    fn step(&mut self, distance: Option<f64>, own_speed: f64) -> (f64, f64, &'static str) {
-        command_tuple(self.inner.step(distance, own_speed))
-    }
-
-    fn reset(&mut self) {
-        self.inner.reset();
-    }
-
-    fn terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let t = self.inner.terms();
-        let d = PyDict::new(py);
-        d.set_item("tau_d", t.tau_d)?;
-        d.set_item("d_d", t.d_d)?;
-        d.set_item("scale_f", t.scale_f)?;
-        d.set_item("f_shift", t.f_shift)?;
-        d.set_item("delta_d", t.delta_d)?;
-        d.set_item("dist_s_raw", t.dist_s_raw)?;
-        d.set_item("dist_s", t.dist_s)?;
-        d.set_item("braking_branch", t.braking_branch)?;
-        d.set_item("overridden", t.overridden)?;
-        d.set_item("a_law", t.a_law)?;
-        d.set_item("a", t.a)?;
-        Ok(d)
-    }
-
-    fn params_json(&self) -> PyResult<String> {
-        to_json(self.inner.params())
-    }
-}
-
-/// The robust FLC (beyond the paper, `docs/robust-flc.md`).
-#[pyclass(module = "flc._flc")]
-struct RobustFallbackController {
-    inner: flc_core::RobustFallbackController,
-}
-
-#[pymethods]
-impl RobustFallbackController {
-    #[new]
-    fn new(params_json: &str) -> PyResult<Self> {
-        let p: flc_core::RobustFlcParams = from_json(params_json, "RobustFallbackController")?;
-        Ok(Self { inner: flc_core::RobustFallbackController::new(p).map_err(|e| param_err("RobustFallbackController", e))? })
-    }
-
-    /// `(speed_command, accel, status)`.
-    fn step(&mut self, distance: Option<f64>, own_speed: f64) -> (f64, f64, &'static str) {
-        command_tuple(self.inner.step(distance, own_speed))
-    }
-
-    fn reset(&mut self) {
-        self.inner.reset();
-    }
-
-    fn terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let t = self.inner.terms();
-        let d = PyDict::new(py);
-        d.set_item("desired_gap", t.desired_gap)?;
-        d.set_item("gap_error", t.gap_error)?;
-        d.set_item("gap_speed", t.gap_speed)?;
-        d.set_item("envelope_speed", t.envelope_speed)?;
-        d.set_item("target_speed", t.target_speed)?;
-        d.set_item("revealed", t.revealed)?;
-        d.set_item("latched", t.latched)?;
-        d.set_item("latch_min_distance", t.latch_min_distance)?;
-        d.set_item("a", t.a)?;
-        Ok(d)
-    }
-
-    fn params_json(&self) -> PyResult<String> {
-        to_json(self.inner.params())
-    }
-}
-
-/// The PID gap controller.
-#[pyclass(module = "flc._flc")]
-struct PidController {
-    inner: flc_core::PidController,
-}
-
-#[pymethods]
-impl PidController {
-    #[new]
-    fn new(params_json: &str) -> PyResult<Self> {
-        let p: flc_core::PidParams = from_json(params_json, "PidController")?;
-        Ok(Self { inner: flc_core::PidController::new(p).map_err(|e| param_err("PidController", e))? })
-    }
-
-    /// `(speed_command, u, status)`.
-    fn step(&mut self, lead_speed: f64, own_speed: f64, distance: Option<f64>, dt: f64) -> (f64, f64, &'static str) {
-        command_tuple(self.inner.step(lead_speed, own_speed, distance, dt))
-    }
-
-    fn reset(&mut self) {
-        self.inner.reset();
-    }
-
-    /// `(desired, error, error_rate, integral, gains, u)`.
-    fn terms(&self) -> (f64, f64, f64, f64, &'static str, f64) {
-        let t = self.inner.terms();
-        let g = match t.gains {
-            flc_core::GainSet::Far => "far",
-            flc_core::GainSet::Near => "near",
-        };
-        (t.desired, t.error, t.error_rate, t.integral, g, t.u)
-    }
-
-    fn params_json(&self) -> PyResult<String> {
-        to_json(self.inner.params())
     }
 }
 
@@ -215,6 +88,22 @@ fn nalgebra_point(x: f64, y: f64) -> flc_core::Point2<f64> {
     flc_core::Point2::new(x, y)
 }
 
+/// One supervisor tick as Python sees it (`flc.Supervisor.step`).
+#[derive(serde::Serialize)]
+struct SupervisorStep {
+    speed: f64,
+    accel: f64,
+    status: &'static str,
+    active: &'static str,
+    reason: &'static str,
+    switched: bool,
+    /// `None` before any V2V message.
+    v2v_age_ticks: Option<u32>,
+    fresh_count: u32,
+    flc_speed: f64,
+    pid_speed: f64,
+}
+
 /// The parallel longitudinal controller.
 #[pyclass(module = "flc._flc")]
 struct Supervisor {
@@ -229,29 +118,22 @@ impl Supervisor {
         Ok(Self { inner: flc_core::Supervisor::new(p).map_err(|e| param_err("Supervisor", e))? })
     }
 
-    /// One tick; returns a dict with the command, the active controller and why.
-    fn step<'py>(
-        &mut self,
-        py: Python<'py>,
-        v2v: Option<(f64, u32)>,
-        distance: Option<f64>,
-        own_speed: f64,
-        dt: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    /// One tick; returns the JSON of [`SupervisorStep`]: the command, the active controller and why.
+    fn step(&mut self, v2v: Option<(f64, u32)>, distance: Option<f64>, own_speed: f64, dt: f64) -> PyResult<String> {
         let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage { lead_speed, seq });
         let o = self.inner.step(msg, distance, own_speed, dt);
-        let d = PyDict::new(py);
-        d.set_item("speed", o.command.speed)?;
-        d.set_item("accel", o.command.accel)?;
-        d.set_item("status", o.command.status.as_str())?;
-        d.set_item("active", o.active.as_str())?;
-        d.set_item("reason", o.reason.as_str())?;
-        d.set_item("switched", o.switched)?;
-        d.set_item("v2v_age_ticks", if o.v2v_age_ticks == u32::MAX { None } else { Some(o.v2v_age_ticks) })?;
-        d.set_item("fresh_count", o.fresh_count)?;
-        d.set_item("flc_speed", o.flc.speed)?;
-        d.set_item("pid_speed", o.pid.speed)?;
-        Ok(d)
+        to_json(&SupervisorStep {
+            speed: o.command.speed,
+            accel: o.command.accel,
+            status: o.command.status.as_str(),
+            active: o.active.as_str(),
+            reason: o.reason.as_str(),
+            switched: o.switched,
+            v2v_age_ticks: (o.v2v_age_ticks != u32::MAX).then_some(o.v2v_age_ticks),
+            fresh_count: o.fresh_count,
+            flc_speed: o.flc.speed,
+            pid_speed: o.pid.speed,
+        })
     }
 
     fn reset(&mut self) {
@@ -321,9 +203,7 @@ fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
-    m.add_class::<FallbackController>()?;
-    m.add_class::<RobustFallbackController>()?;
-    m.add_class::<PidController>()?;
+    laws::register(m)?;
     m.add_class::<PurePursuit>()?;
     m.add_class::<Supervisor>()?;
     m.add_class::<LeadDetector>()?;

@@ -52,6 +52,57 @@ fn check_scenario(json: &str) -> PyResult<String> {
     to_json(&parse_scenario(json)?)
 }
 
+/// The controller names a scenario accepts (`controller = "..."`), in the registry's order
+/// (`flc_sim::ControllerKind::ALL`).
+#[pyfunction]
+fn controller_names() -> Vec<&'static str> {
+    ControllerKind::ALL.iter().map(|k| k.as_str()).collect()
+}
+
+/// The sections of a scenario (top-level tables: `follower`, `lidar`, `flc`, ...); a keyword
+/// `<section>_<key>` overrides `[section] key` (`flc_sim::Scenario::section_names`).
+#[pyfunction]
+fn section_names() -> Vec<String> {
+    Scenario::section_names()
+}
+
+/// The dotted key a keyword override names: `lidar_rate_hz` -> `lidar.rate_hz`; dotted keys and
+/// the family key `lead_decel` unchanged (`flc_sim::Scenario::resolve_key`).
+#[pyfunction]
+fn resolve_key(name: &str) -> String {
+    Scenario::resolve_key(name)
+}
+
+/// Scenario JSON with keyword overrides applied in order, validated, as normalised JSON.
+/// `overrides_json` is a JSON list of `[name, value]` pairs (names as `resolve_key` takes them,
+/// `lead_decel` = every brake phase's deceleration); errors are `ScenarioError`s naming the key
+/// (`flc_sim::Scenario::with_overrides`).
+#[pyfunction]
+fn apply_overrides(scenario_json: &str, overrides_json: &str) -> PyResult<String> {
+    let bad = |e: PyErr| ScenarioError::new_err(e.to_string());
+    let mut s: Scenario = from_json(scenario_json, "scenario").map_err(bad)?;
+    let overrides: Vec<(String, serde_json::Value)> = from_json(overrides_json, "overrides").map_err(bad)?;
+    if overrides.is_empty() {
+        s.validate().map_err(|e| ScenarioError::new_err(format!("scenario: {e}")))?;
+        return to_json(&s);
+    }
+    // The seed is a u64 and TOML integers are i64: it goes around the patch (as in `scenario
+    // sweep`, which also sets it after patching).
+    let mut seed = s.seed;
+    s.seed = 0;
+    let mut rest = Vec::with_capacity(overrides.len());
+    for (name, value) in overrides {
+        if Scenario::resolve_key(&name) == "seed" {
+            seed = value.as_u64().ok_or_else(|| ScenarioError::new_err(format!("`seed`: expected a non-negative integer, got {value}")))?;
+        } else {
+            rest.push((name, value));
+        }
+    }
+    let mut out = s.with_overrides(&rest).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    out.seed = seed;
+    to_json(&out)
+}
+
 /// What a run returns to Python: metrics JSON, `{column: 1-D array}` (follower 1), and for a
 /// platoon `(platoon JSON, {column: 2-D array (n_followers, n_steps)})`.
 type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>);
@@ -116,7 +167,8 @@ fn frequency_response(py: Python<'_>, scenario_json: &str, freqs_hz: Option<Vec<
 #[pyo3(signature = (scenario_json, record=None))]
 fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<RunTuple<'py>> {
     let s = parse_scenario(scenario_json)?;
-    let r = py.detach(|| flc_sim::RunOptions { record: record.as_deref(), ..flc_sim::RunOptions::default() }.run(&s)).map_err(scenario_err)?;
+    let r =
+        py.detach(|| flc_sim::RunOptions { record: record.as_deref(), ..flc_sim::RunOptions::default() }.run(&s)).map_err(scenario_err)?;
     result_to_py(py, r)
 }
 
@@ -173,5 +225,9 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(expand_variants, m)?)?;
     m.add_function(wrap_pyfunction!(brakedemo_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(frequency_response, m)?)?;
+    m.add_function(wrap_pyfunction!(controller_names, m)?)?;
+    m.add_function(wrap_pyfunction!(section_names, m)?)?;
+    m.add_function(wrap_pyfunction!(resolve_key, m)?)?;
+    m.add_function(wrap_pyfunction!(apply_overrides, m)?)?;
     Ok(())
 }
