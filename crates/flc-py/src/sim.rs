@@ -80,26 +80,9 @@ fn resolve_key(name: &str) -> String {
 #[pyfunction]
 fn apply_overrides(scenario_json: &str, overrides_json: &str) -> PyResult<String> {
     let bad = |e: PyErr| ScenarioError::new_err(e.to_string());
-    let mut s: Scenario = from_json(scenario_json, "scenario").map_err(bad)?;
+    let s: Scenario = from_json(scenario_json, "scenario").map_err(bad)?;
     let overrides: Vec<(String, serde_json::Value)> = from_json(overrides_json, "overrides").map_err(bad)?;
-    if overrides.is_empty() {
-        s.validate().map_err(|e| ScenarioError::new_err(format!("scenario: {e}")))?;
-        return to_json(&s);
-    }
-    // The seed is a u64 and TOML integers are i64: it goes around the patch (as in `scenario
-    // sweep`, which also sets it after patching).
-    let mut seed = s.seed;
-    s.seed = 0;
-    let mut rest = Vec::with_capacity(overrides.len());
-    for (name, value) in overrides {
-        if Scenario::resolve_key(&name) == "seed" {
-            seed = value.as_u64().ok_or_else(|| ScenarioError::new_err(format!("`seed`: expected a non-negative integer, got {value}")))?;
-        } else {
-            rest.push((name, value));
-        }
-    }
-    let mut out = s.with_overrides(&rest).map_err(|e| ScenarioError::new_err(e.to_string()))?;
-    out.seed = seed;
+    let out = s.with_overrides(&overrides).map_err(|e| ScenarioError::new_err(e.to_string()))?;
     to_json(&out)
 }
 

@@ -233,6 +233,10 @@ impl Scenario {
     /// (m/s², positive): the deceleration of **every** brake phase of the lead (sweeps, Python
     /// envelopes). Errors name the dotted key; the result is not validated.
     pub fn patched(&self, patch: &Patch) -> Result<Scenario, ConfigError> {
+        // TOML integers are i64 and the seed is a u64: it goes around the patch (a patch that
+        // sets `seed` sets it).
+        let base = Scenario { seed: 0, ..self.clone() };
+        let sets_seed = patch.keys().any(|k| k == "seed");
         let mut resolved = Patch::new();
         for (key, value) in patch.entries() {
             if key == LEAD_DECEL_KEY {
@@ -248,7 +252,11 @@ impl Scenario {
                 resolved.set(key, value.clone());
             }
         }
-        resolved.apply(self)
+        let mut out = resolved.apply(&base)?;
+        if !sets_seed {
+            out.seed = self.seed;
+        }
+        Ok(out)
     }
 
     /// The scenario's sections (top-level tables: `follower`, `lidar`, `flc`, `platoon`, ...),
@@ -284,10 +292,20 @@ impl Scenario {
     /// `lead_decel`) applied in order through [`Scenario::patched`]; validated. Errors name the key.
     pub fn with_overrides(&self, overrides: &[(String, serde_json::Value)]) -> Result<Scenario, ConfigError> {
         let mut patch = Patch::new();
+        let mut seed = None;
         for (name, value) in overrides {
-            patch.set_json(Self::resolve_key(name), value)?;
+            let key = Self::resolve_key(name);
+            if key == "seed" {
+                // Any u64 (the sweep's run seeds use the whole range; TOML's integers do not).
+                seed = Some(value.as_u64().ok_or_else(|| ConfigError::new("seed", format!("must be an integer in [0, 2^64), got {value}")))?);
+            } else {
+                patch.set_json(key, value)?;
+            }
         }
-        let s = self.patched(&patch)?;
+        let mut s = self.patched(&patch)?;
+        if let Some(seed) = seed {
+            s.seed = seed;
+        }
         s.validate()?;
         Ok(s)
     }
@@ -376,6 +394,11 @@ mod tests {
         assert!(matches!(s.lead.phases[2], crate::lead::Phase::Brake { decel, .. } if decel == 4.0));
         let e = Scenario::default().with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(0.0))]).expect_err("range");
         assert!(e.to_string().contains("lidar.rate_hz"), "{e}");
+        // Seeds anywhere in the u64 range survive patches and overrides.
+        let big = Scenario { seed: u64::MAX - 7, ..Scenario::default() };
+        assert_eq!(big.with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(10.0))]).expect("patch").seed, u64::MAX - 7);
+        assert_eq!(Scenario::default().with_overrides(&[("seed".into(), serde_json::json!(u64::MAX))]).expect("seed").seed, u64::MAX);
+        assert!(Scenario::default().with_overrides(&[("seed".into(), serde_json::json!(-1))]).expect_err("seed").to_string().contains("seed"));
         let e = Scenario::default().with_overrides(&[("lidar_frobnicate".into(), serde_json::json!(1))]).expect_err("unknown");
         assert!(e.to_string().contains("frobnicate"), "{e}");
     }
