@@ -26,7 +26,7 @@
 //! of [`DetectorParams`]; see `docs/detector.md`.
 
 use crate::command::clamp;
-use crate::params::{check_positive, check_range, ParamError};
+use crate::params::{ParamError, check_positive, check_range};
 use nalgebra::Point2;
 
 /// Capacity of the run table (maximal vertical runs of dilated cells per grid column) and of the
@@ -763,10 +763,9 @@ fn judge(c: &ClusterInfo, p: &DetectorParams, curvature: f64) -> Option<RejectRe
 fn reproject(c: &ClusterInfo, p: &DetectorParams, g: &Geometry) -> Detection {
     let (x, y) = match p.reprojection {
         Reprojection::PointRefined => (c.x_min, c.center_y()),
-        Reprojection::CellCenter => (
-            g.x_lo + (f64::from(c.ix_min) + 0.5) * g.cell,
-            g.y_lo + 0.5 * (f64::from(c.iy_min) + f64::from(c.iy_max) + 1.0) * g.cell,
-        ),
+        Reprojection::CellCenter => {
+            (g.x_lo + (f64::from(c.ix_min) + 0.5) * g.cell, g.y_lo + 0.5 * (f64::from(c.iy_min) + f64::from(c.iy_max) + 1.0) * g.cell)
+        }
     };
     let width = c.width();
     let point_term = (c.points as f64 / (4.0 * p.min_cluster_points as f64)).min(1.0);
@@ -1079,7 +1078,9 @@ mod tests {
             }
         }
         d.detect(&scan, 0.0);
-        let count = |f: &dyn Fn(usize, usize) -> bool| (0..350).flat_map(|ix| (0..60).map(move |iy| (ix, iy))).filter(|&(ix, iy)| f(ix, iy)).count();
+        let count = |f: &dyn Fn(usize, usize) -> bool| {
+            (0..350).flat_map(|ix| (0..60).map(move |iy| (ix, iy))).filter(|&(ix, iy)| f(ix, iy)).count()
+        };
         assert_eq!(count(&|ix, iy| d.is_occupied(ix, iy)), 25);
         assert_eq!(count(&|ix, iy| d.is_edge(ix, iy)), 16);
         assert!(!d.is_edge(102, 22) && d.is_edge(100, 22) && d.is_edge(102, 24));
@@ -1151,21 +1152,16 @@ mod tests {
 
     /// A car somewhere ahead, clutter, a few NaNs and signed zeros.
     fn scene() -> impl Strategy<Value = Vec<[f64; 2]>> {
-        (
-            3.0f64..68.0,
-            -2.5f64..2.5,
-            0.5f64..2.8,
-            proptest::collection::vec((-2.0f64..75.0, -7.0f64..7.0), 0..150),
-            0usize..4,
-        )
-            .prop_map(|(dist, yc, w, clutter, nans)| {
+        (3.0f64..68.0, -2.5f64..2.5, 0.5f64..2.8, proptest::collection::vec((-2.0f64..75.0, -7.0f64..7.0), 0..150), 0usize..4).prop_map(
+            |(dist, yc, w, clutter, nans)| {
                 let mut pts = rear_face(dist, yc, w);
                 pts.extend(clutter.into_iter().map(|(x, y)| [x, y]));
                 pts.extend(core::iter::repeat_n([f64::NAN, 1.0], nans));
                 pts.push([10.0, 0.0]);
                 pts.push([10.05, -0.0]);
                 pts
-            })
+            },
+        )
     }
 
     proptest! {

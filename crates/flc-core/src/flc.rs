@@ -22,10 +22,10 @@
 //! The choices the paper leaves open are the named fields of [`FlcParams`]; each is discussed in
 //! `docs/paper-notes.md`.
 
-use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
-use crate::longitudinal::{flag, ControlOutput, Frame, LongitudinalController, Terms};
-use crate::params::{check_positive, check_range, ParamError};
+use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
 use crate::longitudinal::ActiveController;
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
+use crate::params::{ParamError, check_positive, check_range};
 
 /// How the "`dist_s` is overridden to be -3" rule of Sec. III-B is applied in the fast-braking
 /// branch (`Delta_d <= brake_threshold`). The paper states the value, not the form.
@@ -316,7 +316,19 @@ impl FlcTerms {
         let t = self;
         Terms::new(
             Self::NAMES,
-            &[t.tau_d, t.d_d, t.scale_f, t.f_shift, t.delta_d, t.dist_s_raw, t.dist_s, flag(t.braking_branch), flag(t.overridden), t.a_law, t.a],
+            &[
+                t.tau_d,
+                t.d_d,
+                t.scale_f,
+                t.f_shift,
+                t.delta_d,
+                t.dist_s_raw,
+                t.dist_s,
+                flag(t.braking_branch),
+                flag(t.overridden),
+                t.a_law,
+                t.a,
+            ],
         )
     }
 }

@@ -37,9 +37,9 @@
 //! `V = (x_1^2 + x_2^2) / 2` is only partly decreasing).
 
 use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::longitudinal::ActiveController;
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
-use crate::longitudinal::ActiveController;
 
 /// What the very first detection is taken to be (later ones follow the latch rules).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
@@ -324,7 +324,17 @@ impl RobustFlcTerms {
         let t = self;
         Terms::new(
             Self::NAMES,
-            &[t.desired_gap, t.gap_error, t.gap_speed, t.envelope_speed, t.target_speed, flag(t.revealed), flag(t.latched), t.latch_min_distance, t.a],
+            &[
+                t.desired_gap,
+                t.gap_error,
+                t.gap_speed,
+                t.envelope_speed,
+                t.target_speed,
+                flag(t.revealed),
+                flag(t.latched),
+                t.latch_min_distance,
+                t.a,
+            ],
         )
     }
 }

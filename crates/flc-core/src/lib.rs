@@ -54,8 +54,8 @@ pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, Detec
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 pub use longitudinal::{ControlOutput, Frame, LongitudinalController, MAX_TERMS, Terms};
+pub use nalgebra::Point2;
 pub use params::ParamError;
 pub use pid::{GainSet, PidController, PidCore, PidGains, PidParams, PidTerms};
 pub use pure_pursuit::{PurePursuit, PurePursuitParams, PursuitLaw, SteeringCommand};
 pub use supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
-pub use nalgebra::Point2;

@@ -16,11 +16,11 @@
 //! saturates in the direction that would grow it (conditional integration).
 //! Unlike the FLC this controller uses `dt`: it is the time-dependent baseline.
 
-use crate::command::{clamp, safe_brake, valid_speed, LongitudinalCommand, Status};
+use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
 use crate::flc::{desired_distance, f_shift};
-use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
-use crate::params::{check_positive, check_range, ParamError};
 use crate::longitudinal::ActiveController;
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
+use crate::params::{ParamError, check_positive, check_range};
 
 /// One set of PID gains (the output `u` is a speed increment in m/s).
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]

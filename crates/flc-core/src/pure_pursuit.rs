@@ -10,8 +10,8 @@
 //! `alpha = atan2(delta_y, delta_x)` the relative angle (quadrant-correct arc tangent, as the paper
 //! requires). Positive steering turns left. Time-independent: no `dt`.
 
-use crate::command::{clamp, Status};
-use crate::params::{check_positive, check_range, ParamError};
+use crate::command::{Status, clamp};
+use crate::params::{ParamError, check_positive, check_range};
 use nalgebra::Point2;
 
 /// Which pure-pursuit law to use.

@@ -175,7 +175,16 @@ impl Supervisor {
             ActiveController::Pid => pid,
         };
         self.last_command = Some(command.speed);
-        SupervisorOutput { command, active: self.active, reason, switched, v2v_age_ticks: self.age, fresh_count: self.fresh_count, flc, pid }
+        SupervisorOutput {
+            command,
+            active: self.active,
+            reason,
+            switched,
+            v2v_age_ticks: self.age,
+            fresh_count: self.fresh_count,
+            flc,
+            pid,
+        }
     }
 
     /// Updates age, sequence and the consecutive-fresh count from this tick's message.

@@ -17,8 +17,8 @@ mod common;
 
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
-    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidCore, PidParams,
-    Point2, PurePursuit, PurePursuitParams, Reprojection, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
+    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidCore,
+    PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -9,8 +9,11 @@ use std::path::Path;
 fn header_is_up_to_date() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let config = cbindgen::Config::from_file(dir.join("cbindgen.toml")).expect("cbindgen.toml");
-    let bindings =
-        cbindgen::Builder::new().with_config(config).with_src(dir.join("src/capi/mod.rs")).generate().expect("cbindgen failed on src/capi/");
+    let bindings = cbindgen::Builder::new()
+        .with_config(config)
+        .with_src(dir.join("src/capi/mod.rs"))
+        .generate()
+        .expect("cbindgen failed on src/capi/");
     let mut generated = Vec::new();
     bindings.write(&mut generated);
     let generated = String::from_utf8(generated).expect("header is UTF-8");

@@ -22,7 +22,9 @@ fn default_experiment(c: &mut Criterion) {
         .collect();
     let mut g = c.benchmark_group("closed_loop");
     g.sample_size(10);
-    g.bench_function("default_experiment_8_runs_all_cores", |b| b.iter(|| RunOptions::default().run_batch(std::hint::black_box(&scenarios))));
+    g.bench_function("default_experiment_8_runs_all_cores", |b| {
+        b.iter(|| RunOptions::default().run_batch(std::hint::black_box(&scenarios)))
+    });
     g.finish();
 }
 

@@ -22,7 +22,9 @@ fn recording(c: &mut Criterion) {
     let mut g = c.benchmark_group("record");
     g.sample_size(20);
     g.bench_function("paper_70kmh_pipeline_no_recording", |b| b.iter(|| run(std::hint::black_box(&s))));
-    g.bench_function("paper_70kmh_pipeline_recording", |b| b.iter(|| RunOptions { record: Some(&dir), ..RunOptions::default() }.run(std::hint::black_box(&s))));
+    g.bench_function("paper_70kmh_pipeline_recording", |b| {
+        b.iter(|| RunOptions { record: Some(&dir), ..RunOptions::default() }.run(std::hint::black_box(&s)))
+    });
     g.finish();
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -92,7 +92,9 @@ impl FollowerConfig {
 
     /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).
     pub fn longitudinal(&self) -> Result<BoxedLaw, ConfigError> {
-        self.controller.build(&self.sections()).map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
+        self.controller
+            .build(&self.sections())
+            .map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
     }
 
     /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:

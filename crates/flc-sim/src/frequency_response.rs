@@ -87,7 +87,6 @@ pub fn frequency_response_at(base: &Scenario, freqs_hz: &[f64]) -> Result<Vec<Ga
         .collect()
 }
 
-
 /// Runs the `|Gamma(jw)|` sine runs of every platoon scenario in `scenarios` with
 /// `string_stability.frequencies_hz` (all in parallel) and adds them to `records` (one per
 /// scenario, same order).

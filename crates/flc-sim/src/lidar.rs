@@ -130,7 +130,19 @@ impl Lidar {
             r.set_stream(k);
             r
         };
-        Self { params, rng_noise: stream(1), rng_dropout: stream(2), rng_scan: stream(3), noise, next_t: 0.0, queue: VecDeque::new(), angles, unit, dirs: Vec::with_capacity(n), hits: Vec::with_capacity(n) }
+        Self {
+            params,
+            rng_noise: stream(1),
+            rng_dropout: stream(2),
+            rng_scan: stream(3),
+            noise,
+            next_t: 0.0,
+            queue: VecDeque::new(),
+            angles,
+            unit,
+            dirs: Vec::with_capacity(n),
+            hits: Vec::with_capacity(n),
+        }
     }
 
     /// The parameters.
@@ -225,12 +237,18 @@ mod tests {
     #[test]
     fn dropout_thins_returns_and_seed_repeats() {
         let (w, ego) = scene(15.0);
-        let full = Lidar::new(LidarParams { range_noise_std: 0.0, ..Default::default() }, 1).capture(0.0, &w, ego, &VehicleState::default());
+        let full =
+            Lidar::new(LidarParams { range_noise_std: 0.0, ..Default::default() }, 1).capture(0.0, &w, ego, &VehicleState::default());
         let mut l = Lidar::new(LidarParams { range_noise_std: 0.0, dropout_prob: 0.5, ..Default::default() }, 1);
         let half = l.capture(0.0, &w, ego, &VehicleState::default());
         let ratio = half.points.len() as f64 / full.points.len() as f64;
         assert!((ratio - 0.5).abs() < 0.15, "{ratio}");
-        let again = Lidar::new(LidarParams { range_noise_std: 0.0, dropout_prob: 0.5, ..Default::default() }, 1).capture(0.0, &w, ego, &VehicleState::default());
+        let again = Lidar::new(LidarParams { range_noise_std: 0.0, dropout_prob: 0.5, ..Default::default() }, 1).capture(
+            0.0,
+            &w,
+            ego,
+            &VehicleState::default(),
+        );
         assert_eq!(half, again);
     }
 

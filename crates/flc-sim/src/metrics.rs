@@ -313,7 +313,16 @@ mod tests {
         let mut s = Series::default();
         for i in 1..=n {
             let t = i as f64 * DT;
-            let mut r = StepRecord { t, lead_speed: 10.0, follower_speed: 10.0, gap: 20.0, desired_gap: 20.0, detected_distance: f64::NAN, v2v_age: f64::NAN, ..StepRecord::default() };
+            let mut r = StepRecord {
+                t,
+                lead_speed: 10.0,
+                follower_speed: 10.0,
+                gap: 20.0,
+                desired_gap: 20.0,
+                detected_distance: f64::NAN,
+                v2v_age: f64::NAN,
+                ..StepRecord::default()
+            };
             f(t, &mut r);
             s.push(r);
         }
@@ -334,7 +343,10 @@ mod tests {
         let one = series(1, |_, _| {});
         let m = Metrics::compute(&one, Some(CollisionInfo { time: 0.0, impact_speed: f64::NAN, lead_speed: 0.0, follower_speed: 0.0 }));
         assert_eq!((m.duration, m.impact_speed, m.max_jerk), (0.0, 0.0, 0.0));
-        let m = Metrics::compute(&Series::default(), Some(CollisionInfo { time: 1.0, impact_speed: 3.0, lead_speed: 0.0, follower_speed: 3.0 }));
+        let m = Metrics::compute(
+            &Series::default(),
+            Some(CollisionInfo { time: 1.0, impact_speed: 3.0, lead_speed: 0.0, follower_speed: 3.0 }),
+        );
         assert!(m.collision && m.impact_speed == 3.0 && m.collision_time == Some(1.0));
     }
 
@@ -459,7 +471,13 @@ mod tests {
         // stretch (5-7 s, gap error +80 m) are settling time; then +1 m for 4 s and -3 m for 4 s.
         let s = series(1500, |t, r| {
             r.lead_accel = if t <= 5.0 { 1.0 } else { 0.0 };
-            r.gap = if t <= 7.0 { 100.0 } else if t <= 11.0 { 21.0 } else { 17.0 };
+            r.gap = if t <= 7.0 {
+                100.0
+            } else if t <= 11.0 {
+                21.0
+            } else {
+                17.0
+            };
         });
         let m = Metrics::compute(&s, None);
         // Steady samples: (7, 15] = 8 s with errors +1 (4 s) and -3 (4 s): RMS sqrt((1 + 9) / 2).

@@ -8,11 +8,11 @@
 use flc_core::{DetectorParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
-use crate::lead::Phase;
-use crate::lidar::LidarParams;
-use crate::lead::LeadSpec;
 use crate::controllers::ControllerSections;
 use crate::follower::FollowerSpec;
+use crate::lead::LeadSpec;
+use crate::lead::Phase;
+use crate::lidar::LidarParams;
 use crate::scenario::{ControllerKind, KMH, Scenario, StopSpec, TrackSpec};
 use crate::v2v::V2vParams;
 use crate::vehicle::VehicleParams;
@@ -68,7 +68,6 @@ pub const BASELINE_SET_SPEED_MARGIN_KMH: f64 = 20.0;
 
 /// The four maximum speeds of the paper's experiment, km/h.
 pub const PAPER_SPEEDS_KMH: [f64; 4] = [30.0, 50.0, 70.0, 90.0];
-
 
 /// Brake authority of the low-level speed controller in the paper preset, m/s². The paper feeds
 /// its speed command into CARLA's default vehicle controller, whose agents cap the brake pedal
@@ -138,5 +137,4 @@ impl Scenario {
         }
         s
     }
-
 }

@@ -13,10 +13,10 @@ use serde::{Deserialize, Serialize};
 pub use crate::controllers::{ControllerKind, SupervisorSpec};
 use crate::controllers::{for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, SimError, check_range};
+use crate::follower::{FollowerConfig, FollowerSpec};
 use crate::lead::LeadSpec;
 use crate::lidar::LidarParams;
 use crate::patch::Patch;
-use crate::follower::{FollowerConfig, FollowerSpec};
 use crate::platoon::PlatoonSpec;
 use crate::track::Track;
 use crate::v2v::V2vParams;
@@ -240,8 +240,14 @@ impl Scenario {
         let mut resolved = Patch::new();
         for (key, value) in patch.entries() {
             if key == LEAD_DECEL_KEY {
-                let brakes: Vec<usize> =
-                    self.lead.phases.iter().enumerate().filter(|(_, p)| matches!(p, crate::lead::Phase::Brake { .. })).map(|(i, _)| i).collect();
+                let brakes: Vec<usize> = self
+                    .lead
+                    .phases
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, p)| matches!(p, crate::lead::Phase::Brake { .. }))
+                    .map(|(i, _)| i)
+                    .collect();
                 if brakes.is_empty() {
                     return Err(ConfigError::new(key, "the scenario's lead has no brake phase"));
                 }
@@ -297,7 +303,8 @@ impl Scenario {
             let key = Self::resolve_key(name);
             if key == "seed" {
                 // Any u64 (the sweep's run seeds use the whole range; TOML's integers do not).
-                seed = Some(value.as_u64().ok_or_else(|| ConfigError::new("seed", format!("must be an integer in [0, 2^64), got {value}")))?);
+                seed =
+                    Some(value.as_u64().ok_or_else(|| ConfigError::new("seed", format!("must be an integer in [0, 2^64), got {value}")))?);
             } else {
                 patch.set_json(key, value)?;
             }
@@ -365,7 +372,11 @@ fn one_line(msg: &str) -> String {
     // toml 1 puts "TOML parse error at line L, column C" first and the problem last.
     match (lines.first(), lines.last()) {
         (Some(first), Some(last)) if first.starts_with("TOML parse error") && first != last => {
-            format!("{} ({})", last.trim_start_matches(['|', '^', ' ']), first.trim_start_matches("TOML parse error at ").trim_end_matches(':'))
+            format!(
+                "{} ({})",
+                last.trim_start_matches(['|', '^', ' ']),
+                first.trim_start_matches("TOML parse error at ").trim_end_matches(':')
+            )
         }
         (Some(first), _) => (*first).to_string(),
         _ => msg.to_string(),
@@ -379,7 +390,9 @@ mod tests {
     #[test]
     fn sections_keys_and_overrides() {
         let names = Scenario::section_names();
-        for s in ["follower", "lead", "lidar", "v2v", "detector", "pure_pursuit", "stop", "track", "platoon", "flc", "pid", "supervisor", "idm"] {
+        for s in
+            ["follower", "lead", "lidar", "v2v", "detector", "pure_pursuit", "stop", "track", "platoon", "flc", "pid", "supervisor", "idm"]
+        {
             assert!(names.iter().any(|n| n == s), "{s} in {names:?}");
         }
         assert!(!names.iter().any(|n| n == "name" || n == "seed"));
@@ -398,7 +411,9 @@ mod tests {
         let big = Scenario { seed: u64::MAX - 7, ..Scenario::default() };
         assert_eq!(big.with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(10.0))]).expect("patch").seed, u64::MAX - 7);
         assert_eq!(Scenario::default().with_overrides(&[("seed".into(), serde_json::json!(u64::MAX))]).expect("seed").seed, u64::MAX);
-        assert!(Scenario::default().with_overrides(&[("seed".into(), serde_json::json!(-1))]).expect_err("seed").to_string().contains("seed"));
+        assert!(
+            Scenario::default().with_overrides(&[("seed".into(), serde_json::json!(-1))]).expect_err("seed").to_string().contains("seed")
+        );
         let e = Scenario::default().with_overrides(&[("lidar_frobnicate".into(), serde_json::json!(1))]).expect_err("unknown");
         assert!(e.to_string().contains("frobnicate"), "{e}");
     }

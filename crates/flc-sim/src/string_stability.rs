@@ -26,8 +26,8 @@ use serde::{Deserialize, Serialize};
 
 use flc_core::LongitudinalController;
 
-use crate::platoon::StringStabilitySpec;
 use crate::metrics::FollowerRun;
+use crate::platoon::StringStabilitySpec;
 
 /// `|Gamma(jw)|` at one frequency.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -130,7 +130,8 @@ impl Signals {
         }
         for (r, law) in runs.iter().zip(laws) {
             let s = &r.series;
-            let e: Vec<f64> = (0..s.len()).map(|i| s.gap[i] - reference_gap(*law, s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
+            let e: Vec<f64> =
+                (0..s.len()).map(|i| s.gap[i] - reference_gap(*law, s.follower_speed[i]).unwrap_or(s.desired_gap[i])).collect();
             sig.gap_error.push(e);
             sig.speed_error.push(s.lead_speed.iter().zip(&s.follower_speed).map(|(a, b)| a - b).collect());
             sig.accel.push(s.follower_accel.clone());

@@ -30,8 +30,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::error::{ConfigError, SimError};
-use crate::patch::Patch;
 use crate::paper::Calibration;
+use crate::patch::Patch;
 use crate::scenario::{ControllerKind, Scenario};
 
 /// One axis of the sweep.
@@ -118,8 +118,7 @@ impl SweepSpec {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
         let de = toml::Deserializer::parse(&text).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
-        let spec: SweepSpec = serde_path_to_error::deserialize(de)
-            .map_err(|e| {
+        let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
             SimError::File { path: origin.clone(), message: format!("`{key}`: {}", e.into_inner()) }
         })?;
@@ -181,7 +180,9 @@ impl SweepSpec {
                     let mut c = Vec::new();
                     for (i, a) in self.axes.iter().enumerate() {
                         let v = match (&a.values, a.from, a.to) {
-                            (Some(vals), _, _) if !vals.is_empty() => vals.get(rng.random_range(0..vals.len())).cloned().unwrap_or(Value::Null),
+                            (Some(vals), _, _) if !vals.is_empty() => {
+                                vals.get(rng.random_range(0..vals.len())).cloned().unwrap_or(Value::Null)
+                            }
                             (_, Some(lo), Some(hi)) if lo <= hi => Value::from(rng.random_range(lo..=hi)),
                             _ => return Err(ConfigError::new(format!("axes[{i}]"), "random mode needs `values` or `from` <= `to`").into()),
                         };

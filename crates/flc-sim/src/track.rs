@@ -265,7 +265,8 @@ impl Track {
         let segments = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(nseg);
         // Nearest box first, then every box that may still hold a nearer (or tied) segment; the
         // margin covers rounding in the distances.
-        let first = (0..self.chunks.len()).min_by(|&a, &b| lower_bound(&self.chunks[a]).total_cmp(&lower_bound(&self.chunks[b]))).unwrap_or(0);
+        let first =
+            (0..self.chunks.len()).min_by(|&a, &b| lower_bound(&self.chunks[a]).total_cmp(&lower_bound(&self.chunks[b]))).unwrap_or(0);
         for i in segments(first) {
             consider(i, &mut best);
         }
@@ -453,7 +454,10 @@ mod tests {
         let walk = Track::new("walk", pts, 3.5, vec![]);
         for t in [Track::curvy(), walk] {
             let nseg = t.centerline.len() - 1;
-            let (min, max) = t.chunks.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(a, b), c| ([a[0].min(c[0]), a[1].min(c[1])], [b[0].max(c[2]), b[1].max(c[3])]));
+            let (min, max) = t
+                .chunks
+                .iter()
+                .fold(([f64::MAX; 2], [f64::MIN; 2]), |(a, b), c| ([a[0].min(c[0]), a[1].min(c[1])], [b[0].max(c[2]), b[1].max(c[3])]));
             for _ in 0..5000 {
                 let x = rng.random_range(min[0] - 100.0..max[0] + 100.0);
                 let y = rng.random_range(min[1] - 100.0..max[1] + 100.0);

@@ -642,7 +642,8 @@ mod tests {
 
     #[test]
     fn serde_defaults_and_unknown_fields() {
-        let p: V2vParams = serde_json::from_str(r#"{"loss_prob": 0.1, "gilbert_elliott": {"p_good_to_bad": 0.1, "p_bad_to_good": 0.5}}"#).unwrap();
+        let p: V2vParams =
+            serde_json::from_str(r#"{"loss_prob": 0.1, "gilbert_elliott": {"p_good_to_bad": 0.1, "p_bad_to_good": 0.5}}"#).unwrap();
         assert_eq!(p.rate_hz, 10.0);
         assert_eq!(p.gilbert_elliott.map(|g| (g.loss_good, g.loss_bad)), Some((0.0, 1.0)));
         assert!(serde_json::from_str::<V2vParams>(r#"{"rate": 5}"#).is_err());

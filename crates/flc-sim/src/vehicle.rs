@@ -156,7 +156,8 @@ impl Vehicle {
         } else {
             self.actuator.max(-p.max_brake)
         };
-        let resist = if v > 0.0 { (0.5 * p.air_density * p.drag_cd * p.frontal_area * v * v) / p.mass + p.rolling_resistance * G } else { 0.0 };
+        let resist =
+            if v > 0.0 { (0.5 * p.air_density * p.drag_cd * p.frontal_area * v * v) / p.mass + p.rolling_resistance * G } else { 0.0 };
         let v_new = (v + (a_act - resist) * dt).max(0.0);
         let v_mid = 0.5 * (v + v_new);
         // Kinematic bicycle about the body centre (slip angle beta, rear axle at L/2 behind).

@@ -143,7 +143,9 @@ impl World {
     pub fn add_vehicle(&mut self, params: &VehicleParams, state: &VehicleState) -> Body {
         let rb = RigidBodyBuilder::kinematic_position_based().pose(pose(state.x, state.y, state.yaw));
         let col = ColliderBuilder::cuboid((params.length / 2.0) as f32, (params.width / 2.0) as f32)
-            .active_collision_types(ActiveCollisionTypes::default() | ActiveCollisionTypes::KINEMATIC_KINEMATIC | ActiveCollisionTypes::KINEMATIC_FIXED)
+            .active_collision_types(
+                ActiveCollisionTypes::default() | ActiveCollisionTypes::KINEMATIC_KINEMATIC | ActiveCollisionTypes::KINEMATIC_FIXED,
+            )
             .active_events(ActiveEvents::COLLISION_EVENTS);
         let (body, collider) = self.pw.insert(rb, col);
         let b = Body { body, collider };
@@ -216,8 +218,8 @@ impl World {
     /// for cuboids and balls), which makes a scan cost about one shape test per ray instead of a
     /// BVH descent per ray.
     pub fn cast_fan(&self, fan: &RayFan<'_>, max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
-        use std::f64::consts::{FRAC_PI_2, TAU};
         use rapier2d::parry::bounding_volume::Aabb;
+        use std::f64::consts::{FRAC_PI_2, TAU};
         let RayFan { origin, base, angles, unit } = *fan;
         hits.clear();
         hits.resize(angles.len(), None);

@@ -44,7 +44,6 @@ fn tail_stats(s: &Scenario, window: f64) -> (f64, f64, f64) {
 
 /// The desired gap of the scenario's law at own speed `v`, m.
 fn law_gap(s: &Scenario, v: f64) -> f64 {
-    use flc_core::LongitudinalController;
     s.base_follower_config().longitudinal().expect("law").desired_gap(v)
 }
 

@@ -56,7 +56,18 @@ fn json_records_have_the_documented_fields_and_collision_exit_code() {
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
     let line = String::from_utf8_lossy(&out.stdout);
     let v: serde_json::Value = serde_json::from_str(line.trim()).expect("json");
-    for k in ["scenario", "controller", "speed_kmh", "collision", "impact_speed", "min_gap", "final_clearance", "min_ttc", "max_decel", "max_jerk"] {
+    for k in [
+        "scenario",
+        "controller",
+        "speed_kmh",
+        "collision",
+        "impact_speed",
+        "min_gap",
+        "final_clearance",
+        "min_ttc",
+        "max_decel",
+        "max_jerk",
+    ] {
         assert!(v.get(k).is_some(), "missing {k}");
     }
     assert_eq!(v["collision"], true);

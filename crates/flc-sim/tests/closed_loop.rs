@@ -114,7 +114,8 @@ fn deterministic_across_runs_and_thread_counts() {
 /// On the curved track the FLC-driven follower stays within 0.5 m of the lane centre on average.
 #[test]
 fn curved_track_tracking_error() {
-    let s = Scenario::from_file(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/curvy-follow.toml"))).expect("scenario");
+    let s = Scenario::from_file(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/curvy-follow.toml")))
+        .expect("scenario");
     assert!(matches!(s.track, TrackSpec::Curvy));
     let m = run(&s).expect("run").metrics;
     assert!(!m.collision);

@@ -123,7 +123,8 @@ fn fnv(h: &mut u64, bytes: &[u8]) {
 fn mcap_message_counts_and_contents() {
     let d = tmpdir("mcap");
     scenario(&["--config", "scenarios/paper-70-pipeline.toml", "--record", d.to_str().expect("utf-8 path")]);
-    let file = std::fs::read_dir(&d).expect("read dir").map(|e| e.expect("entry").path()).find(|p| p.extension().is_some_and(|e| e == "mcap"));
+    let file =
+        std::fs::read_dir(&d).expect("read dir").map(|e| e.expect("entry").path()).find(|p| p.extension().is_some_and(|e| e == "mcap"));
     let bytes = std::fs::read(file.expect("an mcap file")).expect("read mcap");
     // topic -> (count, hash of every message's log time and data, in file order)
     let mut per_topic: BTreeMap<String, (u64, u64)> = BTreeMap::new();

@@ -46,8 +46,8 @@ fn crate_paths(code: &str) -> Vec<String> {
             out.push(name);
         }
         // `crate::{a, b}`: every name in the braces.
-        if rest.starts_with('{') {
-            let inner = rest[1..].split('}').next().unwrap_or_default();
+        if let Some(braced) = rest.strip_prefix('{') {
+            let inner = braced.split('}').next().unwrap_or_default();
             out.extend(inner.split(',').map(|s| s.trim().split("::").next().unwrap_or_default().to_string()).filter(|s| !s.is_empty()));
         }
     }
@@ -168,7 +168,8 @@ fn flc_sim_modules_use_only_lower_layers() {
     let layer_of = |m: &str| SIM_LAYERS.iter().position(|l| l.contains(&m));
     let g = graph(&crate_src("flc-sim"));
     for (from, tos) in &g {
-        let lf = layer_of(from).unwrap_or_else(|| panic!("module `{from}` is not in SIM_LAYERS (add it to its layer and to docs/architecture.md)"));
+        let lf = layer_of(from)
+            .unwrap_or_else(|| panic!("module `{from}` is not in SIM_LAYERS (add it to its layer and to docs/architecture.md)"));
         for to in tos {
             let lt = layer_of(to).unwrap_or_else(|| panic!("module `{to}` is not in SIM_LAYERS"));
             assert!(lt <= lf, "`{from}` (layer {lf}) uses `{to}` (layer {lt}, above it)");

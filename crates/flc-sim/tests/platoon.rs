@@ -3,10 +3,10 @@
 
 use std::path::Path;
 
-use flc_sim::{ACTIVE_FLC, Series};
-use flc_sim::{FollowerOverride, PlatoonSpec, V2vSource};
-use flc_sim::{ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::frequency_response::frequency_response_at;
+use flc_sim::{ACTIVE_FLC, Series};
+use flc_sim::{ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{FollowerOverride, PlatoonSpec, V2vSource};
 use flc_sim::{RunResult, run};
 
 /// Every column equal bit for bit (NaN included).

@@ -7,11 +7,11 @@
 //! follower that knows the lead's (or obstacle's) state one LiDAR frame after it changes and then
 //! demands full braking.
 
-use flc_sim::{Metrics, MetricsParams};
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
+use flc_sim::{Metrics, MetricsParams};
 use flc_sim::{RoadsideObject, Track};
-use flc_sim::{Vehicle, VehicleParams, VehicleState};
 use flc_sim::{RunOptions, RunResult};
+use flc_sim::{Vehicle, VehicleParams, VehicleState};
 
 const KMH: f64 = 1.0 / 3.6;
 const ROBUST: ControllerKind = ControllerKind::FlcRobust;

@@ -24,9 +24,9 @@
 use super::estimator::{EstimatorParams, RangeRateEstimator};
 use super::{Frame as Checked, NoLeadPolicy, accel_command, check_frame, lead_speed};
 use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::longitudinal::ActiveController;
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
 use crate::params::{ParamError, check_positive, check_range};
-use crate::longitudinal::ActiveController;
 
 /// The parameters every estimating follower has (flat fields of each law's parameter struct,
 /// collected by [`FollowerParams::settings`]).

@@ -179,7 +179,10 @@ impl IdmTerms {
     /// The terms as a named list ([`Terms`]).
     pub fn to_terms(&self) -> Terms {
         let t = self;
-        Terms::new(Self::NAMES, &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.desired_gap, t.free_accel, t.interaction_accel, t.accel])
+        Terms::new(
+            Self::NAMES,
+            &[flag(t.lead), t.gap, t.range_rate, t.lead_speed, t.desired_gap, t.free_accel, t.interaction_accel, t.accel],
+        )
     }
 }
 

@@ -75,7 +75,6 @@ pub(crate) fn powf(x: f64, y: f64) -> f64 {
     libm::pow(x, y)
 }
 
-
 /// What a baseline does on a frame without a lead (`distance = None`).
 ///
 /// The FLC and the PID brake (they are followers, not cruise controllers). The published laws

@@ -178,8 +178,18 @@ follower_params!(RssParams, Rss);
 
 impl RssTerms {
     /// The names of [`RssTerms::to_terms`], in field order (flags as 0 / 1).
-    pub const NAMES: &'static [&'static str] =
-        &["lead", "gap", "range_rate", "lead_speed", "safe_distance", "target_gap", "gap_accel", "cruise_accel", "proper_response", "accel"];
+    pub const NAMES: &'static [&'static str] = &[
+        "lead",
+        "gap",
+        "range_rate",
+        "lead_speed",
+        "safe_distance",
+        "target_gap",
+        "gap_accel",
+        "cruise_accel",
+        "proper_response",
+        "accel",
+    ];
 
     /// The terms as a named list ([`Terms`]).
     pub fn to_terms(&self) -> Terms {
@@ -223,7 +233,18 @@ impl CarFollowingLaw for Rss {
             accel = accel.min(-p.brake_min);
         }
         let accel = clamp(accel, -p.brake_max, p.accel_max);
-        let t = RssTerms { lead: true, gap, range_rate, lead_speed: v_lead, safe_distance, target_gap, gap_accel, cruise_accel, proper_response, accel };
+        let t = RssTerms {
+            lead: true,
+            gap,
+            range_rate,
+            lead_speed: v_lead,
+            safe_distance,
+            target_gap,
+            gap_accel,
+            cruise_accel,
+            proper_response,
+            accel,
+        };
         (Demand::Accel(accel), t)
     }
 

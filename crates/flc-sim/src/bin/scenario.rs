@@ -6,8 +6,8 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
-use flc_sim::report::{self, RunRecord};
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
+use flc_sim::report::{self, RunRecord};
 use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{RunOptions, SimError};
 

@@ -27,7 +27,6 @@ impl Default for LeadSpec {
     }
 }
 
-
 /// Gain of the speed-holding loop (hold phases, end of accelerate / brake), 1/s.
 const HOLD_GAIN: f64 = 3.0;
 /// The accelerate phase blends into its target over the last `1 / ACCEL_BLEND` m/s.

@@ -48,8 +48,8 @@ mod scene;
 mod state;
 mod writer;
 
-pub use state::state_json_schema;
 use scene::*;
+pub use state::state_json_schema;
 use state::*;
 use writer::*;
 
@@ -436,7 +436,14 @@ impl Drop for Recorder {
 
 /// The recorder as the loop's sink.
 impl Observer for Recorder {
-    fn scan(&mut self, t: f64, scan: &Scan, clusters: &[ClusterInfo], detected: Option<f64>, lookahead: (f64, f64)) -> Result<(), SimError> {
+    fn scan(
+        &mut self,
+        t: f64,
+        scan: &Scan,
+        clusters: &[ClusterInfo],
+        detected: Option<f64>,
+        lookahead: (f64, f64),
+    ) -> Result<(), SimError> {
         Recorder::scan(self, t, scan, clusters, detected, lookahead)
     }
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {

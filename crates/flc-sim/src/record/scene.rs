@@ -2,7 +2,6 @@
 
 use super::*;
 
-
 pub(super) fn v3(x: f64, y: f64, z: f64) -> Vector3 {
     Vector3 { x, y, z }
 }
@@ -140,4 +139,3 @@ pub(super) fn transform(ns: u64, parent: &str, child: &str, x: f64, y: f64, yaw:
         rotation: Some(yaw_quat(yaw)),
     }
 }
-

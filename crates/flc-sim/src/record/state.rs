@@ -42,4 +42,3 @@ pub fn state_json_schema() -> String {
     })
     .to_string()
 }
-

@@ -2,7 +2,6 @@
 
 use super::*;
 
-
 #[derive(Clone, Copy)]
 pub(super) enum Ch {
     Scan,
@@ -68,4 +67,3 @@ pub(super) fn add_channel<T: Encode>(w: &mut McapWriter, topic: &str) -> mcap::M
     let id = w.add_channel(schema_id, topic, &T::get_message_encoding(), &BTreeMap::new())?;
     Ok(Channel { id, sequence: 0 })
 }
-

@@ -6,9 +6,9 @@ use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
+use crate::follower::FollowerConfig;
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
-use crate::follower::FollowerConfig;
 use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
 use crate::series::{Series, StepRecord};
@@ -59,7 +59,14 @@ pub(super) struct Follower {
 }
 
 impl Follower {
-    pub(super) fn new(s: &Scenario, index: usize, cfg: FollowerConfig, body: Body, state: VehicleState, lead_link: bool) -> Result<Self, SimError> {
+    pub(super) fn new(
+        s: &Scenario,
+        index: usize,
+        cfg: FollowerConfig,
+        body: Body,
+        state: VehicleState,
+        lead_link: bool,
+    ) -> Result<Self, SimError> {
         let longitudinal = cfg.longitudinal()?;
         let active = cfg.controller.initial_active();
         let distance_offset = cfg.follower.distance_offset.unwrap_or(cfg.follower.vehicle.length / 2.0 - cfg.lidar.mount_x);
@@ -99,7 +106,15 @@ impl Follower {
         })
     }
 
-    pub(super) fn control_tick(&mut self, t: f64, points: &[[f64; 2]], fs: &VehicleState, road: &Road<'_>, source: V2vSource, lead_weight: f64) {
+    pub(super) fn control_tick(
+        &mut self,
+        t: f64,
+        points: &[[f64; 2]],
+        fs: &VehicleState,
+        road: &Road<'_>,
+        source: V2vSource,
+        lead_weight: f64,
+    ) {
         let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
         let detection = det.detection;
         let distance = detection.map(|d| d.distance - self.distance_offset);
@@ -185,4 +200,3 @@ impl Follower {
         rec
     }
 }
-

@@ -58,7 +58,6 @@ pub(super) fn wrap_angle(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

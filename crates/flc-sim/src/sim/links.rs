@@ -31,7 +31,6 @@ pub(super) fn relay_tick(ch: &mut V2vChannel, t: f64, pending: Option<f64>, cons
     ch.receive(t)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,8 +17,8 @@ mod geometry;
 mod links;
 mod observer;
 
-pub use observer::Observer;
 pub(crate) use links::sub_seed;
+pub use observer::Observer;
 
 use flc_core::PurePursuit;
 
@@ -166,8 +166,44 @@ impl Simulation {
     /// This simulation with `observer` as its sink (call it before the first step to observe the
     /// whole run).
     pub fn with_observer<P: Observer>(self, observer: P) -> Simulation<P> {
-        let Simulation { scenario, track, world, lead_body, lead, lead_driver, lead_steer, lead_x0, followers, source, lead_weight, relay, speeds, t, k, standstill_since, observer: _ } = self;
-        Simulation { scenario, track, world, lead_body, lead, lead_driver, lead_steer, lead_x0, followers, source, lead_weight, relay, speeds, t, k, standstill_since, observer }
+        let Simulation {
+            scenario,
+            track,
+            world,
+            lead_body,
+            lead,
+            lead_driver,
+            lead_steer,
+            lead_x0,
+            followers,
+            source,
+            lead_weight,
+            relay,
+            speeds,
+            t,
+            k,
+            standstill_since,
+            observer: _,
+        } = self;
+        Simulation {
+            scenario,
+            track,
+            world,
+            lead_body,
+            lead,
+            lead_driver,
+            lead_steer,
+            lead_x0,
+            followers,
+            source,
+            lead_weight,
+            relay,
+            speeds,
+            t,
+            k,
+            standstill_since,
+            observer,
+        }
     }
 }
 
@@ -376,4 +412,3 @@ impl<O: Observer> Simulation<O> {
         RunResult { scenario, metrics: first.metrics, series: first.series, platoon }
     }
 }
-

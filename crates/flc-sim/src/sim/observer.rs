@@ -15,7 +15,14 @@ pub trait Observer {
     /// A scan delivered to follower 1 at simulation time `t`, after its pipeline ran: the points,
     /// the detector's clusters (`selected` marks the accepted lead), the distance the controller
     /// got (m) and the pure-pursuit lookahead point `(x, y)` in the follower's frame (m).
-    fn scan(&mut self, t: f64, scan: &Scan, clusters: &[ClusterInfo], detected: Option<f64>, lookahead: (f64, f64)) -> Result<(), SimError> {
+    fn scan(
+        &mut self,
+        t: f64,
+        scan: &Scan,
+        clusters: &[ClusterInfo],
+        detected: Option<f64>,
+        lookahead: (f64, f64),
+    ) -> Result<(), SimError> {
         let _ = (t, scan, clusters, detected, lookahead);
         Ok(())
     }
@@ -38,7 +45,14 @@ impl Observer for () {}
 
 /// An optional sink (recording switched on at run time).
 impl<O: Observer> Observer for Option<O> {
-    fn scan(&mut self, t: f64, scan: &Scan, clusters: &[ClusterInfo], detected: Option<f64>, lookahead: (f64, f64)) -> Result<(), SimError> {
+    fn scan(
+        &mut self,
+        t: f64,
+        scan: &Scan,
+        clusters: &[ClusterInfo],
+        detected: Option<f64>,
+        lookahead: (f64, f64),
+    ) -> Result<(), SimError> {
         self.as_mut().map_or(Ok(()), |o| o.scan(t, scan, clusters, detected, lookahead))
     }
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
@@ -51,7 +65,14 @@ impl<O: Observer> Observer for Option<O> {
 
 /// A boxed sink.
 impl<O: Observer + ?Sized> Observer for Box<O> {
-    fn scan(&mut self, t: f64, scan: &Scan, clusters: &[ClusterInfo], detected: Option<f64>, lookahead: (f64, f64)) -> Result<(), SimError> {
+    fn scan(
+        &mut self,
+        t: f64,
+        scan: &Scan,
+        clusters: &[ClusterInfo],
+        detected: Option<f64>,
+        lookahead: (f64, f64),
+    ) -> Result<(), SimError> {
         (**self).scan(t, scan, clusters, detected, lookahead)
     }
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
