@@ -121,7 +121,36 @@ pub struct Metrics {
     pub duration: f64,
 }
 
+/// The field names of `v`'s serialised form, in order (serde writes struct fields in
+/// declaration order; the JSON text keeps it).
+fn field_names<T: Serialize>(v: &T) -> Vec<String> {
+    struct Keys;
+    impl<'de> serde::de::Visitor<'de> for Keys {
+        type Value = Vec<String>;
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a map")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut keys = Vec::new();
+            while let Some(k) = map.next_key::<String>()? {
+                map.next_value::<serde::de::IgnoredAny>()?;
+                keys.push(k);
+            }
+            Ok(keys)
+        }
+    }
+    let text = serde_json::to_string(v).unwrap_or_default();
+    serde::Deserializer::deserialize_map(&mut serde_json::Deserializer::from_str(&text), Keys).unwrap_or_default()
+}
+
 impl Metrics {
+    /// The metric names, in the order of `scenario --json` and of the sweep CSV's metric
+    /// columns: the struct's fields (derived, not listed).
+    pub fn names() -> &'static [String] {
+        static NAMES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+        NAMES.get_or_init(|| field_names(&Metrics::compute(&Series::default(), None)))
+    }
+
     /// Computes the metrics with the default thresholds.
     pub fn compute(series: &Series, collision: Option<CollisionInfo>) -> Metrics {
         Self::compute_with(series, collision, &MetricsParams::default())
@@ -303,6 +332,20 @@ mod tests {
     use super::*;
 
     const DT: f64 = 0.01;
+
+    #[test]
+    fn metric_names_are_the_fields_in_order() {
+        let names = Metrics::names();
+        assert_eq!(names.first().map(String::as_str), Some("collision"));
+        assert_eq!(names.last().map(String::as_str), Some("duration"));
+        let json = serde_json::to_value(Metrics::compute(&Series::default(), None)).expect("json");
+        let obj = json.as_object().expect("object");
+        assert_eq!(names.len(), obj.len());
+        assert!(names.iter().all(|n| obj.contains_key(n)));
+        // Declaration order, not alphabetical.
+        let pos = |n: &str| names.iter().position(|x| x == n);
+        assert!(pos("min_gap") < pos("final_clearance") && pos("final_clearance") < pos("max_decel"));
+    }
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol

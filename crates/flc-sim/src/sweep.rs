@@ -31,6 +31,7 @@ use serde_json::Value;
 
 use crate::error::{ConfigError, SimError};
 use crate::paper::Calibration;
+use crate::metrics::Metrics;
 use crate::patch::Patch;
 use crate::scenario::{ControllerKind, Scenario};
 
@@ -230,28 +231,6 @@ impl SweepSpec {
     }
 }
 
-/// Metric columns of a sweep row, in order (the names of `scenario --json`).
-pub const METRIC_COLUMNS: [&str; 18] = [
-    "collision",
-    "impact_speed",
-    "collision_time",
-    "min_gap",
-    "final_clearance",
-    "min_ttc",
-    "max_decel",
-    "max_drac",
-    "time_hard_braking",
-    "max_jerk",
-    "gap_error_rms",
-    "steady_time",
-    "rot_error_deg",
-    "trans_error_m",
-    "time_pid",
-    "time_flc",
-    "switches",
-    "duration",
-];
-
 fn csv_field(v: &Value) -> String {
     match v {
         Value::Null => String::new(),
@@ -268,7 +247,7 @@ pub fn run_seed(sweep_seed: u64, run_id: usize) -> u64 {
 }
 
 /// One finished row: `run_id, <axes...>, controller, seed, <metrics...>`.
-fn row(point: &SweepPoint, metrics: &crate::metrics::Metrics) -> String {
+fn row(point: &SweepPoint, metrics: &Metrics) -> String {
     let m = serde_json::to_value(metrics).unwrap_or(Value::Null);
     let mut f = vec![point.id.to_string()];
     f.extend(point.values.iter().map(|(_, v)| csv_field(v)));
@@ -276,7 +255,7 @@ fn row(point: &SweepPoint, metrics: &crate::metrics::Metrics) -> String {
         f.push(point.scenario.controller.as_str().to_string());
     }
     f.push(point.scenario.seed.to_string());
-    f.extend(METRIC_COLUMNS.iter().map(|k| m.get(*k).map(csv_field).unwrap_or_default()));
+    f.extend(Metrics::names().iter().map(|k| m.get(k.as_str()).map(csv_field).unwrap_or_default()));
     f.join(",")
 }
 
@@ -288,7 +267,7 @@ pub fn header(spec: &SweepSpec) -> String {
         h.push("controller".into());
     }
     h.push("seed".into());
-    h.extend(METRIC_COLUMNS.iter().map(|s| s.to_string()));
+    h.extend(Metrics::names().iter().cloned());
     h.join(",")
 }
 
@@ -300,7 +279,7 @@ pub fn finished_ids(out: &Path) -> HashSet<usize> {
         .skip(1)
         .map_while(Result::ok)
         // A line is complete only if it ends with all its fields (interrupted writes are redone).
-        .filter(|l| l.split(',').count() >= 2 + METRIC_COLUMNS.len())
+        .filter(|l| l.split(',').count() >= 2 + Metrics::names().len())
         .filter_map(|l| l.split(',').next().and_then(|id| id.parse().ok()))
         .collect()
 }
