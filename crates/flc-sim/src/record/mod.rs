@@ -305,10 +305,38 @@ impl Recorder {
         self.write(Ch::Tf, ns, &msg)
     }
 
+    /// Writes the metrics (if given), the summary and the index, and closes the file.
+    pub fn finish(mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
+        self.finish_in_place(metrics)
+    }
+
+    /// [`Recorder::finish`] through a reference (the [`Observer`] end of a run); a second call
+    /// is an error.
+    fn finish_in_place(&mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
+        if let Some(m) = metrics {
+            let meta = BTreeMap::from([("metrics".to_string(), serde_json::to_string(m).unwrap_or_default())]);
+            self.push(Item::Metadata(mcap::records::Metadata { name: METADATA_METRICS.into(), metadata: meta }))?;
+        }
+        self.close()?;
+        Ok(self.path.clone())
+    }
+}
+
+impl Drop for Recorder {
+    /// A run that stopped early still leaves a complete, indexed file (without `flc.metrics`):
+    /// the writer thread writes what was queued and finishes the file; errors are ignored here.
+    fn drop(&mut self) {
+        let _ = self.close();
+    }
+}
+
+/// The recorder as the loop's sink: follower 1's scans on [`TOPIC_SCAN`], [`TOPIC_DETECTOR`],
+/// [`TOPIC_LOOKAHEAD`]; every step on [`TOPIC_TF`] and [`TOPIC_STATE`]; the end as metadata.
+impl Observer for Recorder {
     /// One delivered scan at simulation time `t`: the points, the detector's clusters
     /// (`clusters[i].selected` marks the accepted lead; `detected` is the distance the controller
     /// got, m) and the pure-pursuit lookahead point `(x, y)` in the follower's frame, m.
-    pub fn scan(
+    fn scan(
         &mut self,
         t: f64,
         scan: &Scan,
@@ -397,7 +425,7 @@ impl Recorder {
 
     /// One physics step: the vehicles' poses on [`TOPIC_TF`] and the step's record on
     /// [`TOPIC_STATE`], both at `rec.t`.
-    pub fn step(&mut self, rec: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
+    fn step(&mut self, rec: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         let ns = time_ns(rec.t);
         self.poses(ns, lead, follower)?;
         let start = self.batch.data.len();
@@ -409,46 +437,6 @@ impl Recorder {
         self.push_message(Ch::State, ns, start)
     }
 
-    /// Writes the metrics (if given), the summary and the index, and closes the file.
-    pub fn finish(mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
-        self.finish_in_place(metrics)
-    }
-
-    /// [`Recorder::finish`] through a reference (the [`Observer`] end of a run); a second call
-    /// is an error.
-    fn finish_in_place(&mut self, metrics: Option<&Metrics>) -> Result<PathBuf, SimError> {
-        if let Some(m) = metrics {
-            let meta = BTreeMap::from([("metrics".to_string(), serde_json::to_string(m).unwrap_or_default())]);
-            self.push(Item::Metadata(mcap::records::Metadata { name: METADATA_METRICS.into(), metadata: meta }))?;
-        }
-        self.close()?;
-        Ok(self.path.clone())
-    }
-}
-
-impl Drop for Recorder {
-    /// A run that stopped early still leaves a complete, indexed file (without `flc.metrics`):
-    /// the writer thread writes what was queued and finishes the file; errors are ignored here.
-    fn drop(&mut self) {
-        let _ = self.close();
-    }
-}
-
-/// The recorder as the loop's sink.
-impl Observer for Recorder {
-    fn scan(
-        &mut self,
-        t: f64,
-        scan: &Scan,
-        clusters: &[ClusterInfo],
-        detected: Option<f64>,
-        lookahead: (f64, f64),
-    ) -> Result<(), SimError> {
-        Recorder::scan(self, t, scan, clusters, detected, lookahead)
-    }
-    fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
-        Recorder::step(self, record, lead, follower)
-    }
     fn finish(&mut self, metrics: Option<&Metrics>) -> Result<(), SimError> {
         self.finish_in_place(metrics).map(|_| ())
     }
