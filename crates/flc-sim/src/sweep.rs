@@ -30,8 +30,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::error::{ConfigError, SimError};
-use crate::paper::Calibration;
 use crate::metrics::Metrics;
+use crate::paper::Calibration;
 use crate::patch::Patch;
 use crate::scenario::{ControllerKind, Scenario};
 

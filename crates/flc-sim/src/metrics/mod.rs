@@ -6,76 +6,18 @@
 //! `docs/v2v-and-metrics.md`. The computation never panics: empty series, NaN samples and columns
 //! of unequal length (if edited by hand) are all handled.
 
+mod params;
+mod records;
+mod signal;
+
 use serde::{Deserialize, Serialize};
 
+pub use params::MetricsParams;
+pub use records::{CollisionInfo, FollowerRun};
+pub use signal::HARD_BRAKING;
+use signal::{TIME_EPS, finite_or, max_abs_jerk, step_durations, weighted_mean};
+
 pub use crate::series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
-
-/// Tolerance on time comparisons, s.
-const TIME_EPS: f64 = 1e-9;
-
-/// One follower of a platoon run. Its series' `lead_*` columns are those of the vehicle in front
-/// of it (the lead for follower 1), `gap` the gap to that vehicle.
-#[derive(Debug, Clone)]
-pub struct FollowerRun {
-    /// Per-step time series.
-    pub series: Series,
-    /// Metrics against the vehicle in front.
-    pub metrics: Metrics,
-    /// Its first contact with the vehicle in front, if any.
-    pub collision: Option<CollisionInfo>,
-}
-
-/// The first contact between the two vehicles, as reported by the physics engine.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CollisionInfo {
-    /// Time of the first contact, s.
-    pub time: f64,
-    /// Relative impact speed `max(0, v_follower - v_lead)`, m/s.
-    pub impact_speed: f64,
-    /// Lead speed at impact, m/s.
-    pub lead_speed: f64,
-    /// Follower speed at impact, m/s.
-    pub follower_speed: f64,
-}
-
-/// Thresholds of the metrics. [`Metrics::compute`] uses the defaults (documented values).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct MetricsParams {
-    /// Both speeds below this count as standstill (for `final_clearance`), m/s. Default 0.05
-    /// (the closed loop's stop condition).
-    pub standstill_speed: f64,
-    /// Window of the jerk estimate, s. Default 0.1.
-    pub jerk_window: f64,
-    /// Steady following: `|v_follower - v_lead|` below this, m/s. Default 0.5.
-    pub steady_speed_diff: f64,
-    /// Steady following: `|a_lead|` below this, m/s². Default 0.2.
-    pub steady_lead_accel: f64,
-    /// Steady following: the conditions must have held this long, s. Default 2.
-    pub steady_min_time: f64,
-    /// Steady following: the lead must move at least this fast, m/s (standstill is not
-    /// following). Default 1.
-    pub steady_min_speed: f64,
-    /// Tracking errors are averaged while the follower moves at least this fast, m/s. Default 0.5.
-    pub tracking_min_speed: f64,
-    /// Closing speeds at or below this count as "not closing" for TTC, m/s. Default 1e-6.
-    pub ttc_min_closing: f64,
-}
-
-impl Default for MetricsParams {
-    fn default() -> Self {
-        Self {
-            standstill_speed: 0.05,
-            jerk_window: 0.1,
-            steady_speed_diff: 0.5,
-            steady_lead_accel: 0.2,
-            steady_min_time: 2.0,
-            steady_min_speed: 1.0,
-            tracking_min_speed: 0.5,
-            ttc_min_closing: 1e-6,
-        }
-    }
-}
 
 /// The metrics of one run. Field names are a contract (JSON output, Python, results table);
 /// definitions in `docs/v2v-and-metrics.md`. `Option`s serialise as `null`.
@@ -263,67 +205,6 @@ impl Metrics {
             switches: u32::try_from(switches).unwrap_or(u32::MAX),
             duration,
         }
-    }
-}
-
-/// Braking harder than this is uncomfortable (`time_hard_braking`), m/s².
-pub const HARD_BRAKING: f64 = 3.5;
-
-fn finite_or(x: f64, fallback: f64) -> f64 {
-    if x.is_finite() { x } else { fallback }
-}
-
-/// Duration covered by each sample: sample `i >= 1` covers `(t[i-1], t[i]]`; sample 0 covers one
-/// step before it (`t[1] - t[0]`; 0 for a single sample). Negative or non-finite spans count 0.
-fn step_durations(t: &[f64]) -> Vec<f64> {
-    let span = |a: f64, b: f64| {
-        let d = b - a;
-        if d.is_finite() && d > 0.0 { d } else { 0.0 }
-    };
-    let mut out = Vec::with_capacity(t.len());
-    for i in 0..t.len() {
-        out.push(match i {
-            0 => t.get(1).map_or(0.0, |&t1| span(t[0], t1)),
-            _ => span(t[i - 1], t[i]),
-        });
-    }
-    out
-}
-
-/// `max |a(t_i) - a(t_k)| / (t_i - t_k)` where `t_k` is the latest sample at least `window`
-/// before `t_i`: the mean jerk over a window of (at least) `window` seconds, i.e. the step jerk
-/// smoothed by a box filter of that width. 0 if the series is shorter than the window.
-fn max_abs_jerk(t: &[f64], a: &[f64], window: f64) -> f64 {
-    let mut k = 0usize;
-    let mut best = 0.0f64;
-    for i in 1..t.len().min(a.len()) {
-        while k + 1 < i && t[i] - t[k + 1] >= window - TIME_EPS {
-            k += 1;
-        }
-        let span = t[i] - t[k];
-        if span.is_finite() && span > 0.0 && span >= window - TIME_EPS {
-            let j = ((a[i] - a[k]) / span).abs();
-            if j.is_finite() {
-                best = best.max(j);
-            }
-        }
-    }
-    best
-}
-
-/// Weighted mean of the finite values; equal weights if the weights sum to 0; `None` if empty.
-fn weighted_mean(items: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
-    let (mut sw, mut swx, mut n, mut sx) = (0.0, 0.0, 0usize, 0.0);
-    for (w, x) in items.filter(|(_, x)| x.is_finite()) {
-        sw += w;
-        swx += w * x;
-        n += 1;
-        sx += x;
-    }
-    match n {
-        0 => None,
-        _ if sw > 0.0 => Some(swx / sw),
-        _ => Some(sx / n as f64),
     }
 }
 
