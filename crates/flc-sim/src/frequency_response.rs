@@ -45,7 +45,7 @@ pub fn sine_scenario(base: &Scenario, freq_hz: f64) -> Result<Scenario, ConfigEr
 }
 
 /// `|Gamma|` from one run of [`sine_scenario`]: the fit covers its last fit periods
-/// ([`StringStabilitySpec::sine_periods`]).
+/// ([`crate::StringStabilitySpec::sine_periods`]).
 pub fn gamma_from_run(scenario: &Scenario, run: &RunResult, freq_hz: f64) -> GammaPoint {
     let spec = scenario.platoon.as_ref().map(|p| p.string_stability.clone()).unwrap_or_default();
     let fit = f64::from(spec.sine_periods(freq_hz).1) / freq_hz;

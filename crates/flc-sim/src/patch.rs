@@ -15,7 +15,7 @@ use serde::de::DeserializeOwned;
 
 use crate::error::ConfigError;
 
-/// Dotted keys with values, applied in order ([module docs](self)).
+/// Dotted keys with values, applied in order (see [`Patch::apply`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Patch {
     entries: Vec<(String, toml::Value)>,

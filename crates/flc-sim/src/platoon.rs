@@ -141,7 +141,7 @@ impl StringStabilitySpec {
 }
 
 /// Settings patched into chosen followers (`[[platoon.overrides]]`): `followers` lists them
-/// (1-based), every other key is a section of [`FollowerConfig`] (`controller`, `follower`,
+/// (1-based), every other key is a section of [`crate::FollowerConfig`] (`controller`, `follower`,
 /// `lidar`, `v2v`, `detector`, `pure_pursuit` and the controllers' sections) whose given keys
 /// replace the string's values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -229,7 +229,7 @@ impl Scenario {
         Ok(out)
     }
 
-    /// This scenario with `patch` applied ([`crate::patch`]), plus the family key `lead_decel`
+    /// This scenario with `patch` applied ([`crate::Patch`]), plus the family key `lead_decel`
     /// (m/s², positive): the deceleration of **every** brake phase of the lead (sweeps, Python
     /// envelopes). Errors name the dotted key; the result is not validated.
     pub fn patched(&self, patch: &Patch) -> Result<Scenario, ConfigError> {

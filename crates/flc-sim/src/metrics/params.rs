@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Thresholds of the metrics. [`Metrics::compute`] uses the defaults (documented values).
+/// Thresholds of the metrics. [`crate::Metrics::compute`] uses the defaults (documented values).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MetricsParams {

@@ -49,6 +49,7 @@ mod state;
 mod writer;
 
 use scene::*;
+pub use scene::CLUSTER_STATUS;
 pub use state::state_json_schema;
 use state::*;
 use writer::*;

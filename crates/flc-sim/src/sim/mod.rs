@@ -59,7 +59,7 @@ pub struct PlatoonResult {
     /// law's formation gap, speed errors, accelerations).
     pub signals: Signals,
     /// The string-stability measures of this run (time domain; `frequency_response` is filled
-    /// by [`crate::string_stability::frequency_response`]).
+    /// by [`crate::frequency_response`]).
     pub string_stability: StringStability,
 }
 
