@@ -298,7 +298,7 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
         writeln!(file, "{}", header(spec))?;
     }
     let writer = Mutex::new(std::io::BufWriter::new(file));
-    let bar = progress.then(|| indicatif::ProgressBar::new(todo.len() as u64));
+    let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));
     let results: Vec<Result<(), SimError>> = todo
         .par_iter()
         .map(|p| {
