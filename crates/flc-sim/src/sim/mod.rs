@@ -66,6 +66,14 @@ pub struct PlatoonResult {
 /// A running closed-loop simulation (step it, then [`Simulation::finish`]). A scenario without
 /// `[platoon]` is the one-follower case of the same loop.
 pub struct Simulation<O: Observer = ()> {
+    /// Everything but the sink.
+    state: State,
+    /// The sink that sees follower 1's scans and steps ([`Observer`]).
+    observer: O,
+}
+
+/// The world, the vehicles, their pipelines and the bookkeeping of a run.
+struct State {
     scenario: Scenario,
     track: Track,
     world: World,
@@ -80,12 +88,9 @@ pub struct Simulation<O: Observer = ()> {
     relay: bool,
     /// Speeds of the vehicles at the start of the step (0 = lead), reused.
     speeds: Vec<f64>,
-    // bookkeeping
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
-    /// The sink that sees follower 1's scans and steps ([`Observer`]).
-    observer: O,
 }
 
 impl Simulation {
@@ -142,7 +147,7 @@ impl Simulation {
             wheelbase: ll.wheelbase,
             max_steer: ll.max_steer,
         };
-        Ok(Self {
+        let state = State {
             scenario: s.clone(),
             lead_x0: s_pos[0],
             world,
@@ -158,74 +163,37 @@ impl Simulation {
             t: 0.0,
             k: 0,
             standstill_since: None,
-            observer: (),
             track,
-        })
+        };
+        Ok(Self { state, observer: () })
     }
 
     /// This simulation with `observer` as its sink (call it before the first step to observe the
     /// whole run).
     pub fn with_observer<P: Observer>(self, observer: P) -> Simulation<P> {
-        let Simulation {
-            scenario,
-            track,
-            world,
-            lead_body,
-            lead,
-            lead_driver,
-            lead_steer,
-            lead_x0,
-            followers,
-            source,
-            lead_weight,
-            relay,
-            speeds,
-            t,
-            k,
-            standstill_since,
-            observer: _,
-        } = self;
-        Simulation {
-            scenario,
-            track,
-            world,
-            lead_body,
-            lead,
-            lead_driver,
-            lead_steer,
-            lead_x0,
-            followers,
-            source,
-            lead_weight,
-            relay,
-            speeds,
-            t,
-            k,
-            standstill_since,
-            observer,
-        }
+        Simulation { state: self.state, observer }
     }
 }
 
 impl<O: Observer> Simulation<O> {
     /// The scenario being run.
     pub fn scenario(&self) -> &Scenario {
-        &self.scenario
+        &self.state.scenario
     }
 
     /// The track.
     pub fn track(&self) -> &Track {
-        &self.track
+        &self.state.track
     }
 
     /// The lead's state now.
     pub fn lead_state(&self) -> &VehicleState {
-        self.lead.state()
+        self.state.lead.state()
     }
 
     /// Follower `k`'s state now (`k = 0`: right behind the lead).
     pub fn follower_state(&self, k: usize) -> Option<&VehicleState> {
-        self.followers.get(k).map(|f| f.vehicle.state())
+        self.state.followers.get(k).map(|f| f.vehicle.state())
     }
 
     /// The sink.
@@ -235,26 +203,26 @@ impl<O: Observer> Simulation<O> {
 
     /// Simulation time, s.
     pub fn time(&self) -> f64 {
-        self.t
+        self.state.t
     }
 
     /// Number of followers.
     pub fn n_followers(&self) -> usize {
-        self.followers.len()
+        self.state.followers.len()
     }
 
     /// One physics step. Returns `Ok(false)` when the run is over.
     pub fn step(&mut self) -> Result<bool, SimError> {
-        let dt = self.scenario.physics_dt;
-        let t = self.t;
+        let dt = self.state.scenario.physics_dt;
+        let t = self.state.t;
 
         // 1. Lead driver and lateral control along the centreline.
-        let ls = *self.lead.state();
-        let lproj = self.track.project(ls.x, ls.y);
-        let lcmd = self.lead_driver.step(t, ls.speed, lproj.s - self.lead_x0);
+        let ls = *self.state.lead.state();
+        let lproj = self.state.track.project(ls.x, ls.y);
+        let lcmd = self.state.lead_driver.step(t, ls.speed, lproj.s - self.state.lead_x0);
         let lead_steer = self.lead_centreline_steer(&ls, lproj.s, lcmd.lateral_offset);
-        if let Some(onset) = self.lead_driver.brake_onset() {
-            for f in &mut self.followers {
+        if let Some(onset) = self.state.lead_driver.brake_onset() {
+            for f in &mut self.state.followers {
                 if f.cfg.v2v.outage_on_brake {
                     f.v2v.start_outage(onset);
                     if let Some(l) = f.v2v_lead.as_mut() {
@@ -265,35 +233,35 @@ impl<O: Observer> Simulation<O> {
         }
 
         // 2. V2V: every link broadcasts its sender's speed at the start of the step.
-        self.speeds.clear();
-        self.speeds.push(ls.speed);
-        self.speeds.extend(self.followers.iter().map(|f| f.vehicle.state().speed));
-        for k in 0..self.followers.len() {
-            let pending = if self.relay && k >= 1 { self.followers[k - 1].relay_pending } else { None };
+        self.state.speeds.clear();
+        self.state.speeds.push(ls.speed);
+        self.state.speeds.extend(self.state.followers.iter().map(|f| f.vehicle.state().speed));
+        for k in 0..self.state.followers.len() {
+            let pending = if self.state.relay && k >= 1 { self.state.followers[k - 1].relay_pending } else { None };
             let mut consumed = false;
-            let f = &mut self.followers[k];
-            match self.source {
+            let f = &mut self.state.followers[k];
+            match self.state.source {
                 V2vSource::Predecessor => {
-                    if let Some(m) = f.v2v.tick(t, self.speeds[k]) {
+                    if let Some(m) = f.v2v.tick(t, self.state.speeds[k]) {
                         f.mailbox = Some(m);
                     }
                 }
                 V2vSource::Lead => {
-                    let m = if self.relay && k >= 1 { relay_tick(&mut f.v2v, t, pending, &mut consumed) } else { f.v2v.tick(t, ls.speed) };
+                    let m = if self.state.relay && k >= 1 { relay_tick(&mut f.v2v, t, pending, &mut consumed) } else { f.v2v.tick(t, ls.speed) };
                     if let Some(m) = m {
                         f.mailbox = Some(m);
                         f.relay_pending = Some(m.lead_speed);
                     }
                 }
                 V2vSource::Both => {
-                    let pred = f.v2v.tick(t, self.speeds[k]);
+                    let pred = f.v2v.tick(t, self.state.speeds[k]);
                     if let Some(m) = pred {
                         f.mailbox = Some(m);
                     }
                     let lead_msg = match f.v2v_lead.as_mut() {
                         // Follower 1: its predecessor is the lead.
                         None => pred,
-                        Some(ch) if self.relay => relay_tick(ch, t, pending, &mut consumed),
+                        Some(ch) if self.state.relay => relay_tick(ch, t, pending, &mut consumed),
                         Some(ch) => ch.tick(t, ls.speed),
                     };
                     if let Some(m) = lead_msg {
@@ -303,15 +271,15 @@ impl<O: Observer> Simulation<O> {
                 }
             }
             if consumed {
-                self.followers[k - 1].relay_pending = None;
+                self.state.followers[k - 1].relay_pending = None;
             }
         }
 
         // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
-        for f in &mut self.followers {
+        for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
-            if let Some(scan) = f.lidar.tick(t, &self.world, f.body, &fs) {
-                f.control_tick(t, &scan.points, &fs, &Road { track: &self.track, steer: &self.lead_steer }, self.source, self.lead_weight);
+            if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
+                f.control_tick(t, &scan.points, &fs, &Road { track: &self.state.track, steer: &self.state.lead_steer }, self.state.source, self.state.lead_weight);
                 if f.index == 1 {
                     self.observer.scan(t, &scan, f.detector.clusters(), f.detected, f.lookahead)?;
                 }
@@ -319,34 +287,34 @@ impl<O: Observer> Simulation<O> {
         }
 
         // 4. Low-level control and dynamics.
-        for f in &mut self.followers {
+        for f in &mut self.state.followers {
             let v = f.vehicle.state().speed;
             f.accel_cmd = f.speed_ctrl.step(f.speed_cmd, v, dt);
             f.vehicle.step(f.accel_cmd, f.steer_cmd, dt);
         }
-        self.lead.step(lcmd.accel, lead_steer, dt);
-        for (i, f) in self.followers.iter().enumerate() {
-            self.world.set_pose(f.body, f.vehicle.state());
+        self.state.lead.step(lcmd.accel, lead_steer, dt);
+        for (i, f) in self.state.followers.iter().enumerate() {
+            self.state.world.set_pose(f.body, f.vehicle.state());
             if i == 0 {
-                self.world.set_pose(self.lead_body, self.lead.state());
+                self.state.world.set_pose(self.state.lead_body, self.state.lead.state());
             }
         }
-        let contacts = self.world.step(dt);
-        self.t += dt;
-        self.k += 1;
+        let contacts = self.state.world.step(dt);
+        self.state.t += dt;
+        self.state.k += 1;
 
         // 5. Records: each follower against the vehicle in front of it.
-        let ls = *self.lead.state();
-        let (mut front, mut front_len, mut front_body) = (ls, self.scenario.lead.vehicle.length, self.lead_body);
+        let ls = *self.state.lead.state();
+        let (mut front, mut front_len, mut front_body) = (ls, self.state.scenario.lead.vehicle.length, self.state.lead_body);
         let mut all_still = ls.speed < 0.05;
         let mut collided = false;
-        for f in &mut self.followers {
+        for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
             let gap = bumper_gap(&front, front_len, &fs, len);
             if f.collision.is_none() && contacts.iter().any(|c| c.involves(front_body) && c.involves(f.body)) {
                 f.collision = Some(CollisionInfo {
-                    time: self.t,
+                    time: self.state.t,
                     impact_speed: (fs.speed - front.speed).max(0.0),
                     lead_speed: front.speed,
                     follower_speed: fs.speed,
@@ -354,7 +322,7 @@ impl<O: Observer> Simulation<O> {
             }
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;
-            let rec = f.record(self.t, &self.track, gap, &front, &fs);
+            let rec = f.record(self.state.t, &self.state.track, gap, &front, &fs);
             if f.index == 1 {
                 self.observer.step(&rec, &ls, &fs)?;
             }
@@ -362,28 +330,28 @@ impl<O: Observer> Simulation<O> {
         }
 
         // Stop conditions.
-        if collided && self.scenario.stop.on_collision {
+        if collided && self.state.scenario.stop.on_collision {
             return Ok(false);
         }
-        if self.lead_driver.finished() && all_still {
-            let since = *self.standstill_since.get_or_insert(self.t);
-            if self.t - since >= self.scenario.stop.standstill_time {
+        if self.state.lead_driver.finished() && all_still {
+            let since = *self.state.standstill_since.get_or_insert(self.state.t);
+            if self.state.t - since >= self.state.scenario.stop.standstill_time {
                 return Ok(false);
             }
         } else {
-            self.standstill_since = None;
+            self.state.standstill_since = None;
         }
-        Ok(self.t < self.scenario.duration - 0.5 * dt)
+        Ok(self.state.t < self.state.scenario.duration - 0.5 * dt)
     }
 
     fn lead_centreline_steer(&self, ls: &VehicleState, s: f64, offset: f64) -> f64 {
-        centreline_steer(&self.track, &self.lead_steer, ls, s, offset)
+        centreline_steer(&self.state.track, &self.state.lead_steer, ls, s, offset)
     }
 
     /// Tells the observer that the run ended: with follower 1's metrics so far if `completed`
     /// (the run reached its end), without if it was stopped early.
     pub fn finish_observer(&mut self, completed: bool) -> Result<(), SimError> {
-        let metrics = match (completed, self.followers.first()) {
+        let metrics = match (completed, self.state.followers.first()) {
             (true, Some(f)) => Some(Metrics::compute(&f.series, f.collision)),
             _ => None,
         };
@@ -393,7 +361,7 @@ impl<O: Observer> Simulation<O> {
     /// Ends the run and computes the metrics (follower 1's as [`RunResult::metrics`]; with
     /// `[platoon]` every follower's and the string-stability measures in [`RunResult::platoon`]).
     pub fn finish(self) -> RunResult {
-        let Simulation { scenario, followers, lead_driver, .. } = self;
+        let State { scenario, followers, lead_driver, .. } = self.state;
         let mut laws = Vec::with_capacity(followers.len());
         let mut runs: Vec<FollowerRun> = followers
             .into_iter()
