@@ -71,6 +71,12 @@ impl Default for VehicleParams {
 }
 
 impl VehicleParams {
+    /// Driving resistance at speed `v` (m/s) as a deceleration, m/s²: aerodynamic drag
+    /// `rho c_d A v² / (2 m)` plus rolling resistance `c_rr g` (0 at standstill).
+    pub fn resistance(&self, v: f64) -> f64 {
+        if v > 0.0 { (0.5 * self.air_density * self.drag_cd * self.frontal_area * v * v) / self.mass + self.rolling_resistance * G } else { 0.0 }
+    }
+
     /// Checks every field; the error names it and the allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_range("length", self.length, 1.0, 25.0, "m")?;
@@ -156,8 +162,7 @@ impl Vehicle {
         } else {
             self.actuator.max(-p.max_brake)
         };
-        let resist =
-            if v > 0.0 { (0.5 * p.air_density * p.drag_cd * p.frontal_area * v * v) / p.mass + p.rolling_resistance * G } else { 0.0 };
+        let resist = p.resistance(v);
         let v_new = (v + (a_act - resist) * dt).max(0.0);
         let v_mid = 0.5 * (v + v_new);
         // Kinematic bicycle about the body centre (slip angle beta, rear axle at L/2 behind).

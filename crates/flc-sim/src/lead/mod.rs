@@ -35,7 +35,8 @@ const ACCEL_BLEND: f64 = 10.0;
 /// Output of the lead driver for one physics step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LeadCommand {
-    /// Acceleration command for the lead's actuators, m/s².
+    /// Acceleration demand for the lead's actuators, m/s² (the scripted acceleration plus the
+    /// resistance feed-forward).
     pub accel: f64,
     /// Lateral offset from the lane centre to steer to, m (+ left).
     pub lateral_offset: f64,
@@ -43,9 +44,13 @@ pub struct LeadCommand {
     pub phase: usize,
 }
 
-/// Phase state machine of the lead.
+/// Phase state machine of the lead. The driver realises the script: its acceleration demand is
+/// the phase's acceleration plus a feed-forward of the vehicle's own driving resistance
+/// ([`VehicleParams::resistance`]), so a `brake` phase of 6 m/s² decelerates the lead at 6 m/s²
+/// at any speed (within its brake authority, after the actuator's dead time and lag).
 #[derive(Debug, Clone)]
 pub struct LeadDriver {
+    vehicle: VehicleParams,
     phases: Vec<Phase>,
     targets: Vec<Option<f64>>,
     index: usize,
@@ -59,9 +64,10 @@ pub struct LeadDriver {
 
 impl LeadDriver {
     /// Builds the driver; `phases` must have been validated ([`crate::Scenario::validate`]).
-    pub fn new(phases: &[Phase], initial_speed: f64) -> Self {
+    pub fn new(vehicle: VehicleParams, phases: &[Phase], initial_speed: f64) -> Self {
         let targets = phases.iter().map(|p| p.speed_target().ok().flatten()).collect();
         Self {
+            vehicle,
             phases: phases.to_vec(),
             targets,
             index: 0,
@@ -130,6 +136,8 @@ impl LeadDriver {
             }
             Some(Phase::Hold { .. }) | None => hold(self.hold_speed),
         };
+        // Realise the net acceleration: add what drag and rolling resistance take away.
+        let accel = accel + self.vehicle.resistance(speed);
         LeadCommand { accel, lateral_offset: self.offset, phase: self.index }
     }
 

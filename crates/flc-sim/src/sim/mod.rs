@@ -153,7 +153,7 @@ impl Simulation {
             world,
             lead_body,
             lead: Vehicle::new(*ll, lead_state),
-            lead_driver: LeadDriver::new(&s.lead.phases, s.lead.initial_speed),
+            lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed),
             lead_steer: PurePursuit::new(lead_pp)?,
             followers,
             source: platoon.v2v_source,
