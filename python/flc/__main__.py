@@ -42,6 +42,13 @@ def _freqs(text: str) -> list[float]:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
+    rep = sub.add_parser(
+        "reproduction",
+        help="the paper's outcome pattern over the constants it leaves open: sweeps/paper-reproduction-*.csv and two figures (docs/paper-reproduction.md)",
+    )
+    rep.add_argument("--out", required=True, help="figure directory (created if needed)")
+    rep.add_argument("--data", default=None, help="CSV directory (default: the repository's sweeps/)")
+    rep.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores); results do not depend on it")
     fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov), the safety-envelope maps and the platoon figures as PNG")
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
@@ -69,6 +76,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser.parse_args(argv)
     if args.threads is not None and args.threads < 1:
         parser.error("--threads: expected a positive number")
+    if args.command == "reproduction":
+        try:
+            from . import reproduction
+
+            kw = {} if args.data is None else {"data_dir": args.data}
+            summary = reproduction.make_all(args.out, threads=args.threads, **kw)
+        except ImportError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+        print(summary)
+        return 0
     try:
         from . import envelope
         from .figures import make_all

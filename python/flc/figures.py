@@ -523,3 +523,101 @@ def make_all(
     for name, make in jobs:
         make(out / name)
     return [out / name for name, _ in jobs]
+
+
+# ---------------------------------------------------------------- paper reproduction map
+
+
+def reproduction_data(data_dir: PathLike) -> dict[str, Any]:
+    """The committed reproduction data (``sweeps/paper-reproduction-*.csv``) as arrays: the map
+    (``x``, ``y``, ``matches`` grid), the lines (per varied constant: values, matches) and the random
+    sample (per constant: values, matches)."""
+    from . import reproduction as rp
+
+    spec = rp.load_spec()
+    d = Path(data_dir)
+    m = spec["map"]
+    rows = rp.read_csv(d / "paper-reproduction-map.csv")
+    xs, ys = [float(v) for v in m["x_values"]], [float(v) for v in m["y_values"]]
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for r in rows:
+        grid[ys.index(float(r[m["y"]])), xs.index(float(r[m["x"]]))] = float(r["matches"])
+    lines: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for r in rp.read_csv(d / "paper-reproduction-lines.csv"):
+        name = r["varied"]
+        v = float(r["seed"]) if name == "seed" else float(r[name])
+        xs_, ms_ = lines.get(name, (np.array([]), np.array([])))
+        lines[name] = (np.append(xs_, v), np.append(ms_, float(r["matches"])))
+    rnd = rp.read_csv(d / "paper-reproduction-random.csv")
+    random_ = {c["name"]: (np.array([float(r[c["name"]]) for r in rnd]), np.array([float(r["matches"]) for r in rnd])) for c in spec["constants"]}
+    return {"x": np.array(xs), "y": np.array(ys), "matches": grid, "x_name": m["x"], "y_name": m["y"], "lines": lines, "random": random_, "spec": spec}
+
+
+def fig_reproduction(data_dir: PathLike, out: Optional[PathLike] = None) -> Any:
+    """Where the paper's 8-cell outcome pattern holds: (a) matching cells over brake authority x
+    actuator response (other constants at the base values), the chosen preset marked; (b) matching
+    cells along each constant through the preset; (c) the share of random points (all constants
+    drawn over their ranges) that match all 8, per decile of each constant."""
+    from . import reproduction as rp
+
+    d = reproduction_data(data_dir)
+    spec = d["spec"]
+    labels = {c["name"]: c["label"] for c in spec["constants"]}
+    fig = _figure(out is not None, (15.0, 11.0))
+    gs = fig.add_gridspec(3, 4)
+    ax = fig.add_subplot(gs[:, :2])
+    im = ax.pcolormesh(d["x"], d["y"], d["matches"], shading="nearest", cmap="viridis", vmin=0, vmax=8)
+    ax.contour(d["x"], d["y"], d["matches"], levels=[7.5], colors="white", linewidths=1.5)
+    rows = rp.read_csv(Path(data_dir) / "paper-reproduction-map.csv")
+    chosen = rp.choose(spec, rows)
+    ax.plot([chosen[d["x_name"]]], [chosen[d["y_name"]]], marker="*", markersize=16, color="red", label="paper preset")
+    ax.set_xlabel(labels[d["x_name"]])
+    ax.set_ylabel(labels[d["y_name"]])
+    ax.set_title(f"(a) cells matching the paper (of 8); white: all 8 ({100 * rp.region_share(rows):.1f} % of the map)")
+    ax.legend(loc="upper right")
+    fig.colorbar(im, ax=ax, label="matching cells")
+    names = [c["name"] for c in spec["constants"] if c["name"] not in (d["x_name"], d["y_name"])] + ["seed"]
+    for k, name in enumerate(names[:6]):
+        a = fig.add_subplot(gs[k // 2, 2 + k % 2])
+        xs, ms = d["lines"].get(name, (np.array([]), np.array([])))
+        a.plot(xs, ms, "o-")
+        a.set_ylim(-0.3, 8.3)
+        a.axhline(8, color="grey", lw=0.8, ls=":")
+        a.set_xlabel(labels.get(name, "seed"))
+        a.set_ylabel("matching cells")
+        a.set_title(f"(b) through the preset: {name}", fontsize=10)
+    fig.suptitle(
+        f"Paper reproduction map (sweeps/paper-reproduction.toml); random sample over all {len(spec['constants'])} constants: "
+        f"{100 * rp.region_share(rp.read_csv(Path(data_dir) / 'paper-reproduction-random.csv')):.1f} % match all 8 cells"
+    )
+    fig.subplots_adjust(left=0.05, right=0.98, bottom=0.07, top=0.9, wspace=0.35, hspace=0.4)
+    return _save(fig, out)
+
+
+def fig_reproduction_clearances(data_dir: PathLike, out: Optional[PathLike] = None) -> Any:
+    """Clearances at standstill of the stopping cells against the paper's (3.8 / 4.0 / 2.3 m FLC,
+    7.9 / 1.2 m PID): along the brake-authority line through the preset, and the remaining lines
+    (one panel per constant), paper values dashed."""
+    from . import reproduction as rp
+
+    spec = rp.load_spec()
+    rows = rp.read_csv(Path(data_dir) / "paper-reproduction-lines.csv")
+    names = [c["name"] for c in spec["constants"]]
+    fig = _figure(out is not None, (16.0, 7.5))
+    axes = fig.subplots(2, 4).ravel()
+    stops = [(c, v) for (c, v), p in rp.PAPER.items() if p is not None]
+    for ax, name in zip(axes, names):
+        rs = [r for r in rows if r["varied"] == name]
+        xs = [float(r[name]) for r in rs]
+        for (c, v) in stops:
+            tag = f"{c}{int(v)}"
+            ys = [float(r[f"{tag}_clearance"]) if r[f"{tag}_clearance"] else np.nan for r in rs]
+            line = ax.plot(xs, ys, "o-", ms=3, label=f"{c.upper()} {int(v)} km/h")[0]
+            ax.axhline(rp.PAPER[(c, v)] or 0.0, color=line.get_color(), ls="--", lw=0.8)
+        ax.set_xlabel(next(c["label"] for c in spec["constants"] if c["name"] == name))
+        ax.set_ylabel("clearance at standstill (m)")
+    axes[0].legend(fontsize=7)
+    axes[-1].axis("off")
+    fig.suptitle("Clearances of the stopping cells through the paper preset (dashed: the paper's values); gaps = collision")
+    fig.tight_layout()
+    return _save(fig, out)

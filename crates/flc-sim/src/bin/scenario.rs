@@ -145,6 +145,25 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
     Ok(out)
 }
 
+/// The paper's tracking errors (two curved-route runs, paper preset) and its 90 km/h comparison
+/// (from the paper-preset records), as text.
+fn paper_numbers(records: &[RunRecord]) -> Result<String, SimError> {
+    let kinds = [ControllerKind::Flc, ControllerKind::Pid];
+    let runs: Vec<Scenario> = kinds.iter().map(|&k| Scenario::paper_tracking(k, Calibration::Paper)).collect();
+    let results = RunOptions::default().run_batch(&runs);
+    let mut tracking = Vec::new();
+    for (k, r) in kinds.iter().zip(results) {
+        let r = r?;
+        tracking.push((k.as_str(), r.metrics.rot_error_deg, r.metrics.trans_error_m));
+    }
+    let impacts: Vec<(&str, f64)> = records
+        .iter()
+        .filter(|r| r.preset.as_deref() == Some("paper") && r.speed_kmh == Some(90.0) && r.metrics.collision)
+        .map(|r| (r.controller.as_str(), r.metrics.impact_speed))
+        .collect();
+    Ok(flc_sim::paper::other_numbers(&tracking, &impacts))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
@@ -227,6 +246,13 @@ fn main() -> ExitCode {
         }
     } else {
         print!("{}", report::table(&records));
+        if cli.config.is_empty() && cli.preset != "realistic" {
+            print!("\n{}", flc_sim::paper::matching_region_line());
+            match paper_numbers(&records) {
+                Ok(text) => print!("{text}"),
+                Err(e) => return bad_input(e),
+            }
+        }
         for r in &records {
             print!("{}", report::platoon_table(r));
         }
