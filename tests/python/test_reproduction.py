@@ -1,0 +1,56 @@
+"""The committed reproduction map (sweeps/paper-reproduction-*.csv) is what the code computes,
+and the paper preset is the point the map chooses (docs/paper-reproduction.md)."""
+import random
+
+import numpy as np
+
+import flc
+from flc import reproduction as rp
+from flc import figures
+
+
+def test_committed_rows_are_reproduced():
+    spec = rp.load_spec()
+    names = [c["name"] for c in spec["constants"]]
+    rng = random.Random(3)
+    for file in ("paper-reproduction-map.csv", "paper-reproduction-random.csv"):
+        rows = rp.read_csv(rp.ROOT / "sweeps" / file)
+        for r in rng.sample(rows, 3):
+            point = {n: float(r[n]) for n in names}
+            cells = rp.evaluate(spec, [point], (int(r["seed"]),))[0]
+            again = rp.row(point, int(r["seed"]), cells)
+            assert again["matches"] == int(r["matches"]), (file, point)
+            for k in again:
+                if k.endswith("_collision"):
+                    assert again[k] == int(r[k]), (file, k)
+
+
+def test_the_paper_preset_is_the_point_the_map_chooses():
+    spec = rp.load_spec()
+    chosen = rp.choose(spec, rp.read_csv(rp.ROOT / "sweeps" / "paper-reproduction-map.csv"))
+    d = flc.Scenario.paper(speed_kmh=50, controller="pid", preset="paper").to_dict()
+    r = flc.Scenario.paper(speed_kmh=50, controller="pid", preset="realistic").to_dict()
+    assert d["follower"]["speed_controller"]["max_decel"] == chosen["brake_authority"]
+    veh = d["follower"]["vehicle"]
+    assert abs(veh["dead_time"] + veh["lag"] - chosen["actuator_response"]) < 1e-12
+    # The same constants for both controllers, no controller gain changed by the preset.
+    assert d["pid"] == r["pid"] and d["flc"] == r["flc"]
+    assert chosen["matches"] == 8 and chosen["worst_neighbour"] == 7
+
+
+def test_choose_prefers_the_most_robust_point():
+    spec = {"map": {"x": "a", "y": "b", "x_values": [1, 2, 3], "y_values": [1, 2, 3]}}
+    grid = {(1, 1): 8, (2, 1): 8, (3, 1): 5, (1, 2): 8, (2, 2): 8, (3, 2): 8, (1, 3): 8, (2, 3): 8, (3, 3): 8}
+    rows = [{"a": x, "b": y, "matches": m} for (x, y), m in grid.items()]
+    c = rp.choose(spec, rows)
+    # (1, 3), (2, 3) and (3, 3) have all-8 neighbourhoods; (2, 3) has the most neighbours (the sum breaks the tie).
+    assert (c["a"], c["b"], c["worst_neighbour"]) == (2.0, 3.0, 8)
+
+
+def test_reproduction_figure_data():
+    d = figures.reproduction_data(rp.ROOT / "sweeps")
+    assert d["matches"].shape == (len(d["y"]), len(d["x"]))
+    assert np.nanmax(d["matches"]) == 8 and np.nanmin(d["matches"]) >= 0
+    assert set(d["lines"]) >= {"negative_multiplier", "speed_kp", "lidar_rate", "lidar_latency", "pid_kd", "seed"}
+    xs, ms = d["lines"]["seed"]
+    assert list(xs) == [1, 2, 3, 4, 5] and all(m == 8 for m in ms)
