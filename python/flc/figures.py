@@ -501,8 +501,9 @@ def make_all(
 ) -> list[Path]:
     """Writes ``following.png``, ``truncated_cosine.png``, ``lyapunov.png`` and the platoon
     figures ``platoon_space_time.png``, ``platoon_gap_errors.png``, ``platoon_gamma.png`` (the
-    brake demo; ``|Gamma|`` at ``platoon_freqs_hz``, default its own frequencies) into
-    ``out_dir`` (created if needed); returns their paths."""
+    brake demo; ``|Gamma|`` at ``platoon_freqs_hz``, default its own frequencies) and the paper
+    reproduction map from its committed data (``paper_reproduction*.png``) into ``out_dir``
+    (created if needed); returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs: dict[str, RunResult] = {}
@@ -520,6 +521,16 @@ def make_all(
         ("platoon_gap_errors.png", lambda p: fig_platoon_gap_errors(platoon(), p)),
         ("platoon_gamma.png", lambda p: fig_platoon_gamma(gamma_data(None, platoon_freqs_hz), p)),
     ]
+    # The paper reproduction map, drawn from its committed data (`python -m flc reproduction`
+    # recomputes the data).
+    from . import reproduction
+
+    data = reproduction.ROOT / "sweeps"
+    if (data / "paper-reproduction-map.csv").is_file():
+        jobs += [
+            ("paper_reproduction.png", lambda p: fig_reproduction(data, p)),
+            ("paper_reproduction_clearances.png", lambda p: fig_reproduction_clearances(data, p)),
+        ]
     for name, make in jobs:
         make(out / name)
     return [out / name for name, _ in jobs]
