@@ -74,7 +74,11 @@ impl VehicleParams {
     /// Driving resistance at speed `v` (m/s) as a deceleration, m/s²: aerodynamic drag
     /// `rho c_d A v² / (2 m)` plus rolling resistance `c_rr g` (0 at standstill).
     pub fn resistance(&self, v: f64) -> f64 {
-        if v > 0.0 { (0.5 * self.air_density * self.drag_cd * self.frontal_area * v * v) / self.mass + self.rolling_resistance * G } else { 0.0 }
+        if v > 0.0 {
+            (0.5 * self.air_density * self.drag_cd * self.frontal_area * v * v) / self.mass + self.rolling_resistance * G
+        } else {
+            0.0
+        }
     }
 
     /// Checks every field; the error names it and the allowed range.

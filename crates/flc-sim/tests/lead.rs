@@ -39,7 +39,6 @@ fn response_time() -> f64 {
 fn a_brake_phase_decelerates_at_its_scripted_value_at_every_speed() {
     for kmh in [30.0, 50.0, 70.0, 90.0, 110.0, 130.0] {
         let r = lead_run(kmh);
-        let s = &r.series;
         let onset = brake_onset(&r);
         let (lo, hi, n) = accel_range(&r, onset + response_time(), f64::INFINITY, 0.5);
         assert!(n >= 10, "{kmh} km/h: {n} samples");
@@ -60,5 +59,9 @@ fn accelerate_and_hold_phases_are_realised() {
     // until 1 s before the brake).
     let onset = brake_onset(&r);
     let held: Vec<f64> = (0..s.len()).filter(|&i| s.t[i] > reached + 5.0 && s.t[i] < onset - 1.0).map(|i| s.lead_speed[i]).collect();
-    assert!(held.len() > 100 && held.iter().all(|v| (v - target).abs() < 0.01), "hold: {:?}", held.iter().map(|v| v - target).fold(0.0, |m: f64, e| m.max(e.abs())));
+    assert!(
+        held.len() > 100 && held.iter().all(|v| (v - target).abs() < 0.01),
+        "hold: {:?}",
+        held.iter().map(|v| v - target).fold(0.0, |m: f64, e| m.max(e.abs()))
+    );
 }

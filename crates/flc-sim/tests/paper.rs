@@ -86,6 +86,14 @@ fn share_all_eight(file: &str) -> f64 {
 #[test]
 fn the_printed_region_sizes_are_those_of_the_committed_map() {
     let (map, random) = PAPER_MATCHING_REGION;
-    assert!((share_all_eight("paper-reproduction-map.csv") - map).abs() < 0.05, "map share {}", share_all_eight("paper-reproduction-map.csv"));
-    assert!((share_all_eight("paper-reproduction-random.csv") - random).abs() < 0.05, "random share {}", share_all_eight("paper-reproduction-random.csv"));
+    assert!(
+        (share_all_eight("paper-reproduction-map.csv") - map).abs() < 0.05,
+        "map share {}",
+        share_all_eight("paper-reproduction-map.csv")
+    );
+    assert!(
+        (share_all_eight("paper-reproduction-random.csv") - random).abs() < 0.05,
+        "random share {}",
+        share_all_eight("paper-reproduction-random.csv")
+    );
 }

@@ -48,8 +48,8 @@ mod scene;
 mod state;
 mod writer;
 
-use scene::*;
 pub use scene::CLUSTER_STATUS;
+use scene::*;
 pub use state::state_json_schema;
 use state::*;
 use writer::*;

@@ -247,7 +247,11 @@ impl<O: Observer> Simulation<O> {
                     }
                 }
                 V2vSource::Lead => {
-                    let m = if self.state.relay && k >= 1 { relay_tick(&mut f.v2v, t, pending, &mut consumed) } else { f.v2v.tick(t, ls.speed) };
+                    let m = if self.state.relay && k >= 1 {
+                        relay_tick(&mut f.v2v, t, pending, &mut consumed)
+                    } else {
+                        f.v2v.tick(t, ls.speed)
+                    };
                     if let Some(m) = m {
                         f.mailbox = Some(m);
                         f.relay_pending = Some(m.lead_speed);
@@ -279,7 +283,14 @@ impl<O: Observer> Simulation<O> {
         for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
-                f.control_tick(t, &scan.points, &fs, &Road { track: &self.state.track, steer: &self.state.lead_steer }, self.state.source, self.state.lead_weight);
+                f.control_tick(
+                    t,
+                    &scan.points,
+                    &fs,
+                    &Road { track: &self.state.track, steer: &self.state.lead_steer },
+                    self.state.source,
+                    self.state.lead_weight,
+                );
                 if f.index == 1 {
                     self.observer.scan(t, &scan, f.detector.clusters(), f.detected, f.lookahead)?;
                 }
