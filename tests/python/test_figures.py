@@ -129,7 +129,16 @@ def test_cli_writes_all_pngs(tmp_path):
     out = tmp_path / "figs"
     r = _cli("figures", "--out", str(out), "--speeds", "30", "--no-envelope", "--platoon-frequencies", "0.2")
     assert r.returncode == 0, r.stderr
-    names = ("following.png", "truncated_cosine.png", "lyapunov.png", "platoon_space_time.png", "platoon_gap_errors.png", "platoon_gamma.png")
+    names = (
+        "following.png",
+        "truncated_cosine.png",
+        "lyapunov.png",
+        "platoon_space_time.png",
+        "platoon_gap_errors.png",
+        "platoon_gamma.png",
+        "paper_reproduction.png",
+        "paper_reproduction_clearances.png",
+    )
     assert r.stdout.split() == [str(out / n) for n in names]
     for name in names:
         data = (out / name).read_bytes()
