@@ -15,7 +15,7 @@
 //! use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
 //!
 //! let mut law: Box<dyn LongitudinalController + Send> = Box::new(FallbackController::new(FlcParams::paper())?);
-//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05 });
+//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None });
 //! // Eqs. (2)-(5): dist_s = 25 - 16 - 4 = 5, a = 5 (1 - cos(5 pi / 11)) = 4.2884...
 //! assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
 //! assert_eq!(out.terms.get("dist_s"), Some(5.0));
@@ -96,12 +96,17 @@ pub struct Frame {
     /// Time since the previous frame, s. Read ONLY by laws whose `uses_dt()` is true (PID, the
     /// supervisor, the baselines' range-rate estimator); FLC-family laws never read it.
     pub dt: f64,
+    /// The lead's speed measured directly, m/s: only with *ideal perception*, a validation mode
+    /// that checks a baseline against its source model (never for the paper's or the envelope's
+    /// results). `None` (LiDAR): the laws that need the lead's speed estimate it from the
+    /// distance. The FLC family and the PID never read it.
+    pub lead_speed: Option<f64>,
 }
 
 impl Frame {
     /// A frame without V2V.
     pub const fn new(distance: Option<f64>, own_speed: f64, dt: f64) -> Self {
-        Self { distance, own_speed, v2v: None, dt }
+        Self { distance, own_speed, v2v: None, dt, lead_speed: None }
     }
 }
 
@@ -285,7 +290,7 @@ mod tests {
     }
 
     fn frame((distance, own_speed, dt, m): (Option<f64>, f64, f64, Option<(f64, u32)>)) -> Frame {
-        Frame { distance, own_speed, dt, v2v: m.map(|(lead_speed, seq)| crate::V2vMessage { lead_speed, seq }) }
+        Frame { distance, own_speed, dt, v2v: m.map(|(lead_speed, seq)| crate::V2vMessage { lead_speed, seq }), lead_speed: None }
     }
 
     proptest! {

@@ -32,6 +32,33 @@ pub struct FollowerSpec {
     /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
     /// and the detector's corridor follows the lane. Default `false`.
     pub lane_keeping: bool,
+    /// What the controllers see: the LiDAR detector (`"lidar"`, default), or `"ideal"`: the true
+    /// bumper gap to the vehicle in front and, for the laws that use it, its true speed, with
+    /// lane keeping instead of pursuit. **For validation only** (checking a baseline against its
+    /// source model, `docs/baselines.md`); never used for the paper's or the envelope's results,
+    /// and reported in the JSON (`perception`) and the table (`[ideal]`) when on.
+    pub perception: Perception,
+}
+
+/// What the follower's controllers see ([`FollowerSpec::perception`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Perception {
+    /// The ray-cast LiDAR and the lead detector (with their noise, latency and range).
+    #[default]
+    Lidar,
+    /// Ground truth: the bumper gap and the speed of the vehicle in front (validation only).
+    Ideal,
+}
+
+impl Perception {
+    /// `"lidar"` or `"ideal"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Perception::Lidar => "lidar",
+            Perception::Ideal => "ideal",
+        }
+    }
 }
 
 impl Default for FollowerSpec {
@@ -43,6 +70,7 @@ impl Default for FollowerSpec {
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,
             lane_keeping: false,
+            perception: Perception::Lidar,
         }
     }
 }

@@ -45,7 +45,7 @@ mod world;
 
 pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};
-pub use follower::{FollowerConfig, FollowerSpec};
+pub use follower::{FollowerConfig, FollowerSpec, Perception};
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
 pub use lidar::{Lidar, LidarParams, Scan};
 pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};

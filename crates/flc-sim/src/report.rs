@@ -29,6 +29,10 @@ pub struct RunRecord {
     /// The metrics (of follower 1 in a platoon).
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// `"ideal"` when the follower saw ground truth instead of the LiDAR (validation only,
+    /// `follower.perception`); absent with the LiDAR.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub perception: Option<String>,
     /// The scenario file's variant (`[[variants]]`), absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub variant: Option<String>,
@@ -107,6 +111,8 @@ impl RunRecord {
             seed: scenario.seed,
             metrics: metrics.clone(),
             variant: scenario.variant.clone(),
+            perception: (scenario.follower.perception != crate::follower::Perception::Lidar)
+                .then(|| scenario.follower.perception.as_str().to_string()),
             platoon: None,
         }
     }
@@ -118,9 +124,13 @@ impl RunRecord {
 
     /// The scenario name with its variant (`name/variant`).
     pub fn label(&self) -> String {
-        match &self.variant {
+        let name = match &self.variant {
             Some(v) => format!("{}/{v}", self.scenario),
             None => self.scenario.clone(),
+        };
+        match &self.perception {
+            Some(p) => format!("{name} [{p}]"),
+            None => name,
         }
     }
 

@@ -181,6 +181,15 @@ impl<L: CarFollowingLaw> EstimatingFollower<L> {
     /// One LiDAR frame: `distance` = bumper gap in m (`None` = no lead), `own_speed` in m/s, `dt`
     /// = time since the previous frame in s.
     pub fn step(&mut self, distance: Option<f64>, own_speed: f64, dt: f64) -> LongitudinalCommand {
+        self.step_measured(distance, own_speed, dt, None)
+    }
+
+    /// [`Self::step`] with the lead's speed measured directly (`Some`: ideal perception, see
+    /// [`Frame::lead_speed`]): the law gets it instead of the estimate, with the range rate
+    /// `lead speed minus own speed`; the estimator keeps tracking the distance. A measured lead
+    /// speed that is NaN, infinite or outside `[0, max_speed]` gives the safe command with
+    /// [`Status::InvalidLeadSpeed`].
+    pub fn step_measured(&mut self, distance: Option<f64>, own_speed: f64, dt: f64, lead_speed_measured: Option<f64>) -> LongitudinalCommand {
         let p = self.params;
         let s = p.settings();
         let gap = match check_frame(distance, own_speed, dt, s.max_speed, s.max_distance) {
@@ -191,8 +200,12 @@ impl<L: CarFollowingLaw> EstimatingFollower<L> {
         };
         let (demand, terms) = match gap {
             Some(gap) => {
-                let range_rate = self.estimator.update(gap, dt).range_rate;
-                let lead = LeadEstimate { gap, range_rate, lead_speed: lead_speed(own_speed, range_rate, s.max_speed) };
+                let estimated = self.estimator.update(gap, dt).range_rate;
+                let lead = match lead_speed_measured {
+                    None => LeadEstimate { gap, range_rate: estimated, lead_speed: lead_speed(own_speed, estimated, s.max_speed) },
+                    Some(v) if v.is_finite() && (0.0..=s.max_speed).contains(&v) => LeadEstimate { gap, range_rate: v - own_speed, lead_speed: v },
+                    Some(_) => return self.fault(own_speed, Status::InvalidLeadSpeed),
+                };
                 self.law.follow(&p, &lead, own_speed)
             }
             None => {
@@ -226,7 +239,7 @@ impl<L: CarFollowingLaw> EstimatingFollower<L> {
 /// `desired_gap(v)` is the law's gap at equal speeds `max(v, 0)`.
 impl<L: CarFollowingLaw> LongitudinalController for EstimatingFollower<L> {
     fn step(&mut self, frame: &Frame) -> ControlOutput {
-        let command = EstimatingFollower::step(self, frame.distance, frame.own_speed, frame.dt);
+        let command = EstimatingFollower::step_measured(self, frame.distance, frame.own_speed, frame.dt, frame.lead_speed);
         ControlOutput::single(command, L::terms(&self.terms), ActiveController::Flc)
     }
 

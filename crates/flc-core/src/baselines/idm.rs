@@ -251,6 +251,24 @@ mod tests {
         }
     }
 
+    /// Ideal perception: a measured lead speed replaces the estimate on the first frame already
+    /// (the estimator would still report a range rate of 0), so the command is the law's at the
+    /// true closing speed; a bad measurement gives the safe command.
+    #[test]
+    fn a_measured_lead_speed_replaces_the_estimate() {
+        let p = example();
+        let mut c = IdmController::new(p).unwrap();
+        let cmd = c.step_measured(Some(30.0), 20.0, 0.1, Some(15.0));
+        // a = 1.5 (1 - (20/40)^4 - (60.867513 / 30)^2) = 1.5 (0.9375 - 4.116505) = -4.768507
+        let expected = p.max_accel * (1.0 - 0.0625 - (p.desired_gap(20.0, 15.0) / 30.0).powi(2));
+        assert!((cmd.accel - expected).abs() < 1e-9 && (cmd.accel + 4.768507).abs() < 1e-5, "{}", cmd.accel);
+        assert_eq!((c.terms().lead_speed, c.terms().range_rate), (15.0, -5.0));
+        // Without the measurement the first frame sees no closing speed.
+        let mut e = IdmController::new(p).unwrap();
+        assert!(e.step(Some(30.0), 20.0, 0.1).accel > cmd.accel);
+        assert_eq!(c.step_measured(Some(30.0), 20.0, 0.1, Some(f64::NAN)).status, Status::InvalidLeadSpeed);
+    }
+
     #[test]
     fn law_by_hand() {
         let p = example();

@@ -6,7 +6,7 @@ use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
-use crate::follower::FollowerConfig;
+use crate::follower::{FollowerConfig, Perception};
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
 use crate::platoon::V2vSource;
@@ -112,14 +112,17 @@ impl Follower {
         points: &[[f64; 2]],
         fs: &VehicleState,
         road: &Road<'_>,
-        source: V2vSource,
-        lead_weight: f64,
+        (source, lead_weight): (V2vSource, f64),
+        truth: (f64, f64),
     ) {
         let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
+        let ideal = self.cfg.follower.perception == Perception::Ideal;
         let detection = det.detection;
-        let distance = detection.map(|d| d.distance - self.distance_offset);
+        // Ideal perception (validation only): the true gap and speed of the vehicle in front.
+        let (distance, lead_speed) =
+            if ideal { (Some(truth.0), Some(truth.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;
-        if self.cfg.follower.lane_keeping {
+        if self.cfg.follower.lane_keeping || ideal {
             // Lane keeping (lead-change scenarios): steer along the lane centre like the lead's
             // driver; the detector's corridor follows the lane.
             let s = road.track.project(fs.x, fs.y).s;
@@ -156,7 +159,7 @@ impl Follower {
         }
         // Every law gets the same frame; only the PID family reads `v2v`, only the laws whose
         // `uses_dt()` is true read `dt` (the FLC family takes neither).
-        let out = self.longitudinal.step(&Frame { distance, own_speed: fs.speed, v2v: msg, dt });
+        let out = self.longitudinal.step(&Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed });
         if out.switched {
             self.switches += 1;
         }

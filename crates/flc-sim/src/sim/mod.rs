@@ -88,6 +88,8 @@ struct State {
     relay: bool,
     /// Speeds of the vehicles at the start of the step (0 = lead), reused.
     speeds: Vec<f64>,
+    /// State and length of the vehicle in front of each follower at the start of the step, reused.
+    fronts: Vec<(VehicleState, f64)>,
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
@@ -160,6 +162,7 @@ impl Simulation {
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
             speeds: Vec::with_capacity(n + 1),
+            fronts: Vec::with_capacity(n + 1),
             t: 0.0,
             k: 0,
             standstill_since: None,
@@ -280,16 +283,22 @@ impl<O: Observer> Simulation<O> {
         }
 
         // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
-        for f in &mut self.state.followers {
+        // The vehicle in front of each follower (for ideal perception: its true gap and speed).
+        self.state.fronts.clear();
+        self.state.fronts.push((ls, self.state.scenario.lead.vehicle.length));
+        self.state.fronts.extend(self.state.followers.iter().map(|f| (*f.vehicle.state(), f.cfg.follower.vehicle.length)));
+        for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
+            let (front, front_len) = self.state.fronts[k];
+            let truth = (bumper_gap(&front, front_len, &fs, f.cfg.follower.vehicle.length), front.speed);
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
                 f.control_tick(
                     t,
                     &scan.points,
                     &fs,
                     &Road { track: &self.state.track, steer: &self.state.lead_steer },
-                    self.state.source,
-                    self.state.lead_weight,
+                    (self.state.source, self.state.lead_weight),
+                    truth,
                 );
                 if f.index == 1 {
                     self.observer.scan(t, &scan, f.detector.clusters(), f.detected, f.lookahead)?;
