@@ -88,7 +88,9 @@ def network(dirpath: Path) -> Path:
 
 def vtype(name: str, attrs: dict[str, str]) -> str:
     a = " ".join(f'{k}="{v}"' for k, v in attrs.items())
-    return f'<vType id="{name}" length="{LENGTH}" maxSpeed="50" {a}/>'
+    # speedFactor 1 and speedDev 0: the desired speed is exactly maxSpeed (SUMO draws a random
+    # speed factor per vehicle by default).
+    return f'<vType id="{name}" length="{LENGTH}" maxSpeed="50" speedFactor="1" speedDev="0" {a}/>'
 
 
 def run_one(net: Path, dirpath: Path, model: str, kind: str, p: dict[str, float], step: float) -> list[dict[str, float]]:
@@ -102,8 +104,8 @@ def run_one(net: Path, dirpath: Path, model: str, kind: str, p: dict[str, float]
         + "\n"
         + vtype("follT", MODELS[model])
         + '\n<route id="r" edges="e"/>\n'
-        + f'<vehicle id="lead" type="leadT" route="r" depart="0" departPos="{lead_pos}" departSpeed="{p["v0"]}"/>\n'
-        + f'<vehicle id="foll" type="follT" route="r" depart="0" departPos="100" departSpeed="{p["v0"]}"/>\n'
+        + f'<vehicle id="lead" type="leadT" route="r" depart="0" departPos="{lead_pos}" departSpeed="{p["v0"]}" insertionChecks="none"/>\n'
+        + f'<vehicle id="foll" type="follT" route="r" depart="0" departPos="100" departSpeed="{p["v0"]}" insertionChecks="none"/>\n'
         + "</routes>\n"
     )
     traci.start(["sumo", "-n", str(net), "-r", str(rou), "--step-length", str(step), "--no-step-log", "--no-warnings", "--collision.action", "warn"])
@@ -113,6 +115,8 @@ def run_one(net: Path, dirpath: Path, model: str, kind: str, p: dict[str, float]
         rows = []
         state: dict[str, float] = dict(p)
         t = 0.0
+        if "foll" not in traci.vehicle.getIDList():
+            raise RuntimeError("the follower was not inserted")
         while t < p["duration"]:
             vl, xl = traci.vehicle.getSpeed("lead"), traci.vehicle.getLanePosition("lead")
             traci.vehicle.setSpeed("lead", lead_profile(kind, t, xl - lead_pos, vl, step, state))
@@ -147,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
                 path = out / f"{model.lower()}-{name}.csv"
                 with open(path, "w", newline="") as f:
                     attrs = " ".join(f"{k}={v}" for k, v in MODELS[model].items())
-                    f.write(f"# SUMO {version} (libsumo), step {args.step} s, follower vType: length={LENGTH} {attrs}; lead scripted by setSpeed ({kind})\n")
+                    f.write(f"# SUMO {version} (libsumo), step {args.step} s, follower vType: length={LENGTH} speedFactor=1 speedDev=0 {attrs}; lead scripted by setSpeed ({kind})\n")
                     w = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
                     w.writeheader()
                     for r in rows:

@@ -189,7 +189,13 @@ impl<L: CarFollowingLaw> EstimatingFollower<L> {
     /// `lead speed minus own speed`; the estimator keeps tracking the distance. A measured lead
     /// speed that is NaN, infinite or outside `[0, max_speed]` gives the safe command with
     /// [`Status::InvalidLeadSpeed`].
-    pub fn step_measured(&mut self, distance: Option<f64>, own_speed: f64, dt: f64, lead_speed_measured: Option<f64>) -> LongitudinalCommand {
+    pub fn step_measured(
+        &mut self,
+        distance: Option<f64>,
+        own_speed: f64,
+        dt: f64,
+        lead_speed_measured: Option<f64>,
+    ) -> LongitudinalCommand {
         let p = self.params;
         let s = p.settings();
         let gap = match check_frame(distance, own_speed, dt, s.max_speed, s.max_distance) {
@@ -203,7 +209,9 @@ impl<L: CarFollowingLaw> EstimatingFollower<L> {
                 let estimated = self.estimator.update(gap, dt).range_rate;
                 let lead = match lead_speed_measured {
                     None => LeadEstimate { gap, range_rate: estimated, lead_speed: lead_speed(own_speed, estimated, s.max_speed) },
-                    Some(v) if v.is_finite() && (0.0..=s.max_speed).contains(&v) => LeadEstimate { gap, range_rate: v - own_speed, lead_speed: v },
+                    Some(v) if v.is_finite() && (0.0..=s.max_speed).contains(&v) => {
+                        LeadEstimate { gap, range_rate: v - own_speed, lead_speed: v }
+                    }
                     Some(_) => return self.fault(own_speed, Status::InvalidLeadSpeed),
                 };
                 self.law.follow(&p, &lead, own_speed)
