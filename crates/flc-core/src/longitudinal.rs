@@ -383,7 +383,7 @@ mod tests {
             let free = 1.0 - (w / p.desired_speed).powf(p.delta);
             let want = if free > 1e-6 { s_star / free.sqrt() } else { s_star };
             prop_assert_eq!(idm.desired_gap(v).to_bits(), want.to_bits());
-            prop_assert_eq!(acc.desired_gap(v).to_bits(), (acc.params().min_gap + acc.params().headway_time * w).to_bits());
+            prop_assert_eq!(acc.desired_gap(v).to_bits(), (acc.params().min_gap + acc.params().headway_time * w + AccParams::dynamic_margin(w)).to_bits());
             prop_assert_eq!(rss.desired_gap(v).to_bits(), (rss.params().safe_distance(w, w) + rss.params().margin).to_bits());
             prop_assert_eq!(carla.desired_gap(v).to_bits(), (2.0 * carla.params().safety_time * carla.params().min_closing_speed).to_bits());
             prop_assert_eq!(flc.desired_gap(v).to_bits(), (flc.params().desired_distance(v) + flc.params().f_shift(v)).to_bits());

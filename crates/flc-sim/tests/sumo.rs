@@ -84,25 +84,28 @@ fn flc_idm_reproduces_sumo_idm_step_by_step() {
     }
 }
 
-/// SUMO's ACC vType (accel 2.6, decel 8, tau 1, minGap 2.5, emergencyDecel 9): the residuals are
-/// reported, not asserted yet. flc's ACC differs from SUMO's (docs/baselines.md, "Checking the
-/// baselines against SUMO"), which is the open part of issue 16.
+/// flc's ACC reproduces SUMO's ACC step by step. The vType is accel 2.6, decel 8, tau 1, minGap
+/// 2.5, emergencyDecel 9; the lead's apparent decel is the lead vType's 10. The tolerance is
+/// 0.005 m/s per step and 0.001 m/s RMS (measured at most 0.004 / 0.0003). The small rest comes
+/// from SUMO's final speed limits around `decel`, which the law does not model. Before issue 16
+/// fixed the dynamic gap margin, the gap-mode test and the discrete safe speed, the residuals
+/// reached 0.8 m/s.
 #[test]
-fn flc_acc_against_sumo_acc_is_measured() {
+fn flc_acc_reproduces_sumo_acc_step_by_step() {
     for name in SCENARIOS {
         let p = AccParams {
             desired_speed: 50.0,
             headway_time: 1.0,
             min_gap: 2.5,
             decel: 8.0,
-            lead_decel: 8.0,
+            lead_decel: 10.0,
             max_accel: 2.6,
             command_gain: DT,
             ..AccParams::default()
         };
         let mut c = AccController::new(p).expect("params");
         let (rms, max) = residuals(&format!("acc-{name}"), |gap, v, vl| c.step_measured(Some(gap), v, DT, Some(vl)).speed);
-        eprintln!("acc {name}: rms {rms:.4} max {max:.4} m/s");
-        assert!(rms.is_finite());
+        eprintln!("acc {name}: rms {rms:.2e} max {max:.2e} m/s");
+        assert!(rms < 0.001 && max < 0.005, "acc {name}: rms {rms} max {max} m/s");
     }
 }

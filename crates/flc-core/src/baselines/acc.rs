@@ -13,26 +13,21 @@
 //! gap2pred = gap - min_gap                                   (SUMO's gaps exclude minGap)
 //! mode:  gap2pred > 120 m -> speed control; gap2pred < 100 m -> gap control; else keep (hysteresis)
 //! speed control       a = speed_control_gain * (v - v_des)              (gain -0.4)
-//! gap control, with e = gap2pred - headway_time * v, dv = v_lead - v:
-//!   |e| < 0.2 m and |dv| < 0.1 m/s   gap              a = 0.07 dv + 0.23 e
+//! gap control, with e = gap2pred - headway_time * v - margin(v), dv = v_lead - v,
+//!   margin(v) = 2 m below 10.8 m/s, 75/v - 5 m to 15 m/s, 0 above (SUMO, after Xiao et al. 2018):
+//!   |e| < 0.2 m and |v - v_des| < 0.1 m/s   gap   a = 0.07 dv + 0.23 e   (SUMO's test, on v_des)
 //!   else e < 0                        collision avoid. a = 0.23 dv + 0.80 e
 //!   else                              gap closing      a = 0.80 dv + 0.04 e
 //! v_cmd = v + command_gain * a, capped at v_des (SUMO caps the next speed at the desired speed)
 //! emergency override (MSCFModel_ACC::followSpeed): v_cmd = min(v_cmd, v_safe + 2 m/s)
-//! v_safe = -b tau + sqrt((b tau)^2 + 2 b (gap2pred + v_lead^2 / (2 max(b, b_lead))))
 //! ```
 //!
-//! `v_safe` is SUMO's `maximumSafeFollowSpeed` (Krauss' safe speed: stop behind a lead braking at
-//! `max(b, b_lead)` after the reaction time `tau`) in its continuous-time form (SUMO discretises
-//! it with its simulation step; the limit of its Euler formula for a vanishing step is this one;
-//! the "emergency deceleration" correction that SUMO applies only beyond `decel` is not modelled).
+//! `v_safe` is SUMO's `maximumSafeFollowSpeed` in SUMO's own discrete (Euler) form with the step
+//! `command_gain`, including its emergency-deceleration correction ([`AccParams::safe_speed`]).
 //! The acceleration is finally limited to `[-max_decel, max_accel]` (SUMO's `emergencyDecel` and
-//! `accel` of the default passenger car). `v_lead` is the estimate of [`super::estimator`].
-//!
-//! One documented deviation: the gap-mode condition tests `|v_lead - v| < 0.1`, as SUMO's user
-//! documentation describes it ("speed deviation with respect to the preceding vehicle"), whereas
-//! the C++ tests `|v - v_des| < 0.1`. With the default gains the two differ only inside the
-//! 0.2 m band where the gap and collision-avoidance laws nearly coincide.
+//! `accel` of the default passenger car). `v_lead` is the estimate of [`super::estimator`] (or the
+//! measured lead speed with ideal perception). Checked step by step against SUMO 1.28's own ACC
+//! (`crates/flc-sim/tests/sumo.rs`: at most 0.004 m/s per step on 12 scenarios).
 
 use super::NoLeadPolicy;
 use super::estimator::EstimatorParams;
@@ -176,12 +171,28 @@ impl AccParams {
         self.speed_control_gain * (own_speed - self.desired_speed)
     }
 
-    /// Gap-control law (gap / collision-avoidance / gap-closing) for the bumper gap `gap`; returns
-    /// the sub-mode, the spacing error `e = gap - min_gap - headway_time * v` and the acceleration.
+    /// SUMO's dynamic gap margin (after Xiao et al. 2018), added to the spacing SUMO's gap control
+    /// keeps: 2 m below 10.8 m/s, `75 / v - 5` m from 10.8 to 15 m/s, 0 above.
+    pub fn dynamic_margin(own_speed: f64) -> f64 {
+        if own_speed < 10.8 {
+            2.0
+        } else if own_speed <= 15.0 {
+            75.0 / own_speed - 5.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Gap-control law (gap / collision-avoidance / gap-closing) for the bumper gap `gap`, as
+    /// SUMO's `MSCFModel_ACC::accelGapControl`: returns the sub-mode, the spacing error
+    /// `e = gap - min_gap - headway_time v - margin(v)` ([`Self::dynamic_margin`])
+    /// and the acceleration. The gap mode applies when `|e| < gap_mode_spacing` and the speed error
+    /// `|v - desired_speed| < gap_mode_speed` (SUMO tests its own speed against the desired speed
+    /// there, not the lead's).
     pub fn gap_control_accel(&self, gap: f64, own_speed: f64, lead_speed: f64) -> (AccMode, f64, f64) {
-        let e = gap - self.min_gap - self.headway_time * own_speed;
+        let e = gap - self.min_gap - self.headway_time * own_speed - Self::dynamic_margin(own_speed);
         let dv = lead_speed - own_speed;
-        if e.abs() < self.gap_mode_spacing && dv.abs() < self.gap_mode_speed {
+        if e.abs() < self.gap_mode_spacing && (own_speed - self.desired_speed).abs() < self.gap_mode_speed {
             (AccMode::Gap, e, self.gap_gain_speed * dv + self.gap_gain_space * e)
         } else if e < 0.0 {
             (AccMode::CollisionAvoidance, e, self.collision_avoidance_gain_speed * dv + self.collision_avoidance_gain_space * e)
@@ -190,11 +201,50 @@ impl AccParams {
         }
     }
 
-    /// SUMO's safe follow speed (continuous form) for the bumper gap `gap`, m/s.
-    pub fn safe_speed(&self, gap: f64, lead_speed: f64) -> f64 {
-        let g = (gap - self.min_gap).max(0.0) + lead_speed * lead_speed / (2.0 * self.decel.max(self.lead_decel));
-        let bt = self.decel * self.headway_time;
-        -bt + libm::sqrt(bt * bt + 2.0 * self.decel * g)
+    /// SUMO's safe follow speed (`MSCFModel::maximumSafeFollowSpeed`, Euler update) for the
+    /// bumper gap `gap`, own speed `v` and lead speed `v_lead`, m/s, with the step `command_gain`:
+    /// 1. the lead's braking distance, braking at `max(decel, lead_decel)` step by step, is added
+    ///    to the controlled gap `gap - min_gap` (`brakeGap`);
+    /// 2. the result is the highest speed that stops within it, after a reaction of `headway_time`,
+    ///    braking `decel dt` per step (`maximumSafeStopSpeedEuler`);
+    /// 3. if that speed needs more than `decel`, the deceleration is replaced by 1.2 times the
+    ///    emergency deceleration that just avoids the lead (never below `decel`, never above the
+    ///    original request; `calculateEmergencyDeceleration`).
+    pub fn safe_speed(&self, gap: f64, own_speed: f64, lead_speed: f64) -> f64 {
+        let dt = self.command_gain;
+        let gap2pred = gap - self.min_gap;
+        let vl = lead_speed.max(0.0);
+        // 1. The lead's braking distance, step by step.
+        let reduction = self.decel.max(self.lead_decel) * dt;
+        let steps = libm::floor(vl / reduction);
+        let lead_brake = dt * (steps * vl - reduction * steps * (steps + 1.0) / 2.0);
+        // 2. Stop within g: n full braking steps of b = decel dt after a reaction of t = headway.
+        let g = gap2pred + lead_brake - 0.001;
+        let mut x = if g <= 0.0 {
+            0.0
+        } else {
+            let (b, t) = (self.decel * dt, self.headway_time);
+            let n = libm::floor(0.5 - (t - 0.5 * libm::sqrt(dt * dt + 4.0 * (dt * (2.0 * g / b - t) + t * t))) / dt);
+            let h = 0.5 * n * (n - 1.0) * b * dt + n * b * t;
+            n * b + (g - h) / (n * dt + t)
+        };
+        // 3. The emergency correction when more than `decel` is needed.
+        if self.decel != self.max_decel {
+            let requested = (own_speed - x) / dt;
+            if requested > self.decel + 0.001 {
+                let b1 = 0.5 * own_speed * own_speed / (gap2pred + 0.5 * vl * vl / self.lead_decel);
+                let emergency = if b1 <= self.lead_decel {
+                    b1
+                } else if gap2pred <= 0.0 {
+                    -self.max_decel * dt
+                } else {
+                    0.5 * (own_speed * own_speed - vl * vl) / gap2pred
+                };
+                let decel = (1.2 * emergency).max(self.decel).min(requested);
+                x = (own_speed - decel * dt).max(0.0);
+            }
+        }
+        x
     }
 }
 
@@ -248,7 +298,7 @@ pub struct AccTerms {
 /// // Gap control (gap2pred = 27.5 < 100 m), e = 30 - 2.5 - 1.0 * 20 = 7.5 > 0.2, lead speed = own
 /// // speed on the first frame: gap closing a = 0.8 * 0 + 0.04 * 7.5 = 0.3.
 /// assert!((out.command.accel - 0.3).abs() < 1e-12);
-/// // min_gap + headway_time v = 2.5 + 20.
+/// // min_gap + headway_time v + margin(v) = 2.5 + 20 + 0 (no margin above 15 m/s).
 /// assert_eq!(acc.desired_gap(20.0), 22.5);
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
@@ -316,7 +366,7 @@ impl CarFollowingLaw for Acc {
             t.law_accel = p.speed_control_accel(own_speed);
         }
         let mut accel = t.law_accel.min(cap);
-        t.safe_speed = p.safe_speed(gap, t.lead_speed);
+        t.safe_speed = p.safe_speed(gap, own_speed, t.lead_speed);
         if p.emergency_override && t.safe_speed + p.override_threshold < own_speed + p.command_gain * accel {
             t.overridden = true;
             accel = (t.safe_speed + p.override_threshold - own_speed) / p.command_gain;
@@ -333,9 +383,10 @@ impl CarFollowingLaw for Acc {
         (Demand::Accel(accel), AccTerms { law_accel, accel, ..AccTerms::default() })
     }
 
-    /// `min_gap + headway_time v`.
+    /// `min_gap + headway_time v + margin(v)`: where the gap-control law is at rest (spacing
+    /// error 0) behind a lead at the same speed.
     fn desired_gap(p: &AccParams, v: f64) -> f64 {
-        p.min_gap + p.headway_time * v
+        p.min_gap + p.headway_time * v + AccParams::dynamic_margin(v)
     }
 
     fn terms(t: &AccTerms) -> Terms {
@@ -364,15 +415,17 @@ mod tests {
         let mut c = acc();
         // v = 20, v_lead = 18, gap 40: gap2pred = 37.5 < 100 -> gap control.
         // e = 37.5 - 1.0 * 20 = 17.5 >= 0.2 -> gap closing: 0.8 * (-2) + 0.04 * 17.5 = -0.9.
-        // v_safe = -4.5 + sqrt(4.5^2 + 2 * 4.5 * (37.5 + 18^2 / 9)) = -4.5 + sqrt(20.25 + 661.5)
-        //        = -4.5 + 26.110343 = 21.610343; +2 = 23.61 > 19.1 -> no override.
+        // v_safe (SUMO's Euler form, step 1 s): the lead brakes 4.5 per step, floor(18 / 4.5) = 4
+        // steps, 4 * 18 - 4.5 * 4 * 5 / 2 = 27 m; g = 37.5 + 27 - 0.001 = 64.499; n = 4 braking
+        // steps, h = 0.5 * 4 * 3 * 4.5 + 4 * 4.5 * 1 = 45; v_safe = 4 * 4.5 + (64.499 - 45) / 5
+        // = 21.8998; +2 = 23.90 > 19.1 -> no override.
         let out = two_frames(&mut c, 40.0, 20.0, 18.0);
         let t = *c.terms();
         assert_eq!(t.mode, AccMode::GapClosing);
         assert!((t.spacing_error - 17.5).abs() < 1e-9);
         assert!((out.accel + 0.9).abs() < 1e-9);
         assert!((out.speed - 19.1).abs() < 1e-9);
-        assert!((t.safe_speed - 21.610343).abs() < 1e-6);
+        assert!((t.safe_speed - 21.8998).abs() < 1e-9);
         assert!(!t.overridden);
     }
 
@@ -380,26 +433,36 @@ mod tests {
     fn collision_avoidance_by_hand() {
         let mut c = acc();
         // v = v_lead = 20, gap 15: e = 12.5 - 20 = -7.5 < 0 -> CA: 0.23 * 0 + 0.8 * (-7.5) = -6.
-        // v_safe = -4.5 + sqrt(20.25 + 9 * (12.5 + 400/9)) = -4.5 + 23.081378 = 18.581378;
-        // +2 = 20.58 > 14 -> no override. Command 20 - 6 = 14.
+        // v_safe: lead 4 steps, 4 * 20 - 45 = 35 m; g = 12.5 + 35 - 0.001 = 47.499; n = 4, h = 45;
+        // v_safe = 18 + 2.499 / 5 = 18.4998; +2 = 20.50 > 14 -> no override. Command 20 - 6 = 14.
         let out = two_frames(&mut c, 15.0, 20.0, 20.0);
         assert_eq!(c.terms().mode, AccMode::CollisionAvoidance);
         assert!((out.accel + 6.0).abs() < 1e-9);
         assert!((out.speed - 14.0).abs() < 1e-9);
-        assert!((c.terms().safe_speed - 18.581378).abs() < 1e-6);
+        assert!((c.terms().safe_speed - 18.4998).abs() < 1e-9);
     }
 
     #[test]
     fn gap_mode_by_hand() {
-        let p = AccParams::default();
-        // v = v_lead = 20, gap = 2.5 + 20 + 0.1: e = 0.1, dv = 0 -> gap mode: 0.23 * 0.1 = 0.023.
+        // SUMO's gap mode: |e| < 0.2 and the own speed within 0.1 of the desired speed.
+        let p = AccParams { desired_speed: 20.0, ..AccParams::default() };
+        // v = v_lead = 20, gap = 2.5 + 20 + 0.1 (margin 0 above 15 m/s): e = 0.1 -> gap mode:
+        // 0.07 * 0 + 0.23 * 0.1 = 0.023.
         let (mode, e, a) = p.gap_control_accel(22.6, 20.0, 20.0);
         assert_eq!(mode, AccMode::Gap);
         assert!((e - 0.1).abs() < 1e-9 && (a - 0.023).abs() < 1e-9);
-        // Same spacing, dv = 0.5 -> gap closing: 0.8 * 0.5 + 0.04 * 0.1 = 0.404.
+        // The lead 0.5 faster: still gap mode (SUMO looks at v - v_des): 0.07 * 0.5 + 0.023 = 0.058.
         let (mode, _, a) = p.gap_control_accel(22.6, 20.0, 20.5);
+        assert_eq!(mode, AccMode::Gap);
+        assert!((a - 0.058).abs() < 1e-9);
+        // Set speed 130 km/h, far from v: gap closing, 0.8 * 0.5 + 0.04 * 0.1 = 0.404.
+        let (mode, _, a) = AccParams::default().gap_control_accel(22.6, 20.0, 20.5);
         assert_eq!(mode, AccMode::GapClosing);
         assert!((a - 0.404).abs() < 1e-9);
+        // The dynamic margin (Xiao et al. 2018, as in SUMO): 2 m below 10.8 m/s, 75/v - 5 to 15 m/s.
+        assert_eq!(AccParams::dynamic_margin(10.0), 2.0);
+        assert!((AccParams::dynamic_margin(12.5) - 1.0).abs() < 1e-12);
+        assert_eq!(AccParams::dynamic_margin(15.1), 0.0);
     }
 
     #[test]
@@ -407,16 +470,18 @@ mod tests {
         let mut c = acc();
         // gap 112.5: gap2pred = 110, between 100 and 120 -> keeps the initial speed control:
         // a = -0.4 * (36 - 36.111111) = 0.044444, command 36.044444.
-        // Lead at standstill (estimated from the two frames): v_safe = -4.5 + sqrt(20.25 + 9 * 110)
-        // = -4.5 + 31.784430 = 27.284430; +2 = 29.284430 < 36.044 -> override:
-        // v_cmd = 29.284430, a = 29.284430 - 36 = -6.715570.
+        // Lead at standstill (estimated from the two frames): g = 110 - 0.001; n = 6 steps of 4.5,
+        // h = 0.5 * 6 * 5 * 4.5 + 6 * 4.5 = 94.5; x = 27 + (109.999 - 94.5) / 7 = 29.214143, a
+        // request of 6.785857 > 4.5 -> emergency: b2 = 0.5 * 36^2 / 110 = 5.890909 (> 4.5), 1.2 b2
+        // = 7.069, limited to the request 6.785857: v_safe = 29.214143; +2 = 31.214143 < 36.044
+        // -> override: v_cmd = 31.214143, a = -4.785857.
         let out = two_frames(&mut c, 112.5, 36.0, 0.0);
         let t = *c.terms();
         assert_eq!(t.mode, AccMode::Speed);
         assert!((t.law_accel - 0.4 * (130.0 / 3.6 - 36.0)).abs() < 1e-9);
         assert!(t.overridden);
-        assert!((out.speed - 29.284430).abs() < 1e-6);
-        assert!((out.accel + 6.715570).abs() < 1e-6);
+        assert!((out.speed - 31.214143).abs() < 1e-6);
+        assert!((out.accel + 4.785857).abs() < 1e-6);
         // Below 100 m gap2pred -> gap control, and it stays so back in the band.
         c.step(Some(95.0), 20.0, 0.1);
         assert_ne!(c.terms().mode, AccMode::Speed);
