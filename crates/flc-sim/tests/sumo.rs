@@ -109,3 +109,28 @@ fn flc_acc_reproduces_sumo_acc_step_by_step() {
         assert!(rms < 0.001 && max < 0.005, "acc {name}: rms {rms} max {max} m/s");
     }
 }
+
+/// Gipps (1981) against SUMO's Krauss (sigma 0), which is a Gipps-type safe-speed model:
+/// measured and documented (docs/baselines.md), not asserted. The two laws differ by design.
+/// Gipps' free-flow branch `v + 2.5 a tau (1 - v/V) sqrt(0.025 + v/V)` is not Krauss'
+/// `v + a dt`, and Gipps brakes against `b̂` with a `tau / 2` margin where Krauss uses the
+/// leader's `decel`. Both use SUMO's vType: accel 2.6, decel 4.5, tau 1, minGap 2.5, 50 m/s.
+#[test]
+fn gipps_against_sumo_krauss_is_measured() {
+    use flc_core::baselines::{GippsController, GippsParams};
+    for name in SCENARIOS {
+        let p = GippsParams {
+            desired_speed: 50.0,
+            accel: 2.6,
+            decel: 4.5,
+            reaction_time: DT,
+            min_gap: 2.5,
+            command_gain: DT,
+            ..GippsParams::default()
+        };
+        let mut c = GippsController::new(p).expect("params");
+        let (rms, max) = residuals(&format!("krauss-{name}"), |gap, v, vl| c.step_measured(Some(gap), v, DT, Some(vl)).speed);
+        eprintln!("gipps vs krauss {name}: rms {rms:.3} max {max:.3} m/s");
+        assert!(rms.is_finite() && max.is_finite());
+    }
+}
