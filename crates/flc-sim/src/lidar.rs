@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::Normal;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
@@ -185,7 +185,12 @@ impl Lidar {
             // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
             // what the other rays hit.
             let drop = p.dropout_prob > 0.0 && self.rng_dropout.random::<f64>() < p.dropout_prob;
-            let n = self.noise.map_or(0.0, |d| d.sample(&mut self.rng_noise));
+            // `std * z` with z standard normal: `Normal::sample` without its `mean + ` (mean 0, and
+            // `r + n` is the same either way), written out so that rustc inlines it here.
+            let n = match self.noise {
+                Some(d) => d.std_dev() * self.rng_noise.sample::<f64, _>(rand_distr::StandardNormal),
+                None => 0.0,
+            };
             if let Some(r) = hit {
                 if !drop {
                     let r = (r + n).max(0.0);
