@@ -88,8 +88,6 @@ struct State {
     relay: bool,
     /// Speeds of the vehicles at the start of the step (0 = lead), reused.
     speeds: Vec<f64>,
-    /// State and length of the vehicle in front of each follower at the start of the step, reused.
-    fronts: Vec<(VehicleState, f64)>,
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
@@ -162,7 +160,6 @@ impl Simulation {
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
             speeds: Vec::with_capacity(n + 1),
-            fronts: Vec::with_capacity(n + 1),
             t: 0.0,
             k: 0,
             standstill_since: None,
@@ -283,15 +280,15 @@ impl<O: Observer> Simulation<O> {
         }
 
         // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
-        // The vehicle in front of each follower (for ideal perception: its true gap and speed).
-        self.state.fronts.clear();
-        self.state.fronts.push((ls, self.state.scenario.lead.vehicle.length));
-        self.state.fronts.extend(self.state.followers.iter().map(|f| (*f.vehicle.state(), f.cfg.follower.vehicle.length)));
-        for (k, f) in self.state.followers.iter_mut().enumerate() {
+        // `front`: the vehicle in front of this follower (for ideal perception: its true gap and
+        // speed); nothing moves during this loop.
+        let mut front = (ls, self.state.scenario.lead.vehicle.length);
+        for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
-            let (front, front_len) = self.state.fronts[k];
-            let truth = (bumper_gap(&front, front_len, &fs, f.cfg.follower.vehicle.length), front.speed);
+            let len = f.cfg.follower.vehicle.length;
+            let (front_state, front_len) = std::mem::replace(&mut front, (fs, len));
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
+                let truth = (bumper_gap(&front_state, front_len, &fs, len), front_state.speed);
                 f.control_tick(
                     t,
                     &scan.points,
