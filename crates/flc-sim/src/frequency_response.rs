@@ -2,8 +2,6 @@
 //! one sine run of the lead per frequency, each follower's speed amplitude fitted over whole
 //! periods ([`crate::string_stability`] has the measures, `docs/platoon.md` the method).
 
-use rayon::prelude::*;
-
 use crate::error::{ConfigError, SimError};
 use crate::lead::Phase;
 use crate::report::RunRecord;
@@ -76,15 +74,13 @@ pub fn frequency_response(base: &Scenario) -> Result<Vec<GammaPoint>, SimError> 
 
 /// [`frequency_response`] at the given frequencies, Hz.
 pub fn frequency_response_at(base: &Scenario, freqs_hz: &[f64]) -> Result<Vec<GammaPoint>, SimError> {
-    freqs_hz
-        .par_iter()
-        .map(|&f| {
-            crate::error::check_range("frequencies_hz", f, 0.001, 5.0, "Hz")?;
-            let s = sine_scenario(base, f)?;
-            let r = crate::runner::run(&s)?;
-            Ok(gamma_from_run(&s, &r, f))
-        })
-        .collect()
+    let mut sines = Vec::with_capacity(freqs_hz.len());
+    for &f in freqs_hz {
+        crate::error::check_range("frequencies_hz", f, 0.001, 5.0, "Hz")?;
+        sines.push(sine_scenario(base, f)?);
+    }
+    let runs = RunOptions::default().run_batch(&sines);
+    sines.iter().zip(freqs_hz).zip(runs).map(|((s, &f), r)| Ok(gamma_from_run(s, &r?, f))).collect()
 }
 
 /// Runs the `|Gamma(jw)|` sine runs of every platoon scenario in `scenarios` with
