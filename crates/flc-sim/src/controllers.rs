@@ -144,18 +144,6 @@ macro_rules! with_controller_sections {
 }
 pub(crate) use with_controller_sections;
 
-/// Generates [`ControllerSections::NAMES`] from the rows.
-macro_rules! define_names {
-    ({} $( $(#[doc = $doc:literal])* $kind:ident = $name:literal, $field:ident : $params:ty,
-        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
-        impl ControllerSections {
-            /// The section names (scenario tables), in the registry's order.
-            pub const NAMES: &'static [&'static str] = &[$( stringify!($field), )*];
-        }
-    };
-}
-for_each_controller!(define_names! {});
-
 /// Supervisor settings (the FLC and PID parameters are the scenario's `[flc]` and `[pid]`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
