@@ -197,7 +197,53 @@ fn sweep_run_seed(sweep_seed: u64, run_id: usize) -> u64 {
     flc_sim::sweep::run_seed(sweep_seed, run_id)
 }
 
+/// One flc follower driven by a host simulator (`flc.sumo`): the scenario's follower pipeline
+/// (controller, `[lidar]` as the gap sensor, `[v2v]`, vehicle and low-level controller;
+/// `flc_sim::ExternalFollower`).
+#[pyclass(module = "flc._flc", unsendable)]
+struct ExternalFollower {
+    inner: flc_sim::ExternalFollower,
+}
+
+#[pymethods]
+impl ExternalFollower {
+    #[new]
+    fn new(scenario_json: &str, seed: u64) -> PyResult<Self> {
+        let s = parse_scenario(scenario_json)?;
+        let inner = flc_sim::ExternalFollower::new(s.base_follower_config(), seed).map_err(scenario_err)?;
+        Ok(Self { inner })
+    }
+
+    /// One host step; returns the JSON of `flc_sim::ExternalOutput`. Bad input raises
+    /// `ParameterError` naming the argument.
+    #[pyo3(signature = (t, dt, gap, front_speed, own_speed))]
+    fn step(&mut self, t: f64, dt: f64, gap: Option<f64>, front_speed: Option<f64>, own_speed: f64) -> PyResult<String> {
+        let input = flc_sim::ExternalInput { t, dt, gap, front_speed, own_speed };
+        let out = self.inner.step(&input).map_err(|e| match e {
+            SimError::Config(c) => crate::ParameterError::new_err(format!("ExternalFollower.step: {c}")),
+            other => SimulationError::new_err(other.to_string()),
+        })?;
+        to_json(&out)
+    }
+
+    /// Starts a V2V outage at `t` (until `end_outage`).
+    fn start_outage(&mut self, t: f64) {
+        self.inner.v2v_mut().start_outage(t);
+    }
+
+    /// Ends a V2V outage started with `start_outage` at `t`.
+    fn end_outage(&mut self, t: f64) {
+        self.inner.v2v_mut().end_outage(t);
+    }
+
+    /// The V2V link's statistics as JSON (`flc_sim::V2vStats`).
+    fn v2v_stats(&mut self) -> PyResult<String> {
+        to_json(&self.inner.v2v_mut().stats())
+    }
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<ExternalFollower>()?;
     m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;

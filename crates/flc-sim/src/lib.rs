@@ -20,8 +20,10 @@
 //!    `scenario` binary.
 mod controllers;
 mod error;
+mod external;
 mod follower;
 pub mod frequency_response;
+mod gap_sensor;
 mod lead;
 mod lidar;
 mod metrics;
@@ -45,7 +47,9 @@ mod world;
 
 pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};
+pub use external::{ExternalFollower, ExternalInput, ExternalOutput};
 pub use follower::{FollowerConfig, FollowerSpec, Perception};
+pub use gap_sensor::GapSensor;
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
 pub use lidar::{Lidar, LidarParams, Scan};
 pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};

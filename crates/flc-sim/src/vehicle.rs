@@ -138,6 +138,12 @@ impl Vehicle {
         &self.state
     }
 
+    /// Sets the speed (a host simulator that owns the motion, [`crate::ExternalFollower`]);
+    /// actuator states are kept. Non-finite or negative speeds become 0.
+    pub fn set_speed(&mut self, speed: f64) {
+        self.state.speed = if speed.is_finite() { speed.max(0.0) } else { 0.0 };
+    }
+
     /// The parameters.
     pub fn params(&self) -> &VehicleParams {
         &self.params

@@ -154,10 +154,10 @@ fn no_crate_has_an_import_cycle() {
 /// the layers below.
 const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units"],
-    &["track", "world", "vehicle", "lidar", "v2v", "lead"],
+    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "lead"],
     &["series", "metrics"],
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
-    &["sim"],
+    &["sim", "external"],
     &["record", "report"],
     &["runner"],
     &["sweep", "frequency_response"],
