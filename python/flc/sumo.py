@@ -104,7 +104,9 @@ class FlcVehicle:
     controller, ``perception``) and the controllers' sections; ``overrides`` patch it like
     :meth:`flc.Scenario.replace` (``v2v_outages=[...]``, ``lidar_range_noise_std=0.05``, ...).
     Bad values raise :class:`flc.ScenarioError` naming the key. ``seed`` (default the scenario's)
-    seeds the sensor and the V2V link; give each vehicle its own.
+    seeds the sensor and the V2V link; give each vehicle its own. ``actuation="direct"`` sets the
+    law's speed command itself instead of going through flc's low-level controller and vehicle
+    model (how SUMO's own models act; for checking a baseline against SUMO's model in closed loop).
     """
 
     def __init__(
@@ -115,6 +117,7 @@ class FlcVehicle:
         controller: Optional[str] = None,
         seed: Optional[int] = None,
         leader_range: float = 250.0,
+        actuation: str = "vehicle",
         **overrides: Any,
     ) -> None:
         base = scenario if scenario is not None else Scenario.paper(controller=controller or "flc")
@@ -123,7 +126,7 @@ class FlcVehicle:
         self.scenario = base.replace(**overrides) if overrides else base
         self.vehicle_id = vehicle_id
         self.leader_range = float(leader_range)
-        self._inner = _flc.ExternalFollower(self.scenario.to_json(), self.scenario.seed if seed is None else int(seed))
+        self._inner = _flc.ExternalFollower(self.scenario.to_json(), self.scenario.seed if seed is None else int(seed), actuation)
         self._attached = False
         self.trace = Trace(vehicle_id)
         self.last: dict[str, Any] = {}

@@ -207,10 +207,14 @@ struct ExternalFollower {
 
 #[pymethods]
 impl ExternalFollower {
+    /// `actuation`: `"vehicle"` (flc's low-level controller and vehicle model) or `"direct"` (the
+    /// law's speed command as it is).
     #[new]
-    fn new(scenario_json: &str, seed: u64) -> PyResult<Self> {
+    #[pyo3(signature = (scenario_json, seed, actuation="vehicle"))]
+    fn new(scenario_json: &str, seed: u64, actuation: &str) -> PyResult<Self> {
         let s = parse_scenario(scenario_json)?;
-        let inner = flc_sim::ExternalFollower::new(s.base_follower_config(), seed).map_err(scenario_err)?;
+        let a: flc_sim::Actuation = from_json(&format!("\"{actuation}\""), "actuation")?;
+        let inner = flc_sim::ExternalFollower::new(s.base_follower_config(), seed).map_err(scenario_err)?.with_actuation(a);
         Ok(Self { inner })
     }
 

@@ -14,9 +14,11 @@
 //! 3. **control**: the configured longitudinal law ([`crate::ControllerKind`], any of them: FLC,
 //!    robust FLC, PID, the supervisor pipeline, the baselines), fed the same [`Frame`] as in the
 //!    simulator at each measurement;
-//! 4. **actuation**: every step the low-level [`SpeedController`] and the longitudinal part of the
-//!    [`Vehicle`] model (dead time, lag, limits, resistance) turn the speed command into the
-//!    speed the host should set.
+//! 4. **actuation** ([`Actuation`]): by default every step the low-level [`SpeedController`] and
+//!    the longitudinal part of the [`Vehicle`] model (dead time, lag, limits, resistance) turn the
+//!    speed command into the speed the host should set; [`Actuation::Direct`] hands the law's
+//!    speed command to the host as it is, the way SUMO's own car-following models act (the
+//!    closed-loop check of the baselines against SUMO's models, `docs/sumo.md`).
 //!
 //! No clock is read: time comes from the host's `t`. The first call is the sensor's first scan.
 
@@ -71,8 +73,20 @@ pub struct ExternalOutput {
     pub v2v_age_ticks: Option<u32>,
 }
 
+/// How the law's speed command becomes the speed the host sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Actuation {
+    /// flc's low-level speed controller and longitudinal vehicle model (default).
+    #[default]
+    Vehicle,
+    /// The law's speed command itself (held between the law's ticks), clamped at 0.
+    Direct,
+}
+
 /// One flc follower in a host simulator (see the module docs).
 pub struct ExternalFollower {
+    actuation: Actuation,
     cfg: FollowerConfig,
     sensor: GapSensor,
     v2v: V2vChannel,
@@ -103,6 +117,7 @@ impl ExternalFollower {
             v2v_age_ticks: None,
         };
         Ok(Self {
+            actuation: Actuation::Vehicle,
             sensor: GapSensor::new(cfg.lidar.clone(), crate::sim::sub_seed(seed, 1)),
             v2v: V2vChannel::new(cfg.v2v.clone(), crate::sim::sub_seed(seed, 2)),
             mailbox: None,
@@ -114,6 +129,12 @@ impl ExternalFollower {
             out,
             cfg,
         })
+    }
+
+    /// This follower with `actuation` instead of the default [`Actuation::Vehicle`].
+    pub fn with_actuation(mut self, actuation: Actuation) -> Self {
+        self.actuation = actuation;
+        self
     }
 
     /// Its configuration.
@@ -157,10 +178,19 @@ impl ExternalFollower {
         }
         // 4. Low-level control and the vehicle's longitudinal dynamics, from the host's speed.
         let cmd = *self.speed_cmd.get_or_insert(input.own_speed);
-        self.vehicle.set_speed(input.own_speed);
-        let accel = self.speed_ctrl.step(cmd, input.own_speed, input.dt);
-        self.vehicle.step(accel, 0.0, input.dt);
-        self.out.speed = self.vehicle.state().speed;
+        let (speed, accel) = match self.actuation {
+            Actuation::Vehicle => {
+                self.vehicle.set_speed(input.own_speed);
+                let accel = self.speed_ctrl.step(cmd, input.own_speed, input.dt);
+                self.vehicle.step(accel, 0.0, input.dt);
+                (self.vehicle.state().speed, accel)
+            }
+            Actuation::Direct => {
+                let v = if cmd.is_finite() { cmd.max(0.0) } else { 0.0 };
+                (v, (v - input.own_speed) / input.dt)
+            }
+        };
+        self.out.speed = speed;
         self.out.accel_command = accel;
         self.out.speed_command = cmd;
         Ok(self.out)

@@ -47,7 +47,7 @@ mod world;
 
 pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};
-pub use external::{ExternalFollower, ExternalInput, ExternalOutput};
+pub use external::{Actuation, ExternalFollower, ExternalInput, ExternalOutput};
 pub use follower::{FollowerConfig, FollowerSpec, Perception};
 pub use gap_sensor::GapSensor;
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
