@@ -6,14 +6,15 @@
 //!
 //! 0. **base**: errors naming dotted keys (`error`), km/h at the interface only ([`KMH`]);
 //! 1. **components**: tracks as data ([`Track`]), the rapier2d world (`world`), vehicle dynamics
-//!    ([`Vehicle`]), the ray-cast LiDAR ([`Lidar`]), the V2V channel ([`V2vChannel`]), the lead's
+//!    ([`Vehicle`]), the ray-cast LiDAR ([`Lidar`]) and its distance-only form ([`GapSensor`]), the V2V channel ([`V2vChannel`]), the lead's
 //!    driver and [`Phase`]s (`lead`); each owns its parameter struct;
 //! 2. **data**: the per-step [`Series`] (columns declared once), [`Metrics`];
 //! 3. **configuration**: the one key-patch mechanism ([`Patch`]), the controller registry
 //!    ([`ControllerKind`]), followers and platoons ([`FollowerConfig`], [`PlatoonSpec`]),
 //!    [`Scenario`], the paper's Sec. IV ([`paper`]), other built-in scenarios ([`presets`]),
 //!    the string-stability measures ([`string_stability`]);
-//! 4. **the loop**: [`Simulation`], talking to sinks only through [`Observer`];
+//! 4. **the loop**: [`Simulation`], talking to sinks only through [`Observer`]; the same follower
+//!    pipeline driven by another simulator ([`ExternalFollower`], `flc.sumo`);
 //! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]);
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
 //! 7. **experiments**: [`sweep`], the frequency response ([`frequency_response`]) and the
