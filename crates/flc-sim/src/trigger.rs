@@ -912,3 +912,392 @@ pub fn validate_scripts(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigErr
     }
     check_phase_cycles(entities)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 0.01;
+
+    /// Ground truth as plain data.
+    #[derive(Default)]
+    struct Fake {
+        cars: Vec<(&'static str, EntityState)>,
+        phases: Vec<(&'static str, usize, PhaseStatus)>,
+    }
+
+    impl WorldView for Fake {
+        fn entity(&self, name: &str) -> Option<EntityState> {
+            self.cars.iter().find(|(n, _)| *n == name).map(|(_, e)| *e)
+        }
+        fn phase(&self, name: &str, phase: usize) -> PhaseStatus {
+            self.phases.iter().find(|(n, k, _)| *n == name && *k == phase).map(|(_, _, p)| *p).unwrap_or_default()
+        }
+    }
+
+    fn car(s: f64, speed: f64, traveled: f64) -> EntityState {
+        EntityState { s, lateral: 0.0, speed, length: 4.5, width: 1.8, traveled }
+    }
+
+    /// Ego at 20 m/s behind the lead at 15 m/s; bumper-to-bumper gap 40 - 5 t.
+    fn closing(t: f64) -> Fake {
+        Fake { cars: vec![("ego", car(10.0 + 20.0 * t, 20.0, 20.0 * t)), ("lead", car(54.5 + 15.0 * t, 15.0, 15.0 * t))], ..Fake::default() }
+    }
+
+    /// Ego's speed 10 + 5 cos(pi t / 2): below 10 in (1, 3), above in (3, 5), ...
+    fn oscillating(t: f64) -> Fake {
+        let v = 10.0 + 5.0 * (std::f64::consts::FRAC_PI_2 * t).cos();
+        Fake { cars: vec![("ego", car(0.0, v, 0.0))], ..Fake::default() }
+    }
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct W {
+        start: Trigger,
+    }
+
+    fn trig(toml_value: &str) -> Trigger {
+        toml::from_str::<W>(&format!("start = {toml_value}")).unwrap_or_else(|e| panic!("{toml_value}: {e}")).start
+    }
+
+    /// Steps (k, t = k dt, k = 0..=t_end/dt) at which `update` returned true.
+    fn fires(trigger: &Trigger, world: impl Fn(f64) -> Fake, t_end: f64) -> Vec<usize> {
+        let mut state = TriggerState::new();
+        let n = (t_end / DT).round() as usize;
+        let out: Vec<usize> = (0..=n).filter(|&k| state.update(trigger, &world(k as f64 * DT), k as f64 * DT)).collect();
+        assert!(out.len() <= 1, "fired more than once: {out:?}");
+        assert_eq!(state.fired(), !out.is_empty());
+        out
+    }
+
+    fn fire_time(trigger: &Trigger, world: impl Fn(f64) -> Fake, t_end: f64) -> Option<f64> {
+        fires(trigger, world, t_end).first().map(|&k| k as f64 * DT)
+    }
+
+    fn near(t: Option<f64>, expected: f64) {
+        let t = t.unwrap_or_else(|| panic!("did not fire (expected {expected})"));
+        assert!((t - expected).abs() <= DT + 1e-9, "fired at {t}, expected {expected} +- one step");
+    }
+
+    const GAP: &str = r#"{ kind = "relative_distance", entity = "ego", of = "lead", distance = "longitudinal", freespace = true, value = 20.0"#;
+
+    #[test]
+    fn freespace_gap_fires_at_the_analytic_time() {
+        let lt = trig(&format!("{GAP}, rule = \"less_than\" }}"));
+        near(fire_time(&lt, closing, 10.0), 4.0);
+        // At t = 4 the gap is 20 (within 1e-9): `less_or_equal` fires exactly there.
+        let le = trig(&format!("{GAP}, rule = \"less_or_equal\" }}"));
+        assert_eq!(fires(&le, closing, 10.0), [400]);
+        let gap0 = lt.conditions().next().and_then(|c| c.kind.measure(&closing(0.0), 0.0));
+        assert_eq!(gap0, Some(40.0));
+    }
+
+    #[test]
+    fn delay_adds_exactly_on_the_step_grid() {
+        let plain = fires(&trig(&format!("{GAP}, rule = \"less_than\" }}")), closing, 10.0);
+        let delayed = fires(&trig(&format!("{GAP}, rule = \"less_than\", delay = 1.5 }}")), closing, 10.0);
+        assert_eq!(delayed[0], plain[0] + 150);
+        near(Some(delayed[0] as f64 * DT), 5.5);
+        // The delay shifts the result: a condition true for one step only is still reported.
+        let pulse = trig(r#"{ kind = "simulation_time", rule = "equal_to", value = 1.0, tolerance = 0.001, delay = 0.5 }"#);
+        assert_eq!(fires(&pulse, closing, 3.0), [150]);
+        // A delay that is not a multiple of dt: the first step at or after t0 + d.
+        let odd = trig(r#"{ kind = "simulation_time", rule = "greater_or_equal", value = 1.0, delay = 0.255 }"#);
+        assert_eq!(fires(&odd, closing, 3.0), [126]);
+    }
+
+    const FAST: &str = r#"kind = "speed", entity = "ego", rule = "greater_than", value = 10.0"#;
+
+    #[test]
+    fn falling_edge_fires_once_and_needs_a_true_to_false_transition() {
+        // Above 10 at the start, below from t = 1, above from t = 3, below again from t = 5.
+        near(fire_time(&trig(&format!("{{ {FAST}, edge = \"falling\" }}")), oscillating, 8.0), 1.0);
+        // Never true: no falling edge.
+        let never = trig(r#"{ kind = "speed", entity = "ego", rule = "greater_than", value = 20.0, edge = "falling" }"#);
+        assert_eq!(fires(&never, oscillating, 8.0), Vec::<usize>::new());
+        // Starts false (v = 15 > 12), true in (0.74, 3.26): fires at the end of it, not at t = 0.
+        let slow = trig(r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 12.0, edge = "falling" }"#);
+        let t = 2.0 / std::f64::consts::PI * (0.4f64).acos();
+        near(fire_time(&slow, oscillating, 8.0), 4.0 - t);
+    }
+
+    #[test]
+    fn rising_edge_needs_a_transition_and_none_is_the_level() {
+        let always = r#"kind = "speed", entity = "ego", rule = "greater_than", value = 1.0"#;
+        assert_eq!(fires(&trig(&format!("{{ {always}, edge = \"rising\" }}")), oscillating, 8.0), Vec::<usize>::new());
+        assert_eq!(fires(&trig(&format!("{{ {always} }}")), oscillating, 8.0), [0]);
+        // Below 10 from t = 1 (level false at the start) ... rising at t = 1 of `< 10`.
+        let below = r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 10.0, edge = "rising" }"#;
+        near(fire_time(&trig(below), oscillating, 8.0), 1.0);
+        // Either change: the first one (t = 1) of `> 10`, true at the start.
+        near(fire_time(&trig(&format!("{{ {FAST}, edge = \"rising_or_falling\" }}")), oscillating, 8.0), 1.0);
+    }
+
+    #[test]
+    fn groups_are_ored_and_conditions_anded() {
+        let on = |name: &str| format!(r#"{{ kind = "speed", entity = "{name}", rule = "greater_than", value = 0.5 }}"#);
+        // (a AND b) OR c
+        let t = trig(&format!("[[{}, {}], {}]", on("a"), on("b"), on("c")));
+        assert_eq!(t.groups().map(<[Condition]>::len).collect::<Vec<_>>(), [2, 1]);
+        for bits in 0..8u8 {
+            let (a, b, c) = (bits & 1 != 0, bits & 2 != 0, bits & 4 != 0);
+            let v = |x: bool| if x { 1.0 } else { 0.0 };
+            let w = Fake { cars: vec![("a", car(0.0, v(a), 0.0)), ("b", car(0.0, v(b), 0.0)), ("c", car(0.0, v(c), 0.0))], ..Fake::default() };
+            let mut s = TriggerState::new();
+            assert_eq!(s.update(&t, &w, 0.0), (a && b) || c, "a={a} b={b} c={c}");
+            assert!(!s.update(&t, &w, DT), "fires once");
+        }
+        // An unknown entity never holds (validation reports it); nothing panics.
+        let ghost = trig(&on("ghost"));
+        assert!(!TriggerState::new().update(&ghost, &closing(0.0), 0.0));
+    }
+
+    #[test]
+    fn headway_and_ttc_fire_at_analytic_times() {
+        let hw = |extra: &str| trig(&format!(r#"{{ kind = "time_headway", rule = "less_or_equal", value = 1.5, {extra} }}"#));
+        // (40 - 5 t) / 20 <= 1.5 from t = 2; centre to centre (44.5 - 5 t) / 20 from t = 2.9.
+        near(fire_time(&hw(r#"entity = "ego", of = "lead", freespace = true"#), closing, 10.0), 2.0);
+        near(fire_time(&hw(r#"entity = "ego", of = "lead", freespace = false"#), closing, 10.0), 2.9);
+        // The lead has nobody ahead (until the fake ego drives through it at t = 8.9): infinite headway.
+        assert!(fires(&hw(r#"entity = "lead", of = "ego", freespace = true"#), closing, 8.5).is_empty());
+        let ttc = |extra: &str| trig(&format!(r#"{{ kind = "ttc", rule = "less_than", value = 3.0, {extra} }}"#));
+        // (40 - 5 t) / 5 < 3 after t = 5, from either side; centre distance (44.5 - 5 t) / 5 after 5.9.
+        near(fire_time(&ttc(r#"entity = "ego", of = "lead", freespace = true"#), closing, 10.0), 5.0);
+        near(fire_time(&ttc(r#"entity = "lead", of = "ego", freespace = true"#), closing, 10.0), 5.0);
+        near(fire_time(&ttc(r#"entity = "ego", of = "lead", freespace = false"#), closing, 10.0), 5.9);
+        // Opening gap: infinite.
+        let opening = |t: f64| Fake { cars: vec![("ego", car(0.0, 10.0, 0.0)), ("lead", car(20.0 + 5.0 * t, 15.0, 0.0))], ..Fake::default() };
+        assert!(fires(&ttc(r#"entity = "ego", of = "lead", freespace = true"#), opening, 5.0).is_empty());
+        let standing = Fake { cars: vec![("ego", car(0.0, 0.0, 0.0)), ("lead", car(20.0, 0.0, 0.0))], ..Fake::default() };
+        let c = hw(r#"entity = "ego", of = "lead", freespace = true"#);
+        assert_eq!(c.conditions().next().and_then(|c| c.kind.measure(&standing, 0.0)), Some(f64::INFINITY));
+    }
+
+    #[test]
+    fn distance_types_and_freespace() {
+        let a = EntityState { s: 0.0, lateral: 0.0, speed: 0.0, length: 4.0, width: 2.0, traveled: 0.0 };
+        let b = EntityState { s: 10.0, lateral: 3.5, ..a };
+        let w = Fake { cars: vec![("a", a), ("b", b)], ..Fake::default() };
+        let m = |distance: &str, freespace: bool| {
+            trig(&format!(r#"{{ kind = "relative_distance", entity = "a", of = "b", distance = "{distance}", freespace = {freespace}, rule = "less_than", value = 1.0 }}"#))
+                .conditions()
+                .next()
+                .and_then(|c| c.kind.measure(&w, 0.0))
+        };
+        assert_eq!(m("longitudinal", false), Some(10.0));
+        assert_eq!(m("lateral", false), Some(3.5));
+        assert_eq!(m("euclidean", false), Some(10.0f64.hypot(3.5)));
+        assert_eq!(m("longitudinal", true), Some(6.0));
+        assert_eq!(m("lateral", true), Some(1.5));
+        assert_eq!(m("euclidean", true), Some(6.0f64.hypot(1.5)));
+        // Overlapping boxes: zero, not negative.
+        let (gx, gy) = gaps(&a, &EntityState { s: 2.0, lateral: 1.0, ..a }, true);
+        assert_eq!((gx, gy), (0.0, 0.0));
+    }
+
+    #[test]
+    fn position_travel_speed_and_time() {
+        // Ego s = 10 + 20 t: within 0.5 m of s = 100 from t = 4.475, first step 4.48.
+        let reach = trig(r#"{ kind = "reach_position", entity = "ego", s = 100.0, tolerance = 0.5 }"#);
+        assert_eq!(fires(&reach, closing, 10.0), [448]);
+        // With a lateral target 1 m off the ego's lane: never within 0.5 m.
+        let off = trig(r#"{ kind = "reach_position", entity = "ego", s = 100.0, lateral = 1.0, tolerance = 0.5 }"#);
+        assert!(fires(&off, closing, 10.0).is_empty());
+        let travel = trig(r#"{ kind = "traveled_distance", entity = "ego", value = 50.0 }"#);
+        assert_eq!(fires(&travel, closing, 10.0), [250]);
+        let speed = trig(r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 7.5 }"#);
+        // 10 + 5 cos(pi t / 2) < 7.5 when cos < -1/2: after t = 4/3.
+        near(fire_time(&speed, oscillating, 8.0), 4.0 / 3.0);
+        let ge = trig(r#"{ kind = "simulation_time", rule = "greater_or_equal", value = 3.0 }"#);
+        assert_eq!(fires(&ge, closing, 10.0), [300]);
+        let gt = trig(r#"{ kind = "simulation_time", rule = "greater_than", value = 3.0 }"#);
+        assert_eq!(fires(&gt, closing, 10.0), [301]);
+    }
+
+    #[test]
+    fn phase_state_started_and_ended() {
+        // Lead phase 1 runs from t = 2 to t = 5.
+        let world = |t: f64| Fake {
+            phases: vec![("lead", 1, PhaseStatus { started: (t >= 2.0 - 1e-12).then_some(2.0), ended: (t >= 5.0 - 1e-12).then_some(5.0) })],
+            ..Fake::default()
+        };
+        let started = trig(r#"{ kind = "phase_state", entity = "lead", phase = 1, state = "started" }"#);
+        assert_eq!(fires(&started, world, 10.0), [200]);
+        let ended = trig(r#"{ kind = "phase_state", entity = "lead", phase = 1, state = "ended", delay = 1.0 }"#);
+        assert_eq!(fires(&ended, world, 10.0), [600]);
+        let other = trig(r#"{ kind = "phase_state", entity = "lead", phase = 0, state = "started" }"#);
+        assert!(fires(&other, world, 10.0).is_empty());
+    }
+
+    const ENTITIES: &[(&str, usize)] = &[("ego", 2), ("lead", 3), ("cutin", 1)];
+    const KEY: &str = "vehicles[1].phases[2].start";
+
+    fn err(toml_value: &str) -> ConfigError {
+        trig(toml_value).validate(KEY, ENTITIES).expect_err(toml_value)
+    }
+
+    #[test]
+    fn validation_names_the_dotted_key() {
+        let ok = r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 5.0 }"#;
+        assert_eq!(trig(ok).validate(KEY, ENTITIES), Ok(()));
+        let e = err(r#"{ kind = "speed", entity = "leed", rule = "less_than", value = 5.0 }"#);
+        assert_eq!(e.key, "vehicles[1].phases[2].start.entity");
+        assert_eq!(e.problem, r#"unknown entity "leed" (known: ego, lead, cutin)"#);
+        let e = err(&format!(r#"[[{ok}, {GAP}, rule = "less_than", of = "leed" }}]]"#).replace(r#"of = "lead", "#, ""));
+        assert_eq!(e.key, "vehicles[1].phases[2].start[0][1].of");
+        let e = err(&format!(r#"[{ok}, {{ kind = "simulation_time", rule = "less_than", value = 1.0, delay = -0.5 }}]"#));
+        assert_eq!(e.key, "vehicles[1].phases[2].start[1].delay");
+        assert!(e.problem.contains("[0, 100000]"), "{}", e.problem);
+        let e = err(r#"{ kind = "speed", entity = "ego", rule = "less_than", value = nan }"#);
+        assert_eq!((e.key.as_str(), e.problem.as_str()), ("vehicles[1].phases[2].start.value", "must be in [-100, 100] m/s, got NaN"));
+        let e = err(r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 5.0, tolerance = 0.1 }"#);
+        assert_eq!(e.key, "vehicles[1].phases[2].start.tolerance");
+        let e = err(r#"{ kind = "speed", entity = "ego", rule = "equal_to", value = 5.0, tolerance = -0.1 }"#);
+        assert_eq!(e.key, "vehicles[1].phases[2].start.tolerance");
+        let e = err(r#"{ kind = "reach_position", entity = "ego", s = 5.0, tolerance = -1.0 }"#);
+        assert_eq!(e.key, "vehicles[1].phases[2].start.tolerance");
+        let e = err(r#"{ kind = "phase_state", entity = "lead", phase = 3, state = "ended" }"#);
+        assert_eq!((e.key.as_str(), e.problem.as_str()), ("vehicles[1].phases[2].start.phase", r#"entity "lead" has 3 phases (indices 0-2), got 3"#));
+        let e = err(r#"{ kind = "phase_state", entity = "cutin", phase = 1, state = "ended" }"#);
+        assert_eq!(e.problem, r#"entity "cutin" has 1 phase (index 0), got 1"#);
+        let e = err(r#"{ kind = "ttc", entity = "ego", of = "ego", freespace = true, rule = "less_than", value = 2.0 }"#);
+        assert_eq!(e.key, "vehicles[1].phases[2].start.of");
+        let e = err("[]");
+        assert_eq!(e.key, KEY);
+        let e = err(&format!("[{ok}, []]"));
+        assert_eq!(e.key, "vehicles[1].phases[2].start[1]");
+        assert_eq!(e.to_string(), "`vehicles[1].phases[2].start[1]`: a condition group needs at least one condition");
+    }
+
+    fn phase_ref(entity: &str, phase: usize, state: &str) -> Trigger {
+        trig(&format!(r#"{{ kind = "phase_state", entity = "{entity}", phase = {phase}, state = "{state}" }}"#))
+    }
+
+    #[test]
+    fn phase_cycles_are_found() {
+        // ego[1] waits for lead[2] to start; lead[2] for lead[1] (previous); lead[1] for ego[1] to end.
+        let ego1 = phase_ref("lead", 2, "started");
+        let lead1 = phase_ref("ego", 1, "ended");
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1)] },
+            ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, Some(&lead1), None] },
+        ];
+        let e = check_phase_cycles(&ents).expect_err("cycle");
+        assert_eq!(e.key, "vehicles[0].phases[1].start");
+        assert_eq!(
+            e.problem,
+            "start triggers wait on each other in a cycle: `vehicles[0].phases[1]` (ego, phase 1) waits for `vehicles[1].phases[2]` \
+             (lead, phase 2) to start, which waits for `vehicles[1].phases[1]` (lead, phase 1) (the previous phase) to end, which \
+             waits for `vehicles[0].phases[1]` (ego, phase 1) to end"
+        );
+        assert_eq!(validate_scripts(&ents), Err(e));
+        // Waiting for a later phase of the same entity, or for itself.
+        let later = phase_ref("ego", 1, "started");
+        let ents = [ScriptedEntity { name: "ego", key: "ego.phases", starts: vec![Some(&later), None] }];
+        assert_eq!(check_phase_cycles(&ents).map_err(|e| e.key), Err("ego.phases[0].start".to_string()));
+        let own = phase_ref("ego", 0, "ended");
+        let ents = [ScriptedEntity { name: "ego", key: "ego.phases", starts: vec![Some(&own)] }];
+        let e = check_phase_cycles(&ents).expect_err("self");
+        assert!(e.problem.ends_with("`ego.phases[0]` (ego, phase 0) waits for `ego.phases[0]` (ego, phase 0) to end"), "{}", e.problem);
+    }
+
+    #[test]
+    fn phase_cycles_are_not_falsely_found() {
+        // Cross references in both directions without a cycle, and an earlier own phase.
+        let ego1 = phase_ref("lead", 0, "ended");
+        let lead2 = phase_ref("ego", 0, "ended");
+        let ego2 = phase_ref("ego", 0, "started");
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1), Some(&ego2)] },
+            ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, None, Some(&lead2)] },
+            ScriptedEntity { name: "follower", key: "vehicles[2].phases", starts: vec![] },
+        ];
+        assert_eq!(check_phase_cycles(&ents), Ok(()));
+        assert_eq!(validate_scripts(&ents), Ok(()));
+        // The cycle of `phase_cycles_are_found`, with an OR group that does not wait: no deadlock.
+        let ego1 = phase_ref("lead", 2, "started");
+        let lead1 = trig(r#"[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]"#);
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1)] },
+            ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, Some(&lead1), None] },
+        ];
+        assert_eq!(check_phase_cycles(&ents), Ok(()));
+        // But an AND with the waiting condition is still a cycle.
+        let lead1 = trig(r#"[[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]]"#);
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1)] },
+            ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, Some(&lead1), None] },
+        ];
+        assert!(check_phase_cycles(&ents).is_err());
+    }
+
+    #[test]
+    fn validate_scripts_checks_each_trigger_and_names() {
+        let bad = phase_ref("leed", 0, "started");
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&bad)] },
+            ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None] },
+        ];
+        let e = validate_scripts(&ents).expect_err("unknown");
+        assert_eq!(e.key, "vehicles[0].phases[1].start.entity");
+        assert_eq!(e.problem, r#"unknown entity "leed" (known: ego, lead)"#);
+        let ents = [
+            ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![] },
+            ScriptedEntity { name: "ego", key: "vehicles[1].phases", starts: vec![] },
+        ];
+        assert_eq!(validate_scripts(&ents).map_err(|e| e.key), Err("vehicles[1].phases".to_string()));
+    }
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    struct Example {
+        start: StartTrigger,
+        cut_in: StartTrigger,
+        stop: StopTrigger,
+    }
+
+    const EXAMPLE: &str = r#"
+start = { kind = "relative_distance", entity = "ego", of = "lead", value = 20, rule = "less_than", freespace = true, distance = "longitudinal" }
+cut_in = [[{ kind = "speed", entity = "ego", rule = "greater_than", value = 10.0 },
+           { kind = "simulation_time", rule = "greater_or_equal", value = 2.0, edge = "rising" }],
+          { kind = "phase_state", entity = "lead", phase = 1, state = "ended", delay = 1.5 }]
+stop = [{ kind = "ttc", entity = "ego", of = "lead", freespace = false, rule = "equal_to", value = 1.0, tolerance = 0.05 }]
+"#;
+
+    #[test]
+    fn toml_round_trip_and_unknown_fields() {
+        let ex: Example = toml::from_str(EXAMPLE).expect("example parses");
+        assert_eq!(ex.start.conditions().next().map(|c| (c.delay, c.edge)), Some((0.0, Edge::None)));
+        assert_eq!(ex.cut_in.groups().map(<[Condition]>::len).collect::<Vec<_>>(), [2, 1]);
+        assert_eq!(ex.cut_in.conditions().nth(2).map(|c| c.delay), Some(1.5));
+        assert_eq!(ex.cut_in.phase_refs().collect::<Vec<_>>(), [(1, "lead", 1, PhaseEvent::Ended)]);
+        assert_eq!(ex.cut_in.condition_key("k", 0, 1), "k[0][1]");
+        assert_eq!(ex.cut_in.condition_key("k", 1, 0), "k[1]");
+        assert_eq!(ex.start.condition_key("k", 0, 0), "k");
+        let text = toml::to_string(&ex).expect("serialises");
+        let back: Example = toml::from_str(&text).unwrap_or_else(|e| panic!("{text}\n{e}"));
+        assert_eq!(back, ex, "{text}");
+        let json = serde_json::to_string(&ex).expect("json");
+        assert_eq!(serde_json::from_str::<Example>(&json).ok(), Some(ex));
+        // The constructors give the shapes TOML gives.
+        let c = Condition::new(ConditionKind::Speed { entity: "ego".into(), value: 1.0, rule: Rule::LessThan, tolerance: None });
+        assert_eq!(trig(r#"{ kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }"#), Trigger::when(c.clone()));
+        let c2 = c.clone().delayed(0.5).on(Edge::Rising);
+        assert_eq!(
+            trig(r#"[[{ kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }, { kind = "speed", entity = "ego", value = 1.0, rule = "less_than", delay = 0.5, edge = "rising" }], { kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }]"#),
+            Trigger::any_of(vec![vec![c.clone(), c2], vec![c]])
+        );
+        // Unknown keys, kinds and missing mandatory keys are errors.
+        for bad in [
+            r#"{ kind = "speed", entity = "ego", rule = "less_than", value = 1.0, speeed = 2.0 }"#,
+            r#"{ kind = "sped", entity = "ego", rule = "less_than", value = 1.0 }"#,
+            r#"{ kind = "relative_distance", entity = "ego", of = "lead", rule = "less_than", value = 1.0, distance = "longitudinal" }"#,
+            r#"{ kind = "speed", entity = "ego", rule = "smaller", value = 1.0 }"#,
+            r#"[[{ kind = "speed", entity = "ego", rule = "less_than", value = 1.0, edge = "up" }]]"#,
+            "3",
+        ] {
+            assert!(toml::from_str::<W>(&format!("start = {bad}")).is_err(), "accepted {bad}");
+        }
+        let e = toml::from_str::<W>(r#"start = { kind = "speed", entity = "ego", rule = "less_than", value = 1.0, speeed = 2.0 }"#).expect_err("unknown");
+        assert!(e.to_string().contains("speeed"), "{e}");
+    }
+}
