@@ -41,6 +41,7 @@ mod sim;
 pub mod string_stability;
 pub mod sweep;
 mod track;
+pub mod trigger;
 mod units;
 mod v2v;
 mod vehicle;

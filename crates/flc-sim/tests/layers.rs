@@ -156,7 +156,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units"],
     &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "lead"],
     &["series", "metrics"],
-    &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
+    &["patch", "trigger", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
     &["sim", "external"],
     &["record", "report"],
     &["runner"],
