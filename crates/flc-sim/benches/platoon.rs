@@ -19,10 +19,10 @@ fn sixteen(track: TrackSpec) -> Scenario {
     s.track = track;
     let v = s.lead.initial_speed;
     s.lead.phases = vec![
-        Phase::Hold { until_x: None, until_t: None, duration: Some(30.0) },
-        Phase::Brake { decel: 6.0, speed: Some(20.0), speed_kmh: None },
-        Phase::Hold { until_x: None, until_t: None, duration: Some(30.0) },
-        Phase::Accelerate { accel: 2.0, speed: Some(v), speed_kmh: None },
+        Phase::Hold { until_x: None, until_t: None, duration: Some(30.0) }.into(),
+        Phase::Brake { decel: 6.0, speed: Some(20.0), speed_kmh: None }.into(),
+        Phase::Hold { until_x: None, until_t: None, duration: Some(30.0) }.into(),
+        Phase::Accelerate { accel: 2.0, speed: Some(v), speed_kmh: None }.into(),
     ];
     if let Some(p) = s.platoon.as_mut() {
         p.followers = 15;

@@ -29,8 +29,8 @@ pub fn sine_scenario(base: &Scenario, freq_hz: f64) -> Result<Scenario, ConfigEr
     let (warmup, fit) = ss.sine_periods(freq_hz);
     let sine = f64::from(warmup + fit) / freq_hz;
     s.lead.phases = vec![
-        Phase::Hold { until_x: None, until_t: None, duration: Some(ss.settle_time) },
-        Phase::Sine { amplitude: ss.sine_amplitude, freq_hz, duration: sine },
+        Phase::Hold { until_x: None, until_t: None, duration: Some(ss.settle_time) }.into(),
+        Phase::Sine { amplitude: ss.sine_amplitude, freq_hz, duration: sine }.into(),
     ];
     s.duration = ss.settle_time + sine + 2.0 * s.physics_dt;
     s.follower.initial_speed = v;

@@ -52,7 +52,7 @@ pub use error::{ConfigError, SimError, check_range};
 pub use external::{Actuation, ExternalFollower, ExternalInput, ExternalOutput};
 pub use follower::{FollowerConfig, FollowerSpec, Perception};
 pub use gap_sensor::GapSensor;
-pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
+pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase, STOP_AT_DECEL, ScriptedPhase, ScriptedVehicle};
 pub use lidar::{Lidar, LidarParams, Scan};
 pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};
 pub use paper::{Calibration, PAPER_SPEEDS_KMH};

@@ -111,9 +111,9 @@ impl Scenario {
         s.speed_kmh = None;
         s.v2v.outage_on_brake = false;
         s.lead.phases = vec![
-            Phase::Accelerate { accel: 2.0, speed: None, speed_kmh: Some(50.0) },
-            Phase::Hold { until_x: Some(1600.0), until_t: None, duration: None },
-            Phase::Brake { decel: 3.0, speed: None, speed_kmh: None },
+            Phase::Accelerate { accel: 2.0, speed: None, speed_kmh: Some(50.0) }.into(),
+            Phase::Hold { until_x: Some(1600.0), until_t: None, duration: None }.into(),
+            Phase::Brake { decel: 3.0, speed: None, speed_kmh: None }.into(),
         ];
         s
     }
@@ -163,9 +163,9 @@ impl Scenario {
             initial_speed: 0.0,
             vehicle: VehicleParams::default(),
             phases: vec![
-                Phase::Accelerate { accel: 2.5, speed: None, speed_kmh: Some(speed_kmh) },
-                Phase::Hold { until_x: Some(650.0), until_t: None, duration: None },
-                Phase::Brake { decel: 6.0, speed: None, speed_kmh: None },
+                Phase::Accelerate { accel: 2.5, speed: None, speed_kmh: Some(speed_kmh) }.into(),
+                Phase::Hold { until_x: Some(650.0), until_t: None, duration: None }.into(),
+                Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into(),
             ],
         };
         match controller {

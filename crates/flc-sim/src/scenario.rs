@@ -245,7 +245,7 @@ impl Scenario {
                     .phases
                     .iter()
                     .enumerate()
-                    .filter(|(_, p)| matches!(p, crate::lead::Phase::Brake { .. }))
+                    .filter(|(_, p)| matches!(p.phase, crate::lead::Phase::Brake { .. }))
                     .map(|(i, _)| i)
                     .collect();
                 if brakes.is_empty() {
@@ -404,7 +404,7 @@ mod tests {
             .with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(10.0)), ("lead_decel".into(), serde_json::json!(4.0))])
             .expect("overrides");
         assert_eq!(s.lidar.rate_hz, 10.0);
-        assert!(matches!(s.lead.phases[2], crate::lead::Phase::Brake { decel, .. } if decel == 4.0));
+        assert!(matches!(s.lead.phases[2].phase, crate::lead::Phase::Brake { decel, .. } if decel == 4.0));
         let e = Scenario::default().with_overrides(&[("lidar_rate_hz".into(), serde_json::json!(0.0))]).expect_err("range");
         assert!(e.to_string().contains("lidar.rate_hz"), "{e}");
         // Seeds anywhere in the u64 range survive patches and overrides.

@@ -10,8 +10,8 @@ const BASELINES: [ControllerKind; 4] = [ControllerKind::Idm, ControllerKind::Acc
 fn steady(controller: ControllerKind) -> Scenario {
     let mut s = Scenario { name: "steady".into(), controller, duration: 120.0, ..Default::default() };
     s.lead.phases = vec![
-        Phase::Accelerate { accel: 0.5, speed: Some(20.0), speed_kmh: None },
-        Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None },
+        Phase::Accelerate { accel: 0.5, speed: Some(20.0), speed_kmh: None }.into(),
+        Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None }.into(),
     ];
     s.v2v.enabled = false;
     s.idm.desired_speed = 25.0;

@@ -20,8 +20,8 @@ fn realistic_preset_flc_stops_at_all_paper_speeds() {
 fn steady(controller: ControllerKind) -> Scenario {
     let mut s = Scenario { name: "steady".into(), controller, duration: 90.0, ..Default::default() };
     s.lead.phases = vec![
-        Phase::Accelerate { accel: 1.5, speed: Some(20.0), speed_kmh: None },
-        Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None },
+        Phase::Accelerate { accel: 1.5, speed: Some(20.0), speed_kmh: None }.into(),
+        Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None }.into(),
     ];
     s.v2v.enabled = controller != ControllerKind::Flc;
     s

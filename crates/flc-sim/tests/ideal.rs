@@ -8,9 +8,9 @@ use flc_sim::{ControllerKind, Perception, Phase, Scenario, run};
 fn steady(controller: ControllerKind, perception: Perception) -> Scenario {
     let mut s = Scenario { name: "ideal".into(), controller, duration: 60.0, ..Default::default() };
     s.lead.phases = vec![
-        Phase::Accelerate { accel: 1.0, speed: Some(15.0), speed_kmh: None },
-        Phase::Hold { until_x: None, until_t: Some(30.0), duration: None },
-        Phase::Brake { decel: 3.0, speed: None, speed_kmh: None },
+        Phase::Accelerate { accel: 1.0, speed: Some(15.0), speed_kmh: None }.into(),
+        Phase::Hold { until_x: None, until_t: Some(30.0), duration: None }.into(),
+        Phase::Brake { decel: 3.0, speed: None, speed_kmh: None }.into(),
     ];
     s.v2v.enabled = false;
     s.idm.desired_speed = 20.0;

@@ -154,9 +154,9 @@ fn no_crate_has_an_import_cycle() {
 /// the layers below.
 const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units"],
-    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "lead"],
+    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "trigger", "lead"],
     &["series", "metrics"],
-    &["patch", "trigger", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
+    &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
     &["sim", "external"],
     &["record", "report"],
     &["runner"],

@@ -38,7 +38,7 @@ fn short_brake(controller: ControllerKind) -> Scenario {
     let mut s = Scenario { name: "short-brake".into(), controller, duration: 25.0, ..Default::default() };
     s.lead.initial_speed = 20.0;
     s.lead.phases =
-        vec![Phase::Hold { until_x: None, until_t: Some(8.0), duration: None }, Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }];
+        vec![Phase::Hold { until_x: None, until_t: Some(8.0), duration: None }.into(), Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into()];
     s.follower.initial_speed = 20.0;
     s.follower.initial_gap = 22.0;
     s.v2v.enabled = controller != ControllerKind::Flc;
@@ -79,7 +79,7 @@ fn one_follower_platoon_equals_the_single_follower_simulator() {
 fn string_of_three() -> Scenario {
     let mut s = Scenario { name: "three".into(), controller: ControllerKind::Flc, duration: 12.0, ..Default::default() };
     s.lead.initial_speed = 20.0;
-    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None }];
+    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: Some(1000.0), duration: None }.into()];
     s.follower.initial_speed = 20.0;
     s.v2v.enabled = false;
     s.platoon = Some(PlatoonSpec { followers: 3, equilibrium_start: true, ..PlatoonSpec::default() });

@@ -34,7 +34,7 @@ fn tmpdir(tag: &str) -> PathBuf {
 /// Short pipeline run with a V2V outage at brake onset: switches, NaN v2v ages, detections.
 fn short_pipeline() -> Scenario {
     let mut s = Scenario::paper_experiment(30.0, ControllerKind::Pipeline, Calibration::Realistic);
-    s.lead.phases[1] = flc_sim::Phase::Hold { until_x: Some(60.0), until_t: None, duration: None };
+    s.lead.phases[1] = flc_sim::Phase::Hold { until_x: Some(60.0), until_t: None, duration: None }.into();
     s.duration = 25.0;
     s
 }

@@ -46,7 +46,7 @@ fn steady(controller: ControllerKind, kmh: f64, decel: f64) -> Scenario {
     s.lead.initial_speed = v;
     s.lead.vehicle.max_brake = 10.0;
     s.lead.phases =
-        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }, Phase::Brake { decel, speed: None, speed_kmh: None }];
+        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }.into(), Phase::Brake { decel, speed: None, speed_kmh: None }.into()];
     s.follower.initial_speed = v;
     s.follower.initial_gap = own_gap(&s, v);
     s
@@ -254,25 +254,25 @@ fn comfort_scenarios(c: ControllerKind) -> Vec<(String, Scenario)> {
         let v = kmh * KMH;
         let mut s = steady(c, kmh, 1.0);
         s.lead.phases = vec![
-            Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) },
-            Phase::Brake { decel: 1.0, speed: Some(v - 20.0 * KMH), speed_kmh: None },
-            Phase::Hold { until_x: None, until_t: None, duration: Some(10.0) },
-            Phase::Accelerate { accel: 1.0, speed: Some(v), speed_kmh: None },
-            Phase::Hold { until_x: None, until_t: None, duration: Some(15.0) },
+            Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) }.into(),
+            Phase::Brake { decel: 1.0, speed: Some(v - 20.0 * KMH), speed_kmh: None }.into(),
+            Phase::Hold { until_x: None, until_t: None, duration: Some(10.0) }.into(),
+            Phase::Accelerate { accel: 1.0, speed: Some(v), speed_kmh: None }.into(),
+            Phase::Hold { until_x: None, until_t: None, duration: Some(15.0) }.into(),
         ];
         s.duration = 60.0;
         out.push((format!("+-1 m/s² at {kmh} km/h"), s));
     }
     for kmh in [30.0, 70.0, 130.0] {
         let mut s = steady(c, kmh, 2.0);
-        s.lead.phases[0] = Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) };
+        s.lead.phases[0] = Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) }.into();
         out.push((format!("lead -2 m/s² from {kmh} km/h"), s));
     }
     let mut s = steady(c, 0.0, 2.0);
     let hold = |d: f64| Phase::Hold { until_x: None, until_t: None, duration: Some(d) };
     let go = |kmh: f64| Phase::Accelerate { accel: 1.0, speed: None, speed_kmh: Some(kmh) };
     let stop = || Phase::Brake { decel: 2.0, speed: None, speed_kmh: None };
-    s.lead.phases = vec![hold(3.0), go(50.0), hold(10.0), stop(), hold(5.0), go(30.0), hold(5.0), stop(), hold(5.0), go(20.0), stop()];
+    s.lead.phases = [hold(3.0), go(50.0), hold(10.0), stop(), hold(5.0), go(30.0), hold(5.0), stop(), hold(5.0), go(20.0), stop()].map(Into::into).to_vec();
     s.follower.initial_gap = if c == ROBUST { s.flc_robust.standstill_gap } else { 7.0 };
     s.duration = 150.0;
     out.push(("stop and go".to_string(), s));
@@ -322,7 +322,7 @@ fn comfort_in_normal_following() {
 fn cut_in(c: ControllerKind, kmh: f64, dv_kmh: f64, gap: f64) -> Scenario {
     let mut s = steady(c, kmh, 1.0);
     s.lead.initial_speed = (kmh - dv_kmh) * KMH;
-    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: None, duration: Some(8.0) }];
+    s.lead.phases = vec![Phase::Hold { until_x: None, until_t: None, duration: Some(8.0) }.into()];
     s.follower.initial_gap = gap;
     s.duration = 8.0;
     s
@@ -368,9 +368,9 @@ fn cut_out(c: ControllerKind, kmh: f64, ahead: f64) -> (Scenario, f64) {
     let objects = vec![RoadsideObject::ParkedCar { s: car_rear + 2.35, offset: 0.0, heading_offset: 0.0 }];
     s.track = TrackSpec::Custom(Track::new("cut-out", vec![[0.0, 0.0], [5000.0, 0.0]], 3.5, objects));
     s.lead.phases = vec![
-        Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) },
-        Phase::LaneChange { offset: 3.5, duration: 3.0 },
-        Phase::Hold { until_x: None, until_t: None, duration: Some(40.0) },
+        Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) }.into(),
+        Phase::LaneChange { offset: Some(3.5), lane: None, duration: 3.0 }.into(),
+        Phase::Hold { until_x: None, until_t: None, duration: Some(40.0) }.into(),
     ];
     s.follower.lane_keeping = true;
     s.duration = 40.0;

@@ -1,9 +1,43 @@
-//! The lead's manoeuvre: a list of [`Phase`]s run in order (scenario key `lead.phases`).
+//! A scripted vehicle's manoeuvre: a list of [`Phase`]s run in order (scenario keys
+//! `lead.phases`, `vehicles[i].phases`), each optionally started by a trigger ([`ScriptedPhase`]).
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
+use crate::trigger::Trigger;
 use crate::units::KMH;
+
+/// A [`Phase`] with an optional start trigger (OpenSCENARIO `StartTrigger`, [`crate::trigger`]).
+/// In TOML it is the phase's table with a `start` key:
+/// `{ kind = "brake", decel = 6.0, start = { kind = "relative_distance", ... } }`.
+///
+/// Without `start` the phase begins when the one before it ends. With `start` it begins when its
+/// trigger fires, once every phase before it has begun: the running phase is cut short
+/// (OpenSCENARIO's `priority = "override"`), and if the previous phase ended before the trigger
+/// fired the vehicle holds its speed and lateral offset until then. The trigger is watched from
+/// the moment the phase before it begins (from t = 0 for the first phase).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScriptedPhase {
+    /// The manoeuvre.
+    #[serde(flatten)]
+    pub phase: Phase,
+    /// When it starts (default: when the previous phase ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<Trigger>,
+}
+
+impl From<Phase> for ScriptedPhase {
+    fn from(phase: Phase) -> Self {
+        Self { phase, start: None }
+    }
+}
+
+impl std::ops::Deref for ScriptedPhase {
+    type Target = Phase;
+    fn deref(&self) -> &Phase {
+        &self.phase
+    }
+}
 
 /// One phase of the lead's manoeuvre. Phases run in order; after the last one the lead holds its
 /// speed.
@@ -46,11 +80,16 @@ pub enum Phase {
         #[serde(default)]
         speed_kmh: Option<f64>,
     },
-    /// Move laterally to `offset` (m, + left, relative to the lane centre) over `duration` (s):
-    /// a cut out (lead leaves the lane) or a cut back in. Speed is held.
+    /// Move laterally to `offset` (m, + left, from the ego lane's centre) or to the centre of
+    /// `lane` (the track's lane index) over `duration` (s): a cut out (the lead leaves the lane),
+    /// a cut in, a lane change. Speed is held. Give `offset` or `lane`.
     LaneChange {
-        /// Final lateral offset from the lane centre, m.
-        offset: f64,
+        /// Final lateral offset from the ego lane's centre, m.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        offset: Option<f64>,
+        /// Final lane (index, [`crate::Track::lane_offset`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        lane: Option<u32>,
         /// Duration of the manoeuvre, s.
         duration: f64,
     },
@@ -65,7 +104,26 @@ pub enum Phase {
         /// Duration of the phase, s.
         duration: f64,
     },
+    /// Brake uniformly to a standstill with the front bumper at `s` (m along the centreline):
+    /// the deceleration `v² / (2 d)` to the remaining distance `d` is recomputed every step, up
+    /// to `max_decel` (m/s², default 8). Ends at standstill.
+    StopAt {
+        /// Where the front bumper stops, m along the centreline.
+        s: f64,
+        /// Deceleration limit, m/s² (default 8).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_decel: Option<f64>,
+    },
+    /// Stand still (brake to a stop and hold) for `duration` (s), or to the end of the run.
+    Stand {
+        /// Duration, s (`None`: to the end of the run).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        duration: Option<f64>,
+    },
 }
+
+/// Default deceleration limit of [`Phase::StopAt`], m/s².
+pub const STOP_AT_DECEL: f64 = 8.0;
 
 impl Phase {
     fn target_speed(key: &str, speed: Option<f64>, speed_kmh: Option<f64>, default: Option<f64>) -> Result<f64, ConfigError> {
@@ -109,10 +167,22 @@ impl Phase {
                 }
                 Ok(())
             }
-            Phase::LaneChange { offset, duration } => {
-                check_range("offset", *offset, -10.0, 10.0, "m")?;
+            Phase::LaneChange { offset, lane, duration } => {
+                match (offset, lane) {
+                    (Some(o), None) => check_range("offset", *o, -20.0, 20.0, "m")?,
+                    (None, Some(_)) => {}
+                    _ => return Err(ConfigError::new("offset", "give either `offset` (m) or `lane` (index)")),
+                }
                 check_range("duration", *duration, 0.1, 60.0, "s")
             }
+            Phase::StopAt { s, max_decel } => {
+                check_range("s", *s, 0.0, 1.0e6, "m")?;
+                check_range("max_decel", max_decel.unwrap_or(STOP_AT_DECEL), 0.1, 15.0, "m/s²")
+            }
+            Phase::Stand { duration } => match duration {
+                Some(d) => check_range("duration", *d, 0.0, 1.0e5, "s"),
+                None => Ok(()),
+            },
             Phase::Sine { amplitude, freq_hz, duration } => {
                 check_range("amplitude", *amplitude, 0.0, 20.0, "m/s")?;
                 check_range("freq_hz", *freq_hz, 0.001, 5.0, "Hz")?;
