@@ -48,7 +48,7 @@ pub use error::{ConfigError, SimError, check_range};
 pub use follower::{FollowerConfig, FollowerSpec, Perception};
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase};
 pub use lidar::{Lidar, LidarParams, Scan};
-pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};
+pub use metrics::{CollisionInfo, ContactRecord, HARD_BRAKING, HitObject, Metrics, MetricsParams, ObjectKind};
 pub use paper::{Calibration, PAPER_SPEEDS_KMH};
 pub use patch::Patch;
 pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
