@@ -422,7 +422,13 @@ mod tests {
             w.set_pose(a, &s);
             w.set_pose(b, &b_state);
             let contacts = w.step(0.01);
-            if contacts.iter().any(|c| c.involves(a) && c.involves(b)) {
+            if let Some(c) = contacts.iter().find(|c| c.involves(a) && c.involves(b)) {
+                // Normal from a towards b (+x), the point on the faces at x = 0.01 k + 2.45.
+                let (other, n) = c.seen_from(a).expect("involves a");
+                assert_eq!(other, Party::Vehicle(b));
+                assert!((n[0] - 1.0).abs() < 1e-4 && n[1].abs() < 1e-4, "{n:?}");
+                assert_eq!(c.seen_from(b).map(|(_, m)| m), Some([-n[0], -n[1]]));
+                assert!((c.point[0] - (0.01 * k as f64 + 2.45)).abs() < 0.02 && c.point[1].abs() <= 0.951, "{:?}", c.point);
                 first = Some(k);
                 break;
             }
@@ -447,6 +453,9 @@ mod tests {
             if let Some(c) = contacts.first() {
                 assert!(c.involves(v));
                 assert_eq!(c.b, Party::Static(0));
+                // Normal from the vehicle to the rail (-y), the point on the rail's face.
+                assert!(c.normal[0].abs() < 1e-4 && (c.normal[1] + 1.0).abs() < 1e-4, "{:?}", c.normal);
+                assert!((c.point[1] + 3.15).abs() < 0.02 && (c.point[0] - 50.0).abs() <= 2.46, "{:?}", c.point);
                 assert!(matches!(track.objects[0], RoadsideObject::GuardRail { offset, .. } if offset < 0.0));
                 first = Some(k);
                 break;

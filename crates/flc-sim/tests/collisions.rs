@@ -14,7 +14,12 @@ const FRONT_BUMPER_0: f64 = 5.9;
 /// whose speed controller can change its speed by 0.1 m/s² at most: it cannot avoid what is in
 /// its lane.
 fn scenario_with(target: &str, lead_gap: f64, duration: f64) -> Scenario {
-    let text = format!(
+    Scenario::from_toml_str(&scenario_text(target, lead_gap, duration), "collisions test").expect("scenario")
+}
+
+/// The text of [`scenario_with`].
+fn scenario_text(target: &str, lead_gap: f64, duration: f64) -> String {
+    format!(
         r#"
 name = "collide"
 controller = "flc"
@@ -43,8 +48,7 @@ max_decel = 0.1
 [v2v]
 enabled = false
 "#
-    );
-    Scenario::from_toml_str(&text, "collisions test").expect("scenario")
+    )
 }
 
 fn run(s: &Scenario) -> RunResult {
@@ -153,4 +157,34 @@ fn the_json_record_names_what_was_hit_and_runs_without_contact_have_no_new_field
     let far = run(&scenario_with(r#"{ kind = "post", s = 2900.0, offset = 0.0, radius = 0.3 }"#, 500.0, 2.0));
     let v = serde_json::to_value(flc_sim::report::RunRecord::from_run(None, &far)).expect("json");
     assert!(v.get("collision_info").is_none() && v.get("other_contacts").is_none(), "{v}");
+}
+
+#[test]
+fn in_a_platoon_a_rear_end_contact_is_the_first_contact_of_both_followers() {
+    // Follower 2 starts 20 m behind follower 1, 5 m/s faster, and can hardly brake.
+    let text = scenario_text(r#"{ kind = "post", s = 2900.0, offset = 0.0, radius = 0.3 }"#, 30.0, 20.0);
+    let patch = r#"
+[platoon]
+followers = 2
+[[platoon.overrides]]
+followers = [2]
+follower = { initial_speed = 25.0, initial_gap = 20.0 }
+"#;
+    let r = run(&Scenario::from_toml_str(&(text + patch), "platoon collision test").expect("scenario"));
+    let p = r.platoon.as_ref().expect("platoon result");
+    let (c1, c2) = (p.followers[0].collision.expect("follower 1 is hit"), p.followers[1].collision.expect("follower 2 hits"));
+    // Follower 2 ran into the vehicle in front: the old record's meaning.
+    assert_eq!(c2.object.name().as_deref(), Some("follower 1"));
+    assert_eq!(c2.impact_speed, (c2.follower_speed - c2.lead_speed).max(0.0));
+    assert!((c2.impact_speed - 5.0).abs() < 1.0 && c2.other_speed == c2.lead_speed, "{c2:?}");
+    // Follower 1 was hit from behind: its first contact too, with the closing speed.
+    assert_eq!(c1.object.name().as_deref(), Some("follower 2"));
+    assert_eq!(c1.time, c2.time);
+    assert!((c1.impact_speed - c2.impact_speed).abs() < 1e-3 && (c1.impact_speed_normal - c2.impact_speed_normal).abs() < 1e-3);
+    assert!(c1.normal[0] < -0.9 && c2.normal[0] > 0.9, "{:?} {:?}", c1.normal, c2.normal);
+    // Gap 20 m closed at about 5 m/s.
+    assert!((c2.time - 4.0).abs() < 0.5, "{c2:?}");
+    assert_eq!(r.collision, Some(c1));
+    assert!(r.metrics.collision && p.followers[1].metrics.collision);
+    assert!(r.other_contacts.is_empty());
 }
