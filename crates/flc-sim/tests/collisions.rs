@@ -188,3 +188,26 @@ follower = { initial_speed = 25.0, initial_gap = 20.0 }
     assert!(r.metrics.collision && p.followers[1].metrics.collision);
     assert!(r.other_contacts.is_empty());
 }
+
+#[test]
+fn a_recording_marks_the_contact_on_the_collisions_topic() {
+    let dir = std::env::temp_dir().join(format!("flc-collisions-mcap-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let s = scenario_with(r#"{ kind = "parked_car", s = 110.0, offset = 0.0 }"#, 500.0, 20.0);
+    let r = flc_sim::RunOptions { record: Some(&dir), ..Default::default() }.run(&s).expect("run");
+    let c = r.collision.expect("collision");
+    let file = std::fs::read_dir(&dir).expect("dir").map(|e| e.expect("entry").path()).find(|p| p.extension().is_some_and(|e| e == "mcap"));
+    let bytes = std::fs::read(file.expect("an mcap file")).expect("read");
+    let marks: Vec<(u64, Vec<u8>)> = mcap::MessageStream::new(&bytes)
+        .expect("mcap")
+        .map(|m| m.expect("message"))
+        .filter(|m| m.channel.topic == flc_sim::record::TOPIC_COLLISIONS)
+        .map(|m| (m.log_time, m.data.to_vec()))
+        .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(marks.len(), 1, "one marker");
+    assert_eq!(marks[0].0, flc_sim::record::time_ns(c.time));
+    // Protobuf keeps strings as they are: the entity id and the label naming the object.
+    let text = String::from_utf8_lossy(&marks[0].1).into_owned();
+    assert!(text.contains("collision/follower 1") && text.contains("follower 1 hit parked_car #2"), "{text}");
+}
