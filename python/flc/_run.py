@@ -28,6 +28,9 @@ class PlatoonResult:
         self.series: dict[str, np.ndarray] = dict(series)
         self.metrics: list[dict[str, Any]] = [dict(m) for m in self.record.get("per_follower", [])]
         self.string_stability: dict[str, Any] = dict(self.record.get("string_stability", {}))
+        #: Per follower (index ``k - 1``) its first contact with anything (see
+        #: :attr:`RunResult.collision`), ``None`` without one.
+        self.collisions: list[Optional[dict[str, Any]]] = [m.pop("collision_info", None) for m in self.metrics]
 
     @property
     def n_followers(self) -> int:
@@ -66,6 +69,15 @@ class RunResult:
     arrays, also reachable as attributes (``result.t``, ``result.gap``); ``metrics`` has the same
     keys as ``scenario --json`` (``collision``, ``min_gap``, ...). For a platoon these are follower
     1's, and ``platoon`` (a :class:`PlatoonResult`) holds every follower; ``None`` otherwise.
+
+    ``collision`` is follower 1's first contact with anything (``None`` without one), the
+    ``collision_info`` object of ``scenario --json``: ``time``, ``impact_speed``, ``lead_speed``,
+    ``follower_speed``, ``object`` (``{"kind": "vehicle" | "parked_car" | "guard_rail" | "post",
+    "name": "lead" | "follower k"}`` for a vehicle, ``{"kind", "index"}`` for a road-side object,
+    the index into the track's ``objects``), ``other_speed``, ``impact_speed_normal``, ``point``
+    and ``normal``. ``other_contacts`` lists the first contact of every pair without a follower
+    (the lead touching a road-side object): ``time``, ``a``, ``b`` (objects as above), ``speed``,
+    ``impact_speed_normal``, ``point``, ``normal``.
     """
 
     def __init__(
@@ -74,11 +86,15 @@ class RunResult:
         metrics: Mapping[str, Any],
         series: Mapping[str, np.ndarray],
         platoon: Optional[PlatoonResult] = None,
+        collision: Optional[Mapping[str, Any]] = None,
+        other_contacts: Optional[Sequence[Mapping[str, Any]]] = None,
     ) -> None:
         self.scenario = scenario
         self.metrics: dict[str, Any] = dict(metrics)
         self.series: dict[str, np.ndarray] = dict(series)
         self.platoon = platoon
+        self.collision: Optional[dict[str, Any]] = None if collision is None else dict(collision)
+        self.other_contacts: list[dict[str, Any]] = [dict(c) for c in other_contacts or []]
 
     @property
     def string_stability(self) -> Optional[dict[str, Any]]:
@@ -105,13 +121,15 @@ class RunResult:
         return f"RunResult({self.scenario.name!r}, controller={self.scenario.controller!r}, collision={m.get('collision')}, min_gap={m.get('min_gap'):.2f}{extra})"
 
 
-def _result(scenario: Scenario, raw: tuple[str, dict[str, Any], Optional[tuple[str, dict[str, Any]]]]) -> RunResult:
-    metrics_json, columns, platoon = raw
+def _result(scenario: Scenario, raw: tuple[str, dict[str, Any], Optional[tuple[str, dict[str, Any]]], str]) -> RunResult:
+    metrics_json, columns, platoon, contacts_json = raw
     p = None
     if platoon is not None:
         record_json, arrays = platoon
         p = PlatoonResult(json.loads(record_json), {k: np.asarray(v) for k, v in arrays.items()})
-    return RunResult(scenario, json.loads(metrics_json), {k: np.asarray(v) for k, v in columns.items()}, p)
+    contacts = json.loads(contacts_json)
+    series = {k: np.asarray(v) for k, v in columns.items()}
+    return RunResult(scenario, json.loads(metrics_json), series, p, contacts.get("collision"), contacts.get("other_contacts"))
 
 
 def run(scenario: Union[Scenario, Mapping[str, Any]], record: Optional[str] = None) -> RunResult:

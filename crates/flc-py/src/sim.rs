@@ -86,12 +86,21 @@ fn apply_overrides(scenario_json: &str, overrides_json: &str) -> PyResult<String
     to_json(&out)
 }
 
-/// What a run returns to Python: metrics JSON, `{column: 1-D array}` (follower 1), and for a
-/// platoon `(platoon JSON, {column: 2-D array (n_followers, n_steps)})`.
-type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>);
+/// What a run returns to Python: metrics JSON, `{column: 1-D array}` (follower 1), for a
+/// platoon `(platoon JSON, {column: 2-D array (n_followers, n_steps)})`, and the contacts JSON
+/// `{"collision": follower 1's first contact or null, "other_contacts": [...]}`.
+type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>, String);
+
+/// The contacts of a run as Python receives them (see `RunTuple`).
+#[derive(serde::Serialize)]
+struct Contacts<'a> {
+    collision: Option<&'a flc_sim::CollisionInfo>,
+    other_contacts: &'a [flc_sim::ContactRecord],
+}
 
 fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
     let metrics = to_json(&r.metrics)?;
+    let contacts = to_json(&Contacts { collision: r.collision.as_ref(), other_contacts: &r.other_contacts })?;
     let d = PyDict::new(py);
     for (name, col) in r.series.columns() {
         d.set_item(name, array(py, col))?;
@@ -111,7 +120,7 @@ fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
         }
         _ => None,
     };
-    Ok((metrics, d, platoon))
+    Ok((metrics, d, platoon, contacts))
 }
 
 fn array2<'py>(py: Python<'py>, rows: &[Vec<f64>]) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
@@ -144,8 +153,8 @@ fn frequency_response(py: Python<'_>, scenario_json: &str, freqs_hz: Option<Vec<
     to_json(&points)
 }
 
-/// Runs one scenario (GIL released). Returns `(metrics_json, {column: ndarray}, platoon)` with
-/// `platoon = (platoon_json, {column: 2-D ndarray})` or `None` (see `RunTuple`).
+/// Runs one scenario (GIL released). Returns `(metrics_json, {column: ndarray}, platoon,
+/// contacts_json)` with `platoon = (platoon_json, {column: 2-D ndarray})` or `None` (see `RunTuple`).
 #[pyfunction]
 #[pyo3(signature = (scenario_json, record=None))]
 fn run<'py>(py: Python<'py>, scenario_json: &str, record: Option<PathBuf>) -> PyResult<RunTuple<'py>> {

@@ -54,7 +54,7 @@ pub use follower::{FollowerConfig, FollowerSpec, Perception};
 pub use gap_sensor::GapSensor;
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase, STOP_AT_DECEL, ScriptedPhase, ScriptedVehicle};
 pub use lidar::{Lidar, LidarParams, Scan};
-pub use metrics::{CollisionInfo, HARD_BRAKING, Metrics, MetricsParams};
+pub use metrics::{CollisionInfo, ContactRecord, HARD_BRAKING, HitObject, Metrics, MetricsParams, ObjectKind};
 pub use paper::{Calibration, PAPER_SPEEDS_KMH};
 pub use patch::Patch;
 pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};

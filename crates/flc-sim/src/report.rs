@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::metrics::{Metrics, Series};
+use crate::metrics::{CollisionInfo, ContactRecord, Metrics, Series};
 use crate::paper::paper_result;
 use crate::scenario::Scenario;
 use crate::sim::RunResult;
@@ -29,6 +29,10 @@ pub struct RunRecord {
     /// The metrics (of follower 1 in a platoon).
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// Follower 1's first contact with anything (what `collision` says): time, speeds, the
+    /// object hit (`{kind, name | index}`), contact point and normal; absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub collision_info: Option<CollisionInfo>,
     /// `"ideal"` when the follower saw ground truth instead of the LiDAR (validation only,
     /// `follower.perception`); absent with the LiDAR.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -39,6 +43,10 @@ pub struct RunRecord {
     /// Platoon results, absent without `[platoon]`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub platoon: Option<PlatoonRecord>,
+    /// First contacts of the pairs without a follower (the lead touching a road-side object);
+    /// absent if none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub other_contacts: Vec<ContactRecord>,
 }
 
 /// One follower of a platoon in the JSON record.
@@ -51,6 +59,9 @@ pub struct FollowerRecord {
     /// Its metrics against the vehicle in front (same fields as the run's).
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// Its first contact with anything, absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub collision_info: Option<CollisionInfo>,
 }
 
 /// The `platoon` object of the JSON record.
@@ -62,7 +73,7 @@ pub struct PlatoonRecord {
     pub v2v_source: String,
     /// Lead information relayed hop by hop.
     pub relay: bool,
-    /// Some follower touched the vehicle in front.
+    /// Some follower touched something (a vehicle, a parked car, a guard rail, a post).
     pub any_collision: bool,
     /// Smallest gap in the string, m.
     pub min_gap: f64,
@@ -86,6 +97,7 @@ impl PlatoonRecord {
                 follower: i as u32 + 1,
                 controller: configs.as_ref().and_then(|c| c.get(i)).map_or(run.scenario.controller, |c| c.controller).as_str().to_string(),
                 metrics: f.metrics.clone(),
+                collision_info: f.collision,
             })
             .collect();
         Some(Self {
@@ -110,16 +122,23 @@ impl RunRecord {
             preset: preset.map(str::to_string),
             seed: scenario.seed,
             metrics: metrics.clone(),
+            collision_info: None,
             variant: scenario.variant.clone(),
             perception: (scenario.follower.perception != crate::follower::Perception::Lidar)
                 .then(|| scenario.follower.perception.as_str().to_string()),
             platoon: None,
+            other_contacts: Vec::new(),
         }
     }
 
     /// The record of a run, with its platoon results if any.
     pub fn from_run(preset: Option<&str>, run: &RunResult) -> Self {
-        Self { platoon: PlatoonRecord::of(run), ..Self::new(&run.scenario, preset, &run.metrics) }
+        Self {
+            platoon: PlatoonRecord::of(run),
+            collision_info: run.collision,
+            other_contacts: run.other_contacts.clone(),
+            ..Self::new(&run.scenario, preset, &run.metrics)
+        }
     }
 
     /// The scenario name with its variant (`name/variant`).
@@ -140,9 +159,14 @@ impl RunRecord {
     }
 }
 
-fn outcome(m: &Metrics) -> String {
+/// The outcome column: `collision 5.20 m/s` (with what was hit unless it was the vehicle in
+/// front: `collision 5.20 m/s, parked_car #3`), `stop, 1.20 m` or `no stop, min 3.00 m`.
+fn outcome(m: &Metrics, hit: Option<&CollisionInfo>, follower: usize) -> String {
     if m.collision {
-        format!("collision {:5.2} m/s", m.impact_speed)
+        match hit.map(|c| c.object) {
+            Some(o) if o.vehicle != Some(follower.saturating_sub(1)) => format!("collision {:5.2} m/s, {}", m.impact_speed, o.label()),
+            _ => format!("collision {:5.2} m/s", m.impact_speed),
+        }
     } else {
         match m.final_clearance {
             Some(c) => format!("stop, {c:5.2} m"),
@@ -180,15 +204,25 @@ pub fn table(records: &[RunRecord]) -> String {
             r.label(),
             r.controller,
             r.speed_kmh.map_or("-".to_string(), |s| format!("{s:.0}")),
-            format!(" {}", outcome(m)),
+            format!(" {}", outcome(m, r.collision_info.as_ref(), 1)),
             paper,
             m.min_gap,
             ttc,
             m.max_decel,
             m.max_jerk
         ));
+        out.push_str(&other_contacts_line(&r.other_contacts));
     }
     out
+}
+
+/// `  other contacts: lead - guard_rail #0 at 12.30 s, ...` (one line), empty without any.
+fn other_contacts_line(contacts: &[ContactRecord]) -> String {
+    if contacts.is_empty() {
+        return String::new();
+    }
+    let list: Vec<String> = contacts.iter().map(|c| format!("{} - {} at {:.2} s", c.a.label(), c.b.label(), c.time)).collect();
+    format!("  other contacts: {}\n", list.join(", "))
 }
 
 /// Writes the run's time series as `<dir>/<stem>.csv` (header = column names with units); for a
@@ -277,7 +311,7 @@ pub fn platoon_table(r: &RunRecord) -> String {
             "  {:>3} {:<14} {:<24} {:>6.2} m {:>5.2} m/s² {:>7.2} m {:>6.2} m/s {:>14} {:>14} {:>5.2} m/s²\n",
             f.follower,
             f.controller,
-            outcome(m),
+            outcome(m, f.collision_info.as_ref(), f.follower as usize),
             m.min_gap,
             m.max_decel,
             ss.gap_error_peak.get(i).copied().unwrap_or(f64::NAN),

@@ -33,6 +33,10 @@ pub struct Contact {
     pub b: Party,
     /// Penetration depth, m (>= 0).
     pub depth: f64,
+    /// Contact normal, world frame, unit, pointing from `a` towards `b`.
+    pub normal: [f64; 2],
+    /// The deepest contact point on `a`'s surface, world frame, m.
+    pub point: [f64; 2],
 }
 
 impl Contact {
@@ -40,6 +44,27 @@ impl Contact {
     pub fn involves(&self, body: Body) -> bool {
         self.a == Party::Vehicle(body) || self.b == Party::Vehicle(body)
     }
+
+    /// The other side of a contact that involves `body`, with the normal pointing from `body`
+    /// towards it (`None` if `body` is not in it).
+    pub fn seen_from(&self, body: Body) -> Option<(Party, [f64; 2])> {
+        let [nx, ny] = self.normal;
+        if self.a == Party::Vehicle(body) {
+            Some((self.b, self.normal))
+        } else if self.b == Party::Vehicle(body) {
+            Some((self.a, [-nx, -ny]))
+        } else {
+            None
+        }
+    }
+}
+
+/// What rapier's narrow phase knows about one touching pair, seen from `first`: depth, normal
+/// (from `first` towards the other), deepest point on `first`.
+struct Touch {
+    depth: f64,
+    normal: [f64; 2],
+    point: [f64; 2],
 }
 
 /// Longest straight guard-rail piece, m (fewer, longer pieces make ray casts cheaper).
@@ -170,8 +195,8 @@ impl World {
         for (i, v) in self.vehicles.iter().enumerate() {
             // Vehicle-vehicle pairs (each once) ...
             for w in self.vehicles.iter().skip(i + 1) {
-                if let Some(depth) = self.penetration(v.collider, w.collider) {
-                    out.push(Contact { a: Party::Vehicle(*v), b: Party::Vehicle(*w), depth });
+                if let Some(t) = self.touch(v.collider, w.collider) {
+                    out.push(Contact { a: Party::Vehicle(*v), b: Party::Vehicle(*w), depth: t.depth, normal: t.normal, point: t.point });
                 }
             }
         }
@@ -184,21 +209,36 @@ impl World {
                 (None, Some(v)) => (v, a),
                 _ => continue,
             };
-            if let Some((_, c)) = pair.find_deepest_contact() {
-                if c.dist <= 0.0 {
-                    let object = self.pw.colliders.get(other).map_or(usize::MAX, |co| co.user_data as usize);
-                    out.push(Contact { a: Party::Vehicle(v), b: Party::Static(object), depth: -f64::from(c.dist) });
-                }
+            if let Some(t) = self.touch_of(pair, v.collider) {
+                // The object's index in `track.objects` (every piece of a guard rail carries it).
+                let object = self.pw.colliders.get(other).map_or(usize::MAX, |co| co.user_data as usize);
+                out.push(Contact { a: Party::Vehicle(v), b: Party::Static(object), depth: t.depth, normal: t.normal, point: t.point });
             }
         }
         out
     }
 
-    /// Penetration depth of two colliders if rapier's narrow phase has them touching.
-    fn penetration(&self, a: ColliderHandle, b: ColliderHandle) -> Option<f64> {
-        let pair = self.pw.narrow_phase.contact_pair(a, b)?;
-        let (_, c) = pair.find_deepest_contact()?;
-        (c.dist <= 0.0).then(|| -f64::from(c.dist))
+    /// The contact of two colliders seen from `a`, if rapier's narrow phase has them touching.
+    fn touch(&self, a: ColliderHandle, b: ColliderHandle) -> Option<Touch> {
+        self.touch_of(self.pw.narrow_phase.contact_pair(a, b)?, a)
+    }
+
+    /// The deepest contact of `pair` seen from its collider `first` (depth >= 0), world frame:
+    /// rapier keeps the normal and points in the frames of the pair's colliders.
+    fn touch_of(&self, pair: &ContactPair, first: ColliderHandle) -> Option<Touch> {
+        let (m, c) = pair.find_deepest_contact()?;
+        if c.dist > 0.0 {
+            return None;
+        }
+        let co1 = self.pw.colliders.get(pair.collider1)?;
+        let n = co1.position().rotation * m.local_n1;
+        let (sign, p) = if first == pair.collider1 {
+            (1.0, co1.position().transform_point(c.local_p1))
+        } else {
+            (-1.0, self.pw.colliders.get(pair.collider2)?.position().transform_point(c.local_p2))
+        };
+        let (n, p) = ([sign * f64::from(n.x), sign * f64::from(n.y)], [f64::from(p.x), f64::from(p.y)]);
+        Some(Touch { depth: -f64::from(c.dist), normal: n, point: p })
     }
 
     /// Casts a ray from `origin` along the unit vector `dir` (world frame) up to `max_range`,
@@ -382,7 +422,13 @@ mod tests {
             w.set_pose(a, &s);
             w.set_pose(b, &b_state);
             let contacts = w.step(0.01);
-            if contacts.iter().any(|c| c.involves(a) && c.involves(b)) {
+            if let Some(c) = contacts.iter().find(|c| c.involves(a) && c.involves(b)) {
+                // Normal from a towards b (+x), the point on the faces at x = 0.01 k + 2.45.
+                let (other, n) = c.seen_from(a).expect("involves a");
+                assert_eq!(other, Party::Vehicle(b));
+                assert!((n[0] - 1.0).abs() < 1e-4 && n[1].abs() < 1e-4, "{n:?}");
+                assert_eq!(c.seen_from(b).map(|(_, m)| m), Some([-n[0], -n[1]]));
+                assert!((c.point[0] - (0.01 * k as f64 + 2.45)).abs() < 0.02 && c.point[1].abs() <= 0.951, "{:?}", c.point);
                 first = Some(k);
                 break;
             }
@@ -407,6 +453,9 @@ mod tests {
             if let Some(c) = contacts.first() {
                 assert!(c.involves(v));
                 assert_eq!(c.b, Party::Static(0));
+                // Normal from the vehicle to the rail (-y), the point on the rail's face.
+                assert!(c.normal[0].abs() < 1e-4 && (c.normal[1] + 1.0).abs() < 1e-4, "{:?}", c.normal);
+                assert!((c.point[1] + 3.15).abs() < 0.02 && (c.point[0] - 50.0).abs() <= 2.46, "{:?}", c.point);
                 assert!(matches!(track.objects[0], RoadsideObject::GuardRail { offset, .. } if offset < 0.0));
                 first = Some(k);
                 break;

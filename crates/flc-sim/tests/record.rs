@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use flc_sim::record::{
-    self, METADATA_METRICS, METADATA_SCENARIO, TOPIC_DETECTOR, TOPIC_LOOKAHEAD, TOPIC_SCAN, TOPIC_STATE, TOPIC_TF, TOPIC_TRACK,
-    TOPIC_VEHICLES,
+    self, METADATA_METRICS, METADATA_SCENARIO, TOPIC_COLLISIONS, TOPIC_DETECTOR, TOPIC_LOOKAHEAD, TOPIC_SCAN, TOPIC_STATE, TOPIC_TF,
+    TOPIC_TRACK, TOPIC_VEHICLES,
 };
 use flc_sim::{Calibration, ControllerKind, Scenario};
 use flc_sim::{RunOptions, Simulation, run};
@@ -112,16 +112,17 @@ fn recording_has_foxglove_schemas_rates_monotonic_times_and_the_run_series() {
 
     // Channels: Foxglove's well-known schemas as the SDK publishes them.
     let proto = |s: Option<foxglove::Schema>| s.expect("schema");
-    let expected: [(&str, foxglove::Schema); 6] = [
+    let expected: [(&str, foxglove::Schema); 7] = [
         (TOPIC_SCAN, proto(PointCloud::get_schema())),
         (TOPIC_DETECTOR, proto(SceneUpdate::get_schema())),
         (TOPIC_LOOKAHEAD, proto(SceneUpdate::get_schema())),
         (TOPIC_TF, proto(FrameTransforms::get_schema())),
         (TOPIC_TRACK, proto(SceneUpdate::get_schema())),
         (TOPIC_VEHICLES, proto(SceneUpdate::get_schema())),
+        (TOPIC_COLLISIONS, proto(SceneUpdate::get_schema())),
     ];
     let channels: HashMap<&str, &mcap::Channel> = summary.channels.values().map(|c| (c.topic.as_str(), c.as_ref())).collect();
-    assert_eq!(channels.len(), 7, "{:?}", channels.keys());
+    assert_eq!(channels.len(), 8, "{:?}", channels.keys());
     for (topic, schema) in &expected {
         let c = channels[topic];
         let got = c.schema.as_ref().expect("channel has a schema");

@@ -13,7 +13,7 @@ mod signal;
 use serde::{Deserialize, Serialize};
 
 pub use params::MetricsParams;
-pub use records::{CollisionInfo, FollowerRun};
+pub use records::{CollisionInfo, ContactRecord, FollowerRun, HitObject, ObjectKind};
 pub use signal::HARD_BRAKING;
 use signal::{TIME_EPS, finite_or, max_abs_jerk, step_durations, weighted_mean};
 
@@ -212,6 +212,21 @@ impl Metrics {
 mod tests {
     use super::*;
 
+    /// A contact with the vehicle in front (as a run reports it).
+    fn crash(time: f64, impact_speed: f64, lead_speed: f64, follower_speed: f64) -> CollisionInfo {
+        CollisionInfo {
+            time,
+            impact_speed,
+            lead_speed,
+            follower_speed,
+            object: HitObject::vehicle(0),
+            other_speed: lead_speed,
+            impact_speed_normal: impact_speed,
+            point: [0.0, 0.0],
+            normal: [1.0, 0.0],
+        }
+    }
+
     const DT: f64 = 0.01;
 
     #[test]
@@ -265,12 +280,9 @@ mod tests {
         assert!(j["min_gap"].is_null() && j["min_ttc"].is_null());
         // A single sample and a collision on an empty series do not panic either.
         let one = series(1, |_, _| {});
-        let m = Metrics::compute(&one, Some(CollisionInfo { time: 0.0, impact_speed: f64::NAN, lead_speed: 0.0, follower_speed: 0.0 }));
+        let m = Metrics::compute(&one, Some(crash(0.0, f64::NAN, 0.0, 0.0)));
         assert_eq!((m.duration, m.impact_speed, m.max_jerk), (0.0, 0.0, 0.0));
-        let m = Metrics::compute(
-            &Series::default(),
-            Some(CollisionInfo { time: 1.0, impact_speed: 3.0, lead_speed: 0.0, follower_speed: 3.0 }),
-        );
+        let m = Metrics::compute(&Series::default(), Some(crash(1.0, 3.0, 0.0, 3.0)));
         assert!(m.collision && m.impact_speed == 3.0 && m.collision_time == Some(1.0));
     }
 
@@ -363,8 +375,8 @@ mod tests {
         };
         let s = series(800, stopping);
         assert_eq!(Metrics::compute(&s, None).final_clearance, Some(3.7));
-        let crash = CollisionInfo { time: 4.0, impact_speed: 1.0, lead_speed: 2.0, follower_speed: 3.0 };
-        let m = Metrics::compute(&s, Some(crash));
+        let hit = crash(4.0, 1.0, 2.0, 3.0);
+        let m = Metrics::compute(&s, Some(hit));
         assert_eq!(m.final_clearance, None);
         assert!(m.collision && m.impact_speed == 1.0 && m.collision_time == Some(4.0));
         // Still moving at the end.

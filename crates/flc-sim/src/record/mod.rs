@@ -16,6 +16,7 @@
 //! | [`TOPIC_TRACK`] `/track` | `foxglove.SceneUpdate` | once, t = 0 | centreline, lane edges, guard rails, posts, parked cars (frame `world`) |
 //! | [`TOPIC_VEHICLES`] `/vehicles` | `foxglove.SceneUpdate` | once, t = 0 | the two vehicle bodies, locked to frames `lead` / `follower` |
 //! | [`TOPIC_STATE`] `/flc/state` | `flc.State` (jsonschema, JSON) | each physics step | the run's [`StepRecord`] (NaN as `null`) plus `active_name`, `reason_name` |
+//! | [`TOPIC_COLLISIONS`] `/collisions` | `foxglove.SceneUpdate` | at each first contact | a marker at the contact point (frame `world`): entity `collision/follower <k>` for a follower's collision, `contact/<a>/<b>` for a contact without a follower; sphere, normal, label, metadata |
 //!
 //! The file also carries two metadata records: `flc.scenario` (the scenario as JSON, at the start)
 //! and `flc.metrics` (the run's metrics as JSON, written only when the run finished).
@@ -56,7 +57,7 @@ use writer::*;
 
 use crate::error::SimError;
 use crate::lidar::Scan;
-use crate::metrics::{Metrics, Series, StepRecord};
+use crate::metrics::{CollisionInfo, ContactRecord, Metrics, Series, StepRecord};
 use crate::scenario::Scenario;
 use crate::sim::{Observer, Simulation};
 use crate::track::{RoadsideObject, Track};
@@ -76,6 +77,9 @@ pub const TOPIC_TRACK: &str = "/track";
 pub const TOPIC_VEHICLES: &str = "/vehicles";
 /// Per-step state (the run's [`StepRecord`]), JSON with a JSON schema named [`STATE_SCHEMA`].
 pub const TOPIC_STATE: &str = "/flc/state";
+/// Contact markers (each follower's first contact, the other pairs' first contacts),
+/// `foxglove.SceneUpdate` in frame [`FRAME_WORLD`], one message per contact.
+pub const TOPIC_COLLISIONS: &str = "/collisions";
 /// Name of the JSON schema of [`TOPIC_STATE`].
 pub const STATE_SCHEMA: &str = "flc.State";
 /// Fixed frame.
@@ -190,7 +194,8 @@ impl Recorder {
                 ("flc_sim_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
             ]);
             w.write_metadata(&mcap::records::Metadata { name: METADATA_SCENARIO.into(), metadata: meta })?;
-            Ok([scan, detector, lookahead, tf, track, vehicles, state])
+            let collisions = add_channel::<SceneUpdate>(&mut w, TOPIC_COLLISIONS)?;
+            Ok([scan, detector, lookahead, tf, track, vehicles, state, collisions])
         };
         let channels = open().map_err(|e| io_err(&path, e))?;
         let l = &scenario.lidar;
@@ -436,6 +441,32 @@ impl Observer for Recorder {
             return Err(io_err(&self.path, e));
         }
         self.push_message(Ch::State, ns, start)
+    }
+
+    /// A follower's first contact: a marker on [`TOPIC_COLLISIONS`].
+    fn collision(&mut self, follower: usize, c: &CollisionInfo) -> Result<(), SimError> {
+        let ns = time_ns(c.time);
+        let id = format!("collision/follower {follower}");
+        let text = format!("follower {follower} hit {} at {:.2} m/s", c.object.label(), c.impact_speed);
+        let mut e = contact_entity(ns, &id, c.point, c.normal, text);
+        e.metadata.extend([
+            kv("object", c.object.label()),
+            kv("impact_speed_mps", format!("{:.3}", c.impact_speed)),
+            kv("impact_speed_normal_mps", format!("{:.3}", c.impact_speed_normal)),
+            kv("follower_speed_mps", format!("{:.3}", c.follower_speed)),
+            kv("other_speed_mps", format!("{:.3}", c.other_speed)),
+        ]);
+        self.write(Ch::Collisions, ns, &SceneUpdate { deletions: vec![], entities: vec![e] })
+    }
+
+    /// A contact without a follower: a marker on [`TOPIC_COLLISIONS`].
+    fn other_contact(&mut self, c: &ContactRecord) -> Result<(), SimError> {
+        let ns = time_ns(c.time);
+        let (a, b) = (c.a.label(), c.b.label());
+        let id = format!("contact/{a}/{b}");
+        let mut e = contact_entity(ns, &id, c.point, c.normal, format!("{a} touched {b} at {:.2} m/s", c.speed));
+        e.metadata.push(kv("impact_speed_normal_mps", format!("{:.3}", c.impact_speed_normal)));
+        self.write(Ch::Collisions, ns, &SceneUpdate { deletions: vec![], entities: vec![e] })
     }
 
     fn finish(&mut self, metrics: Option<&Metrics>) -> Result<(), SimError> {

@@ -139,3 +139,29 @@ pub(super) fn transform(ns: u64, parent: &str, child: &str, x: f64, y: f64, yaw:
         rotation: Some(yaw_quat(yaw)),
     }
 }
+
+pub(super) const CONTACT_COLOR: Color = rgba(1.0, 0.1, 0.1, 1.0);
+
+/// A contact marker in frame [`FRAME_WORLD`]: a sphere at `point`, a 1.5 m line along the
+/// `normal` and a label.
+pub(super) fn contact_entity(ns: u64, id: &str, point: [f64; 2], normal: [f64; 2], text: String) -> SceneEntity {
+    let [x, y] = point;
+    let mut e = entity(ns, FRAME_WORLD, id);
+    e.metadata = vec![kv("x_m", format!("{x:.3}")), kv("y_m", format!("{y:.3}"))];
+    e.spheres.push(SpherePrimitive { pose: Some(pose(x, y, 0.8, 0.0)), size: Some(v3(0.7, 0.7, 0.7)), color: Some(CONTACT_COLOR) });
+    e.lines.push(line(
+        line_primitive::Type::LineStrip,
+        vec![Point3 { x, y, z: 0.8 }, Point3 { x: x + 1.5 * normal[0], y: y + 1.5 * normal[1], z: 0.8 }],
+        0.08,
+        CONTACT_COLOR,
+    ));
+    e.texts.push(TextPrimitive {
+        pose: Some(pose(x, y, 2.4, 0.0)),
+        billboard: true,
+        font_size: 14.0,
+        scale_invariant: true,
+        color: Some(CONTACT_COLOR),
+        text,
+    });
+    e
+}

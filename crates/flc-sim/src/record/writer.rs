@@ -11,9 +11,10 @@ pub(super) enum Ch {
     Track,
     Vehicles,
     State,
+    Collisions,
 }
 
-pub(super) const N_CHANNELS: usize = 7;
+pub(super) const N_CHANNELS: usize = 8;
 
 pub(super) struct Channel {
     pub(super) id: u16,

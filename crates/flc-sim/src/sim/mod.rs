@@ -10,8 +10,11 @@
 //! 4. the follower's low-level speed controller turns the held speed command into an
 //!    acceleration command; both vehicle models step; rapier moves the bodies and reports contacts.
 //!
-//! Collisions come from rapier's contact events between the vehicle colliders.
+//! Collisions come from rapier's narrow phase: a follower's first contact with anything (the
+//! vehicle in front, any other vehicle, a parked car, a guard rail, a post) is its collision; the
+//! lead's contacts with road-side objects are listed in [`RunResult::other_contacts`].
 
+mod contacts;
 mod follower;
 mod geometry;
 mod links;
@@ -27,8 +30,8 @@ use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
-pub use crate::metrics::FollowerRun;
-use crate::metrics::{CollisionInfo, Metrics};
+pub use crate::metrics::{CollisionInfo, FollowerRun};
+use crate::metrics::{ContactRecord, Metrics};
 use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
 use crate::series::Series;
@@ -48,6 +51,11 @@ pub struct RunResult {
     pub series: Series,
     /// With `[platoon]`: every follower's series and metrics and the string-stability measures.
     pub platoon: Option<PlatoonResult>,
+    /// Follower 1's first contact with anything (what [`RunResult::metrics`]' `collision` says).
+    pub collision: Option<CollisionInfo>,
+    /// The first contact of every pair of bodies that involves no follower (the lead touching a
+    /// parked car, a guard rail, a post), in time order.
+    pub other_contacts: Vec<ContactRecord>,
 }
 
 /// What a platoon run produced besides follower 1's [`RunResult::series`] / [`RunResult::metrics`].
@@ -88,6 +96,10 @@ struct State {
     relay: bool,
     /// Speeds of the vehicles at the start of the step (0 = lead), reused.
     speeds: Vec<f64>,
+    /// Bodies and states of the vehicles after a step with contacts (0 = lead), reused.
+    bodies: Vec<(Body, VehicleState)>,
+    /// First contacts of the pairs without a follower.
+    other_contacts: Vec<ContactRecord>,
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
@@ -160,6 +172,8 @@ impl Simulation {
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
             speeds: Vec::with_capacity(n + 1),
+            bodies: Vec::new(),
+            other_contacts: Vec::new(),
             t: 0.0,
             k: 0,
             standstill_since: None,
@@ -320,30 +334,25 @@ impl<O: Observer> Simulation<O> {
         self.state.t += dt;
         self.state.k += 1;
 
-        // 5. Records: each follower against the vehicle in front of it.
+        // 5. Contacts, then records: each follower against the vehicle in front of it.
+        if !contacts.is_empty() {
+            self.record_contacts(&contacts)?;
+        }
         let ls = *self.state.lead.state();
-        let (mut front, mut front_len, mut front_body) = (ls, self.state.scenario.lead.vehicle.length, self.state.lead_body);
+        let (mut front, mut front_len) = (ls, self.state.scenario.lead.vehicle.length);
         let mut all_still = ls.speed < 0.05;
         let mut collided = false;
         for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
             let gap = bumper_gap(&front, front_len, &fs, len);
-            if f.collision.is_none() && contacts.iter().any(|c| c.involves(front_body) && c.involves(f.body)) {
-                f.collision = Some(CollisionInfo {
-                    time: self.state.t,
-                    impact_speed: (fs.speed - front.speed).max(0.0),
-                    lead_speed: front.speed,
-                    follower_speed: fs.speed,
-                });
-            }
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;
             let rec = f.record(self.state.t, &self.state.track, gap, &front, &fs);
             if f.index == 1 {
                 self.observer.step(&rec, &ls, &fs)?;
             }
-            (front, front_len, front_body) = (fs, len, f.body);
+            (front, front_len) = (fs, len);
         }
 
         // Stop conditions.
@@ -359,6 +368,30 @@ impl<O: Observer> Simulation<O> {
             self.state.standstill_since = None;
         }
         Ok(self.state.t < self.state.scenario.duration - 0.5 * dt)
+    }
+
+    /// Turns a step's contacts into records: each follower's first contact (its collision, also
+    /// told to the observer) and the first contact of each pair without a follower.
+    fn record_contacts(&mut self, contacts: &[crate::world::Contact]) -> Result<(), SimError> {
+        let st = &mut self.state;
+        st.bodies.clear();
+        st.bodies.push((st.lead_body, *st.lead.state()));
+        st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
+        let bodies = contacts::Bodies { vehicles: &st.bodies, track: &st.track };
+        for (i, f) in st.followers.iter_mut().enumerate() {
+            if f.collision.is_none() {
+                f.collision = contacts::first_collision(contacts, &bodies, i + 1, st.t);
+                if let Some(c) = &f.collision {
+                    self.observer.collision(f.index, c)?;
+                }
+            }
+        }
+        let seen = st.other_contacts.len();
+        contacts::record_other_contacts(contacts, &bodies, st.t, &mut st.other_contacts);
+        for c in &st.other_contacts[seen..] {
+            self.observer.other_contact(c)?;
+        }
+        Ok(())
     }
 
     fn lead_centreline_steer(&self, ls: &VehicleState, s: f64, offset: f64) -> f64 {
@@ -378,7 +411,7 @@ impl<O: Observer> Simulation<O> {
     /// Ends the run and computes the metrics (follower 1's as [`RunResult::metrics`]; with
     /// `[platoon]` every follower's and the string-stability measures in [`RunResult::platoon`]).
     pub fn finish(self) -> RunResult {
-        let State { scenario, followers, lead_driver, .. } = self.state;
+        let State { scenario, followers, lead_driver, other_contacts, .. } = self.state;
         let mut laws = Vec::with_capacity(followers.len());
         let mut runs: Vec<FollowerRun> = followers
             .into_iter()
@@ -394,6 +427,6 @@ impl<O: Observer> Simulation<O> {
             PlatoonResult { followers: runs.clone(), signals, string_stability }
         });
         let first = runs.swap_remove(0);
-        RunResult { scenario, metrics: first.metrics, series: first.series, platoon }
+        RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts }
     }
 }

@@ -6,7 +6,7 @@ use flc_core::ClusterInfo;
 
 use crate::error::SimError;
 use crate::lidar::Scan;
-use crate::metrics::Metrics;
+use crate::metrics::{CollisionInfo, ContactRecord, Metrics};
 use crate::series::StepRecord;
 use crate::vehicle::VehicleState;
 
@@ -30,6 +30,20 @@ pub trait Observer {
     /// One physics step: follower 1's record (state after the step) and both vehicles' states.
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         let _ = (record, lead, follower);
+        Ok(())
+    }
+
+    /// Follower `follower`'s (1-based) first contact with anything, right after the step it
+    /// happened in (before that step's [`Observer::step`]).
+    fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
+        let _ = (follower, info);
+        Ok(())
+    }
+
+    /// The first contact of a pair of bodies that involves no follower (the lead touching a
+    /// road-side object).
+    fn other_contact(&mut self, contact: &ContactRecord) -> Result<(), SimError> {
+        let _ = contact;
         Ok(())
     }
 
@@ -58,6 +72,12 @@ impl<O: Observer> Observer for Option<O> {
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         self.as_mut().map_or(Ok(()), |o| o.step(record, lead, follower))
     }
+    fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
+        self.as_mut().map_or(Ok(()), |o| o.collision(follower, info))
+    }
+    fn other_contact(&mut self, contact: &ContactRecord) -> Result<(), SimError> {
+        self.as_mut().map_or(Ok(()), |o| o.other_contact(contact))
+    }
     fn finish(&mut self, metrics: Option<&Metrics>) -> Result<(), SimError> {
         self.as_mut().map_or(Ok(()), |o| o.finish(metrics))
     }
@@ -77,6 +97,12 @@ impl<O: Observer + ?Sized> Observer for Box<O> {
     }
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         (**self).step(record, lead, follower)
+    }
+    fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
+        (**self).collision(follower, info)
+    }
+    fn other_contact(&mut self, contact: &ContactRecord) -> Result<(), SimError> {
+        (**self).other_contact(contact)
     }
     fn finish(&mut self, metrics: Option<&Metrics>) -> Result<(), SimError> {
         (**self).finish(metrics)

@@ -1,0 +1,125 @@
+//! Contacts reported by the world, turned into records: each follower's first contact with
+//! anything ([`CollisionInfo`]) and the first contact of every other pair ([`ContactRecord`]).
+
+use crate::metrics::{CollisionInfo, ContactRecord, HitObject, ObjectKind};
+use crate::track::{RoadsideObject, Track};
+use crate::vehicle::VehicleState;
+use crate::world::{Body, Contact, Party};
+
+/// The bodies of the string with their states after the step: index 0 = the lead, `k` =
+/// follower `k`.
+pub(super) struct Bodies<'a> {
+    /// `(body, state)` of every vehicle, lead first.
+    pub(super) vehicles: &'a [(Body, VehicleState)],
+    /// The track (kinds of its road-side objects).
+    pub(super) track: &'a Track,
+}
+
+impl Bodies<'_> {
+    /// What `party` is.
+    fn object(&self, party: Party) -> HitObject {
+        match party {
+            Party::Vehicle(b) => HitObject::vehicle(self.vehicles.iter().position(|(v, _)| *v == b).unwrap_or(usize::MAX)),
+            Party::Static(i) => {
+                // The world tags every collider of object `i` with `i`; an unknown index (none
+                // is ever reported) is named a post.
+                let kind = match self.track.objects.get(i) {
+                    Some(RoadsideObject::GuardRail { .. }) => ObjectKind::GuardRail,
+                    Some(RoadsideObject::ParkedCar { .. }) => ObjectKind::ParkedCar,
+                    Some(RoadsideObject::Post { .. }) | None => ObjectKind::Post,
+                };
+                HitObject::object(kind, i)
+            }
+        }
+    }
+
+    /// The state of vehicle `party` (`None` for a road-side object: it stands still).
+    fn state(&self, party: Party) -> Option<&VehicleState> {
+        match party {
+            Party::Vehicle(b) => self.vehicles.iter().find(|(v, _)| *v == b).map(|(_, s)| s),
+            Party::Static(_) => None,
+        }
+    }
+}
+
+/// World-frame velocity of a vehicle (along its heading; the models have no side slip), m/s.
+fn velocity(s: Option<&VehicleState>) -> [f64; 2] {
+    s.map_or([0.0, 0.0], |s| [s.speed * s.yaw.cos(), s.speed * s.yaw.sin()])
+}
+
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// Closing speed of `ego` towards `other` along the unit `normal` (from `ego` to `other`), >= 0.
+fn normal_speed(ego: Option<&VehicleState>, other: Option<&VehicleState>, normal: [f64; 2]) -> f64 {
+    let (ve, vo) = (velocity(ego), velocity(other));
+    dot([ve[0] - vo[0], ve[1] - vo[1]], normal).max(0.0)
+}
+
+/// Follower `k`'s first contact among this step's `contacts`, if it touched anything: the
+/// vehicle in front if it is among them, else the deepest.
+pub(super) fn first_collision(contacts: &[Contact], bodies: &Bodies<'_>, k: usize, time: f64) -> Option<CollisionInfo> {
+    let (body, fs) = bodies.vehicles.get(k).copied()?;
+    let (front_body, front) = bodies.vehicles.get(k.checked_sub(1)?).copied()?;
+    let mut best: Option<(&Contact, Party, [f64; 2])> = None;
+    for c in contacts {
+        let Some((other, normal)) = c.seen_from(body) else { continue };
+        let better = match best {
+            None => true,
+            Some((b, o, _)) => o != Party::Vehicle(front_body) && (other == Party::Vehicle(front_body) || c.depth > b.depth),
+        };
+        if better {
+            best = Some((c, other, normal));
+        }
+    }
+    let (c, other, normal) = best?;
+    let other_state = bodies.state(other);
+    let impact_speed = if other == Party::Vehicle(front_body) {
+        (fs.speed - front.speed).max(0.0)
+    } else {
+        // Closing speed along the heading, towards the side (front or rear) of the contact.
+        let heading = [fs.yaw.cos(), fs.yaw.sin()];
+        let side = if dot([c.point[0] - fs.x, c.point[1] - fs.y], heading) >= 0.0 { 1.0 } else { -1.0 };
+        let (ve, vo) = (velocity(Some(&fs)), velocity(other_state));
+        (side * dot([ve[0] - vo[0], ve[1] - vo[1]], heading)).max(0.0)
+    };
+    Some(CollisionInfo {
+        time,
+        impact_speed,
+        lead_speed: front.speed,
+        follower_speed: fs.speed,
+        object: bodies.object(other),
+        other_speed: other_state.map_or(0.0, |s| s.speed),
+        impact_speed_normal: normal_speed(Some(&fs), other_state, normal),
+        point: c.point,
+        normal,
+    })
+}
+
+/// Adds to `out` the first contact of every pair in `contacts` that involves no follower (the
+/// lead and a road-side object); `out` holds the pairs already seen.
+pub(super) fn record_other_contacts(contacts: &[Contact], bodies: &Bodies<'_>, time: f64, out: &mut Vec<ContactRecord>) {
+    let Some(&(lead, _)) = bodies.vehicles.first() else { return };
+    for c in contacts {
+        let Some((other, normal)) = c.seen_from(lead) else { continue };
+        if matches!(other, Party::Vehicle(_)) {
+            // A follower's contact: its collision.
+            continue;
+        }
+        let (a, b) = (bodies.object(Party::Vehicle(lead)), bodies.object(other));
+        if out.iter().any(|r| r.a == a && r.b == b) {
+            continue;
+        }
+        let ls = bodies.state(Party::Vehicle(lead));
+        out.push(ContactRecord {
+            time,
+            a,
+            b,
+            speed: ls.map_or(0.0, |s| s.speed),
+            impact_speed_normal: normal_speed(ls, None, normal),
+            point: c.point,
+            normal,
+        });
+    }
+}
