@@ -59,7 +59,7 @@ pub use paper::{Calibration, PAPER_SPEEDS_KMH};
 pub use patch::Patch;
 pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
 pub use runner::{RunOptions, run};
-pub use scenario::{ControllerKind, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
+pub use scenario::{ControllerKind, EGO, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
 pub use series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
 pub use sim::{FollowerRun, Observer, PlatoonResult, RunResult, Simulation};
 pub use track::{Projection, RoadsideObject, Track};

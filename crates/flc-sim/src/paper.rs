@@ -190,6 +190,7 @@ impl Scenario {
             0.01,
             TrackSpec::Straight { length: 2000.0 },
             lead,
+            Vec::new(),
             FollowerSpec::default(),
             LidarParams::default(),
             v2v,

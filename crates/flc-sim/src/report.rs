@@ -1,6 +1,7 @@
 //! Output of runs: the JSON record per run, the results table laid out like the paper's, and the
 //! per-step time series as CSV.
 
+use crate::HitObject;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -97,7 +98,7 @@ impl PlatoonRecord {
                 follower: i as u32 + 1,
                 controller: configs.as_ref().and_then(|c| c.get(i)).map_or(run.scenario.controller, |c| c.controller).as_str().to_string(),
                 metrics: f.metrics.clone(),
-                collision_info: f.collision,
+                collision_info: f.collision.clone(),
             })
             .collect();
         Some(Self {
@@ -135,7 +136,7 @@ impl RunRecord {
     pub fn from_run(preset: Option<&str>, run: &RunResult) -> Self {
         Self {
             platoon: PlatoonRecord::of(run),
-            collision_info: run.collision,
+            collision_info: run.collision.clone(),
             other_contacts: run.other_contacts.clone(),
             ..Self::new(&run.scenario, preset, &run.metrics)
         }
@@ -163,8 +164,8 @@ impl RunRecord {
 /// front: `collision 5.20 m/s, parked_car #3`), `stop, 1.20 m` or `no stop, min 3.00 m`.
 fn outcome(m: &Metrics, hit: Option<&CollisionInfo>, follower: usize) -> String {
     if m.collision {
-        match hit.map(|c| c.object) {
-            Some(o) if o.vehicle != Some(follower.saturating_sub(1)) => format!("collision {:5.2} m/s, {}", m.impact_speed, o.label()),
+        match hit.map(|c| c.object.clone()) {
+            Some(o) if o.name != HitObject::vehicle(follower.saturating_sub(1)).name => format!("collision {:5.2} m/s, {}", m.impact_speed, o.label()),
             _ => format!("collision {:5.2} m/s", m.impact_speed),
         }
     } else {

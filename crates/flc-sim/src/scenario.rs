@@ -14,11 +14,12 @@ pub use crate::controllers::{ControllerKind, SupervisorSpec};
 use crate::controllers::{for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, SimError, check_range};
 use crate::follower::{FollowerConfig, FollowerSpec};
-use crate::lead::LeadSpec;
+use crate::lead::{LeadSpec, Phase, ScriptedPhase, ScriptedVehicle};
 use crate::lidar::LidarParams;
 use crate::patch::Patch;
 use crate::platoon::PlatoonSpec;
 use crate::track::Track;
+use crate::trigger::{ScriptedEntity, Trigger, validate_scripts};
 use crate::v2v::V2vParams;
 
 pub use crate::units::KMH;
@@ -65,7 +66,7 @@ impl TrackSpec {
 }
 
 /// When a run ends (besides `duration`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StopSpec {
     /// End the run at the first collision between the vehicles.
@@ -73,13 +74,20 @@ pub struct StopSpec {
     /// End the run once the lead has finished its phases and both vehicles have been at
     /// standstill (< 0.05 m/s) for this long, s.
     pub standstill_time: f64,
+    /// End the run when this trigger fires (OpenSCENARIO's storyboard `StopTrigger`,
+    /// [`crate::trigger`]), evaluated on ground truth after every physics step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trigger: Option<Trigger>,
 }
 
 impl Default for StopSpec {
     fn default() -> Self {
-        Self { on_collision: true, standstill_time: 2.0 }
+        Self { on_collision: true, standstill_time: 2.0, trigger: None }
     }
 }
+
+/// Names a trigger may use for the followers: `ego` (= follower 1) and `follower <k>`.
+pub const EGO: &str = "ego";
 
 for_each_controller!(with_controller_sections! {
 /// A complete scenario. `Default` is the paper's experiment at 50 km/h with the FLC, realistic
@@ -100,8 +108,11 @@ pub struct Scenario {
     pub physics_dt: f64,
     /// The track.
     pub track: TrackSpec,
-    /// The lead.
+    /// The lead: the first scripted vehicle (entity `lead`).
     pub lead: LeadSpec,
+    /// Other scripted vehicles (`[[vehicles]]`): traffic, cut-in cars, standing cars.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub vehicles: Vec<ScriptedVehicle>,
     /// The follower.
     pub follower: FollowerSpec,
     /// The follower's LiDAR.
@@ -153,6 +164,7 @@ impl Scenario {
         for (i, p) in self.lead.phases.iter().enumerate() {
             p.validate().map_err(|e| e.within(&format!("lead.phases[{i}]")))?;
         }
+        self.validate_traffic()?;
         self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
@@ -165,6 +177,71 @@ impl Scenario {
         for i in 0..self.variants.len() {
             let key = format!("variants[{i}]");
             self.expand_variant(i)?.validate().map_err(|e| e.within(&key))?;
+        }
+        Ok(())
+    }
+
+    /// The scripted vehicles' names, specs' keys and phases, then the followers (no phases), as
+    /// the trigger checks see them ([`crate::trigger::validate_scripts`]).
+    fn entities(&self) -> (Vec<String>, Vec<String>) {
+        let mut names = vec!["lead".to_string()];
+        let mut keys = vec!["lead.phases".to_string()];
+        for (i, v) in self.vehicles.iter().enumerate() {
+            names.push(v.name.clone());
+            keys.push(format!("vehicles[{i}].phases"));
+        }
+        names.push(EGO.to_string());
+        keys.push("follower".to_string());
+        for k in 1..=self.n_followers() {
+            names.push(format!("follower {k}"));
+            keys.push("follower".to_string());
+        }
+        (names, keys)
+    }
+
+    /// `[[vehicles]]`, lanes and every trigger: names unique and not reserved, lanes on the
+    /// track, triggers naming existing entities and phases, no cycle of phases waiting on each
+    /// other; errors name the dotted key.
+    fn validate_traffic(&self) -> Result<(), ConfigError> {
+        let track = self.track.build().map_err(|e| e.within("track"))?;
+        let lane_change = |key: &str, phases: &[ScriptedPhase]| -> Result<(), ConfigError> {
+            for (k, p) in phases.iter().enumerate() {
+                if let Phase::LaneChange { lane: Some(l), .. } = &p.phase {
+                    track.check_lane(&format!("{key}[{k}].lane"), *l)?;
+                }
+            }
+            Ok(())
+        };
+        lane_change("lead.phases", &self.lead.phases)?;
+        for (i, v) in self.vehicles.iter().enumerate() {
+            let key = format!("vehicles[{i}]");
+            v.validate().map_err(|e| e.within(&key))?;
+            let reserved = v.name == "lead" || v.name == EGO || v.name.starts_with("follower");
+            if v.name.trim().is_empty() || reserved {
+                return Err(ConfigError::new(
+                    format!("{key}.name"),
+                    format!("`{}` is not a name a scripted vehicle can have (empty, `lead`, `ego` and `follower...` are taken)", v.name),
+                ));
+            }
+            if let Some(l) = v.lane {
+                track.check_lane(&format!("{key}.lane"), l)?;
+            }
+            lane_change(&format!("{key}.phases"), &v.phases)?;
+        }
+        let (names, keys) = self.entities();
+        let mut entities: Vec<ScriptedEntity<'_>> = Vec::with_capacity(names.len());
+        for (i, (n, k)) in names.iter().zip(&keys).enumerate() {
+            let starts = match i {
+                0 => self.lead.phases.iter().map(|p| p.start.as_ref()).collect(),
+                i if i <= self.vehicles.len() => self.vehicles[i - 1].phases.iter().map(|p| p.start.as_ref()).collect(),
+                _ => Vec::new(),
+            };
+            entities.push(ScriptedEntity { name: n, key: k, starts });
+        }
+        validate_scripts(&entities)?;
+        if let Some(t) = &self.stop.trigger {
+            let table: Vec<(&str, usize)> = entities.iter().map(|e| (e.name, e.starts.len())).collect();
+            t.validate("stop.trigger", &table)?;
         }
         Ok(())
     }

@@ -22,8 +22,12 @@ pub enum RoadsideObject {
     Post {
         /// Position along the centreline, m.
         s: f64,
-        /// Lateral offset, m.
+        /// Lateral offset, m (or give `lane`).
+        #[serde(default)]
         offset: f64,
+        /// In the centre of this lane instead of at `offset` ([`Track::lane_offset`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        lane: Option<u32>,
         /// Radius, m.
         radius: f64,
     },
@@ -31,8 +35,12 @@ pub enum RoadsideObject {
     ParkedCar {
         /// Position along the centreline, m.
         s: f64,
-        /// Lateral offset, m.
+        /// Lateral offset, m (or give `lane`).
+        #[serde(default)]
         offset: f64,
+        /// In the centre of this lane instead of at `offset` ([`Track::lane_offset`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        lane: Option<u32>,
         /// Heading relative to the road, rad.
         #[serde(default)]
         heading_offset: f64,
@@ -70,6 +78,12 @@ pub struct Track {
     /// Road-side clutter (guard rails, posts, parked cars).
     #[serde(default)]
     pub objects: Vec<RoadsideObject>,
+    /// Number of lanes (all `lane_width` wide), numbered 0, 1, ... from the right. Default 1.
+    #[serde(default = "one_lane", skip_serializing_if = "is_one_lane")]
+    pub lanes: u32,
+    /// The lane the ego (and the lead) start in; the centreline is its centre. Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub ego_lane: u32,
     /// Cumulative length at each point (computed).
     #[serde(skip)]
     cum: Vec<f64>,
@@ -86,6 +100,18 @@ fn default_lane_width() -> f64 {
     3.5
 }
 
+fn one_lane() -> u32 {
+    1
+}
+
+fn is_one_lane(n: &u32) -> bool {
+    *n == 1
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
 /// The serialised form of [`Track`] (everything but the computed length table).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -97,20 +123,54 @@ struct TrackFile {
     lane_width: f64,
     #[serde(default)]
     objects: Vec<RoadsideObject>,
+    #[serde(default = "one_lane")]
+    lanes: u32,
+    #[serde(default)]
+    ego_lane: u32,
 }
 
 impl From<TrackFile> for Track {
     fn from(f: TrackFile) -> Self {
-        Track::new(&f.name, f.centerline, f.lane_width, f.objects)
+        Track::new(&f.name, f.centerline, f.lane_width, f.objects).with_lanes(f.lanes, f.ego_lane)
     }
 }
 
 impl Track {
     /// Builds a track and its length table.
     pub fn new(name: &str, centerline: Vec<[f64; 2]>, lane_width: f64, objects: Vec<RoadsideObject>) -> Self {
-        let mut t = Self { name: name.to_string(), centerline, lane_width, objects, cum: Vec::new(), chunks: Vec::new() };
+        let mut t =
+            Self { name: name.to_string(), centerline, lane_width, objects, lanes: 1, ego_lane: 0, cum: Vec::new(), chunks: Vec::new() };
         t.prepare();
         t
+    }
+
+    /// This track with `lanes` lanes, the ego starting in `ego_lane`; objects given by `lane`
+    /// are placed at that lane's centre.
+    pub fn with_lanes(mut self, lanes: u32, ego_lane: u32) -> Self {
+        self.lanes = lanes;
+        self.ego_lane = ego_lane;
+        let offset = |l: u32| (f64::from(l) - f64::from(ego_lane)) * self.lane_width;
+        for o in &mut self.objects {
+            if let RoadsideObject::Post { offset: off, lane: Some(l), .. } | RoadsideObject::ParkedCar { offset: off, lane: Some(l), .. } = o {
+                *off = offset(*l);
+            }
+        }
+        self
+    }
+
+    /// Lateral offset of the centre of lane `lane` from the centreline (the ego lane's centre),
+    /// m, + left: `(lane - ego_lane) * lane_width`.
+    pub fn lane_offset(&self, lane: u32) -> f64 {
+        (f64::from(lane) - f64::from(self.ego_lane)) * self.lane_width
+    }
+
+    /// Checks that `lane` exists; the error names `key`.
+    pub fn check_lane(&self, key: &str, lane: u32) -> Result<(), ConfigError> {
+        if lane < self.lanes {
+            Ok(())
+        } else {
+            Err(ConfigError::new(key, format!("lane {lane} does not exist: the track has {} lane(s), 0-{}", self.lanes, self.lanes - 1)))
+        }
     }
 
     fn prepare(&mut self) {
@@ -157,6 +217,10 @@ impl Track {
             }
         }
         check_range("lane_width", self.lane_width, 2.0, 6.0, "m")?;
+        if !(1..=8).contains(&self.lanes) {
+            return Err(ConfigError::new("lanes", format!("must be 1-8, got {}", self.lanes)));
+        }
+        self.check_lane("ego_lane", self.ego_lane)?;
         for (i, o) in self.objects.iter().enumerate() {
             let key = |k: &str| format!("objects[{i}].{k}");
             match o {
@@ -165,12 +229,18 @@ impl Track {
                     check_range(&key("from_s"), *from_s, 0.0, 1e6, "m")?;
                     check_range(&key("to_s"), *to_s, *from_s, 1e6, "m (>= from_s)")?;
                 }
-                RoadsideObject::Post { s, offset, radius } => {
+                RoadsideObject::Post { s, offset, radius, lane } => {
+                    if let Some(l) = lane {
+                        self.check_lane(&key("lane"), *l)?;
+                    }
                     check_range(&key("s"), *s, 0.0, 1e6, "m")?;
                     check_range(&key("offset"), *offset, -50.0, 50.0, "m")?;
                     check_range(&key("radius"), *radius, 0.01, 2.0, "m")?;
                 }
-                RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+                RoadsideObject::ParkedCar { s, offset, heading_offset, lane } => {
+                    if let Some(l) = lane {
+                        self.check_lane(&key("lane"), *l)?;
+                    }
                     check_range(&key("s"), *s, 0.0, 1e6, "m")?;
                     check_range(&key("offset"), *offset, -50.0, 50.0, "m")?;
                     check_range(&key("heading_offset"), *heading_offset, -3.2, 3.2, "rad")?;
@@ -315,15 +385,16 @@ impl Track {
         ];
         let mut s = 25.0;
         while s < length {
-            objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08 });
+            objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08, lane: None });
             s += 50.0;
         }
         let mut s = 300.0;
         while s < length {
-            objects.push(RoadsideObject::ParkedCar { s, offset: lw, heading_offset: 0.0 });
+            objects.push(RoadsideObject::ParkedCar { s, offset: lw, heading_offset: 0.0, lane: None });
             s += 600.0;
         }
-        Self::new("straight", vec![[0.0, 0.0], [length, 0.0]], lw, objects)
+        // Two lanes: the ego's (0) and the one to its left (1), where the cars are parked.
+        Self::new("straight", vec![[0.0, 0.0], [length, 0.0]], lw, objects).with_lanes(2, 0)
     }
 
     /// A route with curves like the paper's Fig. 3a: straights joined by arcs of radius 120-250 m
@@ -371,7 +442,7 @@ impl Track {
         ];
         let mut s = 30.0;
         while s < len {
-            t.objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08 });
+            t.objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08, lane: None });
             s += 60.0;
         }
         t
@@ -501,7 +572,7 @@ mod tests {
     fn validation_names_the_key() {
         let t = Track::new("bad", vec![[0.0, 0.0], [0.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
-        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 3.5, vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0 }]);
+        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 3.5, vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0, lane: None }]);
         assert_eq!(t.validate().unwrap_err().key, "objects[0].radius");
         let t = Track::new("bad", vec![[0.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline");

@@ -151,11 +151,11 @@ impl World {
                         }
                     }
                 }
-                RoadsideObject::Post { s, offset, radius } => {
+                RoadsideObject::Post { s, offset, radius, .. } => {
                     let (x, y, _) = place(s, offset);
                     pw.insert_collider(ColliderBuilder::ball(radius as f32).position(pose(x, y, 0.0)).user_data(tag), None);
                 }
-                RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+                RoadsideObject::ParkedCar { s, offset, heading_offset, .. } => {
                     let (x, y, h) = place(s, offset);
                     pw.insert_collider(ColliderBuilder::cuboid(2.35, 0.9).position(pose(x, y, h + heading_offset)).user_data(tag), None);
                 }

@@ -61,7 +61,7 @@ fn drives_into(target: &str, face_s: f64, kind: ObjectKind) {
     let r = run(&scenario_with(target, 500.0, 20.0));
     let c = r.collision.unwrap_or_else(|| panic!("{kind:?}: no collision; metrics {:?}", r.metrics));
     assert_eq!(c.object.kind, kind);
-    assert_eq!((c.object.index, c.object.vehicle), (Some(2), None), "{c:?}");
+    assert_eq!((c.object.index, c.object.name.as_deref()), (Some(2), None), "{c:?}");
     assert!(c.object.name().is_none());
     // Contact at the first step whose front bumper (centre + 2.45 m) reaches the face.
     let s = &r.series;
@@ -113,7 +113,7 @@ fn the_lead_touching_a_parked_car_is_another_contact_not_the_followers_collision
     let r = run(&scenario_with(&format!(r#"{{ kind = "parked_car", s = {}, offset = 0.0 }}"#, lead_front + 60.0 + 2.35), 30.0, 3.5));
     assert!(r.collision.is_none() && !r.metrics.collision, "{:?}", r.collision);
     assert_eq!(r.other_contacts.len(), 1, "first contact of the pair only: {:?}", r.other_contacts);
-    let c = r.other_contacts[0];
+    let c = &r.other_contacts[0];
     assert_eq!((c.a.kind, c.a.name().as_deref()), (ObjectKind::Vehicle, Some("lead")));
     assert_eq!((c.b.kind, c.b.index), (ObjectKind::ParkedCar, Some(2)));
     assert!((c.time - 3.0).abs() < 0.05, "{c:?}");
@@ -172,7 +172,7 @@ follower = { initial_speed = 25.0, initial_gap = 20.0 }
 "#;
     let r = run(&Scenario::from_toml_str(&(text + patch), "platoon collision test").expect("scenario"));
     let p = r.platoon.as_ref().expect("platoon result");
-    let (c1, c2) = (p.followers[0].collision.expect("follower 1 is hit"), p.followers[1].collision.expect("follower 2 hits"));
+    let (c1, c2) = (p.followers[0].collision.clone().expect("follower 1 is hit"), p.followers[1].collision.clone().expect("follower 2 hits"));
     // Follower 2 ran into the vehicle in front: the old record's meaning.
     assert_eq!(c2.object.name().as_deref(), Some("follower 1"));
     assert_eq!(c2.impact_speed, (c2.follower_speed - c2.lead_speed).max(0.0));

@@ -365,7 +365,7 @@ fn cut_out(c: ControllerKind, kmh: f64, ahead: f64) -> (Scenario, f64) {
     let follower_s = s.follower.vehicle.length / 2.0 + 1.0;
     let lead_rear0 = follower_s + s.follower.vehicle.length / 2.0 + gap;
     let car_rear = lead_rear0 + v * 8.0 + ahead;
-    let objects = vec![RoadsideObject::ParkedCar { s: car_rear + 2.35, offset: 0.0, heading_offset: 0.0 }];
+    let objects = vec![RoadsideObject::ParkedCar { s: car_rear + 2.35, offset: 0.0, heading_offset: 0.0, lane: None }];
     s.track = TrackSpec::Custom(Track::new("cut-out", vec![[0.0, 0.0], [5000.0, 0.0]], 3.5, objects));
     s.lead.phases = vec![
         Phase::Hold { until_x: None, until_t: None, duration: Some(5.0) }.into(),

@@ -100,6 +100,7 @@ impl Metrics {
 
     /// Computes the metrics with explicit thresholds.
     pub fn compute_with(s: &Series, collision: Option<CollisionInfo>, p: &MetricsParams) -> Metrics {
+        let collision = collision.as_ref();
         let n = s.len();
         let t = &s.t[..n];
         let dts = step_durations(t);

@@ -44,74 +44,49 @@ impl ObjectKind {
     }
 }
 
-/// One side of a contact: a vehicle (by its place in the string) or a road-side object (by its
-/// index in the track's `objects`). Serialised as `{kind, name}` for a vehicle (`"lead"`,
-/// `"follower 2"`) and `{kind, index}` for an object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(into = "ObjectJson", try_from = "ObjectJson")]
+/// One side of a contact: a vehicle (by name: `lead`, `follower 2`, a scripted vehicle's name)
+/// or a road-side object (by its index in the track's `objects`). Serialised as `{kind, name}` for
+/// a vehicle and `{kind, index}` for an object.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct HitObject {
     /// What it is.
     pub kind: ObjectKind,
-    /// For a vehicle: 0 = the lead, `k` = follower `k`.
-    pub vehicle: Option<usize>,
+    /// For a vehicle: its name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// For a road-side object: its index in the track's `objects`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub index: Option<usize>,
 }
 
 impl HitObject {
-    /// Vehicle `k` of the string (0 = the lead).
+    /// Vehicle `k` of the string (0 = the lead, `k` = follower `k`).
     pub fn vehicle(k: usize) -> Self {
-        Self { kind: ObjectKind::Vehicle, vehicle: Some(k), index: None }
+        Self::named(if k == 0 { "lead".to_string() } else { format!("follower {k}") })
+    }
+
+    /// The vehicle called `name`.
+    pub fn named(name: String) -> Self {
+        Self { kind: ObjectKind::Vehicle, name: Some(name), index: None }
     }
 
     /// Road-side object `index` of the track, of kind `kind`.
     pub fn object(kind: ObjectKind, index: usize) -> Self {
-        Self { kind, vehicle: None, index: Some(index) }
+        Self { kind, name: None, index: Some(index) }
     }
 
-    /// The vehicle's name: `lead`, `follower 1`, `follower 2`, ... (`None` for an object).
+    /// The vehicle's name (`None` for an object).
     pub fn name(&self) -> Option<String> {
-        self.vehicle.map(|k| if k == 0 { "lead".to_string() } else { format!("follower {k}") })
+        self.name.clone()
     }
 
     /// A short label for tables and markers: `lead`, `follower 2`, `parked_car #3`.
     pub fn label(&self) -> String {
-        match (self.name(), self.index) {
-            (Some(n), _) => n,
+        match (&self.name, self.index) {
+            (Some(n), _) => n.clone(),
             (None, Some(i)) => format!("{} #{i}", self.kind.as_str()),
             (None, None) => self.kind.as_str().to_string(),
         }
-    }
-}
-
-/// The JSON form of [`HitObject`].
-#[derive(Debug, Clone, Serialize, Deserialize)]
-struct ObjectJson {
-    kind: ObjectKind,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    name: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    index: Option<usize>,
-}
-
-impl From<HitObject> for ObjectJson {
-    fn from(o: HitObject) -> Self {
-        Self { kind: o.kind, name: o.name(), index: o.index }
-    }
-}
-
-impl TryFrom<ObjectJson> for HitObject {
-    type Error = String;
-    fn try_from(j: ObjectJson) -> Result<Self, String> {
-        let vehicle = match j.name.as_deref() {
-            None => None,
-            Some("lead") => Some(0),
-            Some(n) => match n.strip_prefix("follower ").map(str::parse::<usize>) {
-                Some(Ok(k)) if k >= 1 => Some(k),
-                _ => return Err(format!("vehicle name `{n}`: expected `lead` or `follower <k>`")),
-            },
-        };
-        Ok(Self { kind: j.kind, vehicle, index: j.index })
     }
 }
 
@@ -119,7 +94,7 @@ impl TryFrom<ObjectJson> for HitObject {
 ///
 /// `time`, `impact_speed`, `lead_speed` and `follower_speed` keep their meaning from when only
 /// the vehicle in front counted; the other fields say what was hit and how.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CollisionInfo {
     /// Time of the first contact, s.
     pub time: f64,
@@ -145,7 +120,7 @@ pub struct CollisionInfo {
 
 /// The first contact of a pair of bodies neither of which is a follower (the lead touching a
 /// parked car, a guard rail, a post): listed per run, not a follower's collision.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContactRecord {
     /// Time of the first contact, s.
     pub time: f64,
@@ -178,7 +153,7 @@ mod tests {
         for (text, o) in [(lead, HitObject::vehicle(0)), (f2, HitObject::vehicle(2)), (car, HitObject::object(ObjectKind::ParkedCar, 3))] {
             assert_eq!(serde_json::from_str::<HitObject>(&text).ok(), Some(o));
         }
-        assert!(serde_json::from_str::<HitObject>(r#"{"kind":"vehicle","name":"bus"}"#).is_err());
+        assert_eq!(HitObject::named("bus".into()).label(), "bus");
         assert_eq!(HitObject::object(ObjectKind::GuardRail, 0).label(), "guard_rail #0");
     }
 }

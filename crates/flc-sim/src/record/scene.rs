@@ -92,7 +92,7 @@ pub(super) fn track_entity(ns: u64, track: &Track) -> SceneEntity {
                     .collect();
                 e.lines.push(line(line_primitive::Type::LineStrip, pts, 0.2, rgba(0.75, 0.75, 0.8, 1.0)));
             }
-            RoadsideObject::Post { s, offset, radius } => {
+            RoadsideObject::Post { s, offset, radius, .. } => {
                 let (x, y, h) = track.pose_at(s);
                 e.cylinders.push(CylinderPrimitive {
                     pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.6, 0.0)),
@@ -102,7 +102,7 @@ pub(super) fn track_entity(ns: u64, track: &Track) -> SceneEntity {
                     color: Some(rgba(0.9, 0.9, 0.3, 1.0)),
                 });
             }
-            RoadsideObject::ParkedCar { s, offset, heading_offset } => {
+            RoadsideObject::ParkedCar { s, offset, heading_offset, .. } => {
                 let (x, y, h) = track.pose_at(s);
                 e.cubes.push(CubePrimitive {
                     pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.75, h + heading_offset)),

@@ -6,11 +6,15 @@ use crate::track::{RoadsideObject, Track};
 use crate::vehicle::VehicleState;
 use crate::world::{Body, Contact, Party};
 
-/// The bodies of the string with their states after the step: index 0 = the lead, `k` =
-/// follower `k`.
+/// The bodies of the vehicles with their states after the step: index 0 = the lead, `k` =
+/// follower `k` (`1..=followers`), then the scripted traffic in `traffic` order.
 pub(super) struct Bodies<'a> {
     /// `(body, state)` of every vehicle, lead first.
     pub(super) vehicles: &'a [(Body, VehicleState)],
+    /// Number of followers.
+    pub(super) followers: usize,
+    /// Names of the scripted vehicles after the string.
+    pub(super) traffic: &'a [&'a str],
     /// The track (kinds of its road-side objects).
     pub(super) track: &'a Track,
 }
@@ -19,7 +23,13 @@ impl Bodies<'_> {
     /// What `party` is.
     fn object(&self, party: Party) -> HitObject {
         match party {
-            Party::Vehicle(b) => HitObject::vehicle(self.vehicles.iter().position(|(v, _)| *v == b).unwrap_or(usize::MAX)),
+            Party::Vehicle(b) => {
+                let k = self.vehicles.iter().position(|(v, _)| *v == b).unwrap_or(usize::MAX);
+                match k.checked_sub(self.followers + 1).and_then(|i| self.traffic.get(i)) {
+                    Some(name) => HitObject::named((*name).to_string()),
+                    None => HitObject::vehicle(k),
+                }
+            }
             Party::Static(i) => {
                 // The world tags every collider of object `i` with `i`; an unknown index (none
                 // is ever reported) is named a post.
@@ -98,26 +108,31 @@ pub(super) fn first_collision(contacts: &[Contact], bodies: &Bodies<'_>, k: usiz
 }
 
 /// Adds to `out` the first contact of every pair in `contacts` that involves no follower (the
-/// lead and a road-side object); `out` holds the pairs already seen.
+/// lead or a scripted vehicle with a road-side object or with each other); `out` holds the pairs
+/// already seen.
 pub(super) fn record_other_contacts(contacts: &[Contact], bodies: &Bodies<'_>, time: f64, out: &mut Vec<ContactRecord>) {
-    let Some(&(lead, _)) = bodies.vehicles.first() else { return };
+    let is_follower = |p: Party| match p {
+        Party::Vehicle(b) => bodies.vehicles.iter().position(|(v, _)| *v == b).is_some_and(|k| (1..=bodies.followers).contains(&k)),
+        Party::Static(_) => false,
+    };
     for c in contacts {
-        let Some((other, normal)) = c.seen_from(lead) else { continue };
-        if matches!(other, Party::Vehicle(_)) {
+        if is_follower(c.a) || is_follower(c.b) {
             // A follower's contact: its collision.
             continue;
         }
-        let (a, b) = (bodies.object(Party::Vehicle(lead)), bodies.object(other));
-        if out.iter().any(|r| r.a == a && r.b == b) {
+        let Party::Vehicle(first) = c.a else { continue };
+        let Some((other, normal)) = c.seen_from(first) else { continue };
+        let (a, b) = (bodies.object(Party::Vehicle(first)), bodies.object(other));
+        if out.iter().any(|r| (r.a == a && r.b == b) || (r.a == b && r.b == a)) {
             continue;
         }
-        let ls = bodies.state(Party::Vehicle(lead));
+        let (sa, sb) = (bodies.state(Party::Vehicle(first)), bodies.state(other));
         out.push(ContactRecord {
             time,
             a,
             b,
-            speed: ls.map_or(0.0, |s| s.speed),
-            impact_speed_normal: normal_speed(ls, None, normal),
+            speed: sa.map_or(0.0, |s| s.speed),
+            impact_speed_normal: normal_speed(sa, sb, normal),
             point: c.point,
             normal,
         });

@@ -19,6 +19,7 @@ mod follower;
 mod geometry;
 mod links;
 mod observer;
+mod traffic;
 
 pub(crate) use links::sub_seed;
 pub use observer::Observer;
@@ -28,6 +29,7 @@ use flc_core::PurePursuit;
 use self::follower::Follower;
 use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
+use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
@@ -91,6 +93,13 @@ struct State {
     lead_steer: PurePursuit,
     lead_x0: f64,
     followers: Vec<Follower>,
+    /// Each follower's centre position along the centreline at the start (triggers' travelled
+    /// distance).
+    follower_s0: Vec<f64>,
+    /// The `[[vehicles]]` besides the lead.
+    traffic: Vec<Traffic>,
+    /// Start and stop triggers.
+    triggers: Triggers,
     source: V2vSource,
     lead_weight: f64,
     relay: bool,
@@ -152,13 +161,13 @@ impl Simulation {
             let lead_link = platoon.v2v_source == V2vSource::Both && k >= 1;
             followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
         }
-        let lead_pp = flc_core::PurePursuitParams {
-            base_lookahead: 6.0,
-            lookahead_gain: 0.8,
-            law: flc_core::PursuitLaw::Standard,
-            wheelbase: ll.wheelbase,
-            max_steer: ll.max_steer,
-        };
+        // Scripted traffic: bodies after the string's.
+        let traffic = s.vehicles.iter().map(|v| Traffic::new(v, &track, &mut world)).collect::<Result<Vec<_>, _>>()?;
+        let per_phase = |phases: &[crate::lead::ScriptedPhase]| phases.iter().map(|_| crate::trigger::TriggerState::new()).collect::<Vec<_>>();
+        let mut phase_triggers = vec![per_phase(&s.lead.phases)];
+        phase_triggers.extend(s.vehicles.iter().map(|v| per_phase(&v.phases)));
+        let any = s.stop.trigger.is_some()
+            || s.lead.phases.iter().chain(s.vehicles.iter().flat_map(|v| v.phases.iter())).any(|p| p.start.is_some());
         let state = State {
             scenario: s.clone(),
             lead_x0: s_pos[0],
@@ -166,8 +175,11 @@ impl Simulation {
             lead_body,
             lead: Vehicle::new(*ll, lead_state),
             lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed),
-            lead_steer: PurePursuit::new(lead_pp)?,
+            lead_steer: centreline_pursuit(ll)?,
+            follower_s0: s_pos[1..].to_vec(),
             followers,
+            traffic,
+            triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any },
             source: platoon.v2v_source,
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
@@ -230,11 +242,18 @@ impl<O: Observer> Simulation<O> {
         let dt = self.state.scenario.physics_dt;
         let t = self.state.t;
 
-        // 1. Lead driver and lateral control along the centreline.
+        // 1. Start triggers (ground truth at the start of the step), then the drivers of the
+        //    lead and the traffic and their lateral control along the centreline.
+        if self.state.triggers.any {
+            self.fire_start_triggers(t);
+        }
         let ls = *self.state.lead.state();
         let lproj = self.state.track.project(ls.x, ls.y);
         let lcmd = self.state.lead_driver.step(t, ls.speed, lproj.s - self.state.lead_x0);
         let lead_steer = self.lead_centreline_steer(&ls, lproj.s, lcmd.lateral_offset);
+        for tr in &mut self.state.traffic {
+            tr.command(t, &self.state.track);
+        }
         if let Some(onset) = self.state.lead_driver.brake_onset() {
             for f in &mut self.state.followers {
                 if f.cfg.v2v.outage_on_brake {
@@ -296,7 +315,7 @@ impl<O: Observer> Simulation<O> {
         // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
         // `front`: the vehicle in front of this follower (for ideal perception: its true gap and
         // speed); nothing moves during this loop.
-        let mut front = (ls, self.state.scenario.lead.vehicle.length);
+        let mut front = self.ego_front(ls);
         for f in &mut self.state.followers {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
@@ -330,6 +349,10 @@ impl<O: Observer> Simulation<O> {
                 self.state.world.set_pose(self.state.lead_body, self.state.lead.state());
             }
         }
+        for tr in &mut self.state.traffic {
+            tr.advance(dt);
+            self.state.world.set_pose(tr.body, tr.vehicle.state());
+        }
         let contacts = self.state.world.step(dt);
         self.state.t += dt;
         self.state.k += 1;
@@ -339,7 +362,7 @@ impl<O: Observer> Simulation<O> {
             self.record_contacts(&contacts)?;
         }
         let ls = *self.state.lead.state();
-        let (mut front, mut front_len) = (ls, self.state.scenario.lead.vehicle.length);
+        let (mut front, mut front_len) = self.ego_front(ls);
         let mut all_still = ls.speed < 0.05;
         let mut collided = false;
         for f in &mut self.state.followers {
@@ -357,6 +380,9 @@ impl<O: Observer> Simulation<O> {
 
         // Stop conditions.
         if collided && self.state.scenario.stop.on_collision {
+            return Ok(false);
+        }
+        if self.state.triggers.any && self.stop_trigger_fired() {
             return Ok(false);
         }
         if self.state.lead_driver.finished() && all_still {
@@ -377,7 +403,9 @@ impl<O: Observer> Simulation<O> {
         st.bodies.clear();
         st.bodies.push((st.lead_body, *st.lead.state()));
         st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
-        let bodies = contacts::Bodies { vehicles: &st.bodies, track: &st.track };
+        st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
+        let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
+        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
         for (i, f) in st.followers.iter_mut().enumerate() {
             if f.collision.is_none() {
                 f.collision = contacts::first_collision(contacts, &bodies, i + 1, st.t);
@@ -394,6 +422,76 @@ impl<O: Observer> Simulation<O> {
         Ok(())
     }
 
+    /// The vehicle in front of follower 1 and its length: the lead, or with `[[vehicles]]` the
+    /// nearest scripted vehicle ahead in its lane (the lead if none is).
+    fn ego_front(&self, ls: VehicleState) -> (VehicleState, f64) {
+        let st = &self.state;
+        let lead = (ls, st.scenario.lead.vehicle.length);
+        let Some(ego) = st.followers.first().filter(|_| !st.traffic.is_empty()) else { return lead };
+        let ll = &st.scenario.lead.vehicle;
+        let candidates =
+            std::iter::once((ls, ll.length, ll.width)).chain(st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length, t.params.width)));
+        nearest_ahead(ego.vehicle.state(), ego.cfg.follower.vehicle.width, candidates).unwrap_or(lead)
+    }
+
+    fn truth(&self) -> Truth<'_> {
+        let st = &self.state;
+        Truth {
+            track: &st.track,
+            lead: (&st.lead, st.lead_x0, &st.lead_driver),
+            traffic: &st.traffic,
+            followers: &st.followers,
+            follower_s0: &st.follower_s0,
+        }
+    }
+
+    /// Evaluates every armed start trigger at `t` and starts the phases whose trigger fires.
+    fn fire_start_triggers(&mut self, t: f64) {
+        let mut fired = Vec::new();
+        let mut states = std::mem::take(&mut self.state.triggers.phases);
+        {
+            let truth = self.truth();
+            let st = &self.state;
+            let mut check = |e: usize, d: &LeadDriver, phases: &[crate::lead::ScriptedPhase], states: &mut [crate::trigger::TriggerState]| {
+                if let Some(k) = d.armed() {
+                    if let (Some(trig), Some(ts)) = (phases.get(k).and_then(|p| p.start.as_ref()), states.get_mut(k)) {
+                        if ts.update(trig, &truth, t) {
+                            fired.push((e, k));
+                        }
+                    }
+                }
+            };
+            if let Some(s0) = states.get_mut(0) {
+                check(0, &st.lead_driver, &st.scenario.lead.phases, s0);
+            }
+            for (i, tr) in st.traffic.iter().enumerate() {
+                if let Some(si) = states.get_mut(i + 1) {
+                    check(i + 1, &tr.driver, &st.scenario.vehicles[i].phases, si);
+                }
+            }
+        }
+        self.state.triggers.phases = states;
+        for (e, k) in fired {
+            if e == 0 {
+                let v = self.state.lead.state().speed;
+                self.state.lead_driver.fire(k, t, v);
+            } else if let Some(tr) = self.state.traffic.get_mut(e - 1) {
+                let v = tr.vehicle.state().speed;
+                tr.driver.fire(k, t, v);
+            }
+        }
+    }
+
+    /// `true` when the scenario's stop trigger fires (ground truth after the step).
+    fn stop_trigger_fired(&mut self) -> bool {
+        let Some(trig) = self.state.scenario.stop.trigger.clone() else { return false };
+        let t = self.state.t;
+        let mut ts = std::mem::take(&mut self.state.triggers.stop);
+        let fired = ts.update(&trig, &self.truth(), t);
+        self.state.triggers.stop = ts;
+        fired
+    }
+
     fn lead_centreline_steer(&self, ls: &VehicleState, s: f64, offset: f64) -> f64 {
         centreline_steer(&self.state.track, &self.state.lead_steer, ls, s, offset)
     }
@@ -402,7 +500,7 @@ impl<O: Observer> Simulation<O> {
     /// (the run reached its end), without if it was stopped early.
     pub fn finish_observer(&mut self, completed: bool) -> Result<(), SimError> {
         let metrics = match (completed, self.state.followers.first()) {
-            (true, Some(f)) => Some(Metrics::compute(&f.series, f.collision)),
+            (true, Some(f)) => Some(Metrics::compute(&f.series, f.collision.clone())),
             _ => None,
         };
         self.observer.finish(metrics.as_ref())
@@ -417,7 +515,7 @@ impl<O: Observer> Simulation<O> {
             .into_iter()
             .map(|f| {
                 laws.push(f.longitudinal);
-                FollowerRun { metrics: Metrics::compute(&f.series, f.collision), series: f.series, collision: f.collision }
+                FollowerRun { metrics: Metrics::compute(&f.series, f.collision.clone()), series: f.series, collision: f.collision }
             })
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> = laws.iter().map(|l| &**l as &dyn flc_core::LongitudinalController).collect();

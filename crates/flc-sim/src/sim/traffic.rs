@@ -1,0 +1,146 @@
+//! Scripted traffic in the loop: the `[[vehicles]]` besides the lead, the start and stop
+//! triggers evaluated on ground truth, and which vehicle is in front of the ego.
+
+use flc_core::PurePursuit;
+
+use super::follower::Follower;
+use super::geometry::centreline_steer;
+use crate::error::SimError;
+use crate::lead::{LeadDriver, ScriptedVehicle};
+use crate::track::Track;
+use crate::trigger::{EntityState, PhaseStatus, TriggerState, WorldView};
+use crate::vehicle::{Vehicle, VehicleParams, VehicleState};
+use crate::world::{Body, World};
+
+/// Pure pursuit along the centreline for a scripted vehicle of wheelbase / steering limit `p`.
+pub(super) fn centreline_pursuit(p: &VehicleParams) -> Result<PurePursuit, SimError> {
+    Ok(PurePursuit::new(flc_core::PurePursuitParams {
+        base_lookahead: 6.0,
+        lookahead_gain: 0.8,
+        law: flc_core::PursuitLaw::Standard,
+        wheelbase: p.wheelbase,
+        max_steer: p.max_steer,
+    })?)
+}
+
+/// One scripted vehicle besides the lead.
+pub(super) struct Traffic {
+    pub(super) name: String,
+    pub(super) params: VehicleParams,
+    pub(super) body: Body,
+    pub(super) vehicle: Vehicle,
+    pub(super) driver: LeadDriver,
+    steer: PurePursuit,
+    /// Centre position along the centreline at the start, m.
+    pub(super) s0: f64,
+    /// This step's acceleration and steering commands.
+    cmd: (f64, f64),
+}
+
+impl Traffic {
+    /// Places `spec` on `track` in `world`.
+    pub(super) fn new(spec: &ScriptedVehicle, track: &Track, world: &mut World) -> Result<Self, SimError> {
+        let offset = spec.offset.or(spec.lane.map(|l| track.lane_offset(l))).unwrap_or(0.0);
+        let (x, y, h) = track.pose_at(spec.s);
+        let state = VehicleState {
+            x: x - offset * h.sin(),
+            y: y + offset * h.cos(),
+            yaw: h + spec.heading,
+            speed: spec.initial_speed,
+            ..VehicleState::default()
+        };
+        let lane_offset = |l: u32| track.lane_offset(l);
+        Ok(Self {
+            name: spec.name.clone(),
+            params: spec.vehicle,
+            body: world.add_vehicle(&spec.vehicle, &state),
+            vehicle: Vehicle::new(spec.vehicle, state),
+            driver: LeadDriver::on_track(spec.vehicle, &spec.phases, spec.initial_speed, spec.s, offset, &lane_offset),
+            steer: centreline_pursuit(&spec.vehicle)?,
+            s0: spec.s,
+            cmd: (0.0, 0.0),
+        })
+    }
+
+    /// Step 1 of the loop: the driver's command for this step.
+    pub(super) fn command(&mut self, t: f64, track: &Track) {
+        let st = *self.vehicle.state();
+        let proj = track.project(st.x, st.y);
+        let c = self.driver.step(t, st.speed, proj.s - self.s0);
+        self.cmd = (c.accel, centreline_steer(track, &self.steer, &st, proj.s, c.lateral_offset));
+    }
+
+    /// Step 4: dynamics.
+    pub(super) fn advance(&mut self, dt: f64) {
+        self.vehicle.step(self.cmd.0, self.cmd.1, dt);
+    }
+}
+
+/// Trigger bookkeeping: one state per phase of each scripted entity (0 = the lead, then the
+/// traffic) and the scenario's stop trigger.
+pub(super) struct Triggers {
+    pub(super) phases: Vec<Vec<TriggerState>>,
+    pub(super) stop: TriggerState,
+    /// `false`: no trigger anywhere (nothing to evaluate).
+    pub(super) any: bool,
+}
+
+/// The ground truth triggers see (`crate::trigger::WorldView`).
+pub(super) struct Truth<'a> {
+    pub(super) track: &'a Track,
+    pub(super) lead: (&'a Vehicle, f64, &'a LeadDriver),
+    pub(super) traffic: &'a [Traffic],
+    pub(super) followers: &'a [Follower],
+    /// Each follower's centre position along the centreline at the start.
+    pub(super) follower_s0: &'a [f64],
+}
+
+fn entity_state(track: &Track, v: &Vehicle, s0: f64) -> EntityState {
+    let st = v.state();
+    let p = track.project(st.x, st.y);
+    let par = v.params();
+    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0 }
+}
+
+/// Follower index (0-based) of a trigger name: `ego` or `follower <k>`.
+fn follower_index(name: &str) -> Option<usize> {
+    if name == crate::scenario::EGO {
+        return Some(0);
+    }
+    name.strip_prefix("follower ").and_then(|k| k.parse::<usize>().ok()).and_then(|k| k.checked_sub(1))
+}
+
+impl WorldView for Truth<'_> {
+    fn entity(&self, name: &str) -> Option<EntityState> {
+        if name == "lead" {
+            return Some(entity_state(self.track, self.lead.0, self.lead.1));
+        }
+        if let Some(k) = follower_index(name) {
+            let f = self.followers.get(k)?;
+            return Some(entity_state(self.track, &f.vehicle, self.follower_s0.get(k).copied().unwrap_or(0.0)));
+        }
+        self.traffic.iter().find(|t| t.name == name).map(|t| entity_state(self.track, &t.vehicle, t.s0))
+    }
+
+    fn phase(&self, name: &str, phase: usize) -> PhaseStatus {
+        let driver = if name == "lead" { Some(self.lead.2) } else { self.traffic.iter().find(|t| t.name == name).map(|t| &t.driver) };
+        let (started, ended) = driver.map_or((None, None), |d| d.phase_times(phase));
+        PhaseStatus { started, ended }
+    }
+}
+
+/// The vehicle in front of the ego among `candidates` (`(state, length, width)`): the nearest
+/// whose centre is ahead along the ego's heading and whose box overlaps the ego's lane (lateral
+/// distance of the centres below half the two widths plus 0.5 m); `None` if there is none.
+pub(super) fn nearest_ahead(ego: &VehicleState, ego_width: f64, candidates: impl Iterator<Item = (VehicleState, f64, f64)>) -> Option<(VehicleState, f64)> {
+    let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
+    let mut best: Option<(f64, VehicleState, f64)> = None;
+    for (st, len, width) in candidates {
+        let (dx, dy) = (st.x - ego.x, st.y - ego.y);
+        let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
+        if along > 0.0 && across.abs() < 0.5 * (ego_width + width) + 0.5 && best.is_none_or(|b| along < b.0) {
+            best = Some((along, st, len));
+        }
+    }
+    best.map(|(_, st, len)| (st, len))
+}
