@@ -64,7 +64,7 @@ def test_the_lead_touching_a_parked_car_is_listed_not_a_collision():
 
 def test_the_paper_flc_hits_the_car_revealed_by_the_cut_out():
     r = flc.run(flc.Scenario.load(ROOT / "scenarios" / "robust-cut-out.toml", controller="flc"))
-    assert r.collision is not None and r.collision["object"] == {"kind": "parked_car", "index": 0}
+    assert r.collision is not None and r.collision["object"] == {"kind": "vehicle", "name": "stopped"}
     assert flc.run(flc.Scenario.load(ROOT / "scenarios" / "robust-cut-out.toml")).collision is None
 
 

@@ -455,7 +455,7 @@ fn scenario_section_and_example_file() {
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/robust-cut-out.toml"));
     let s = Scenario::from_file(path).expect("scenario");
     assert_eq!(s.controller, ROBUST);
-    let car_rear = 222.3 - 2.35;
+    let car_rear = 222.4 - 2.45;
     let front = s.follower.vehicle.length / 2.0;
     let mut paper = s.clone();
     paper.controller = PAPER;

@@ -174,7 +174,7 @@ impl Simulation {
             world,
             lead_body,
             lead: Vehicle::new(*ll, lead_state),
-            lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed),
+            lead_driver: LeadDriver::on_track(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], 0.0, &|l| track.lane_offset(l)),
             lead_steer: centreline_pursuit(ll)?,
             follower_s0: s_pos[1..].to_vec(),
             followers,
@@ -205,6 +205,22 @@ impl<O: Observer> Simulation<O> {
     /// The scenario being run.
     pub fn scenario(&self) -> &Scenario {
         &self.state.scenario
+    }
+
+    /// Start and end times (s) of phase `k` of the scripted vehicle `name` (`lead` or a
+    /// `[[vehicles]]` name); `None`: not (yet).
+    pub fn phase_times(&self, name: &str, k: usize) -> (Option<f64>, Option<f64>) {
+        use crate::trigger::WorldView;
+        let p = self.truth().phase(name, k);
+        (p.started, p.ended)
+    }
+
+    /// The state of the scripted vehicle `name` (`lead` or a `[[vehicles]]` name) now.
+    pub fn scripted_state(&self, name: &str) -> Option<&VehicleState> {
+        if name == "lead" {
+            return Some(self.state.lead.state());
+        }
+        self.state.traffic.iter().find(|t| t.name == name).map(|t| t.vehicle.state())
     }
 
     /// The track.
