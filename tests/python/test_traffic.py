@@ -1,0 +1,38 @@
+"""Scripted traffic, lanes and triggers from Python (issue 17; docs/scenarios.md)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flc
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_a_cut_in_is_seen_and_survived() -> None:
+    r = flc.run(flc.Scenario.load(ROOT / "scenarios" / "cut-in.toml"))
+    # The gap column jumps to the car that cut in; the LiDAR distance follows it.
+    k = int(np.argmax(r.gap < 15.0))
+    assert 5.0 < r.t[k] < 7.0
+    seen = int(np.argmax(r.detected_distance < 15.0))
+    assert 0.0 <= r.t[seen] - r.t[k] < 0.5
+    assert r.collision is None and r.metrics["collision"] is False
+
+
+def test_a_standing_scripted_car_hit_by_the_paper_flc_is_named() -> None:
+    r = flc.run(flc.Scenario.load(ROOT / "scenarios" / "robust-cut-out.toml", controller="flc"))
+    assert r.collision is not None and r.collision["object"] == {"kind": "vehicle", "name": "stopped"}
+
+
+def test_vehicles_and_triggers_are_validated_naming_the_key() -> None:
+    base = flc.Scenario.load(ROOT / "scenarios" / "cut-in.toml").to_dict()
+    bad = dict(base)
+    bad["vehicles"] = [dict(base["vehicles"][0], lane=7)]
+    with pytest.raises(flc.ScenarioError, match=r"vehicles\[0\]\.lane"):
+        flc.Scenario.from_dict(bad)
+    bad["vehicles"] = [dict(base["vehicles"][0])]
+    bad["vehicles"][0]["phases"] = [dict(base["vehicles"][0]["phases"][0], start={"kind": "speed", "entity": "nobody", "rule": "less_than", "value": 1.0})]
+    with pytest.raises(flc.ScenarioError, match=r"vehicles\[0\]\.phases\[0\]\.start\.entity"):
+        flc.Scenario.from_dict(bad)
