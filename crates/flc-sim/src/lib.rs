@@ -6,8 +6,10 @@
 //!
 //! 0. **base**: errors naming dotted keys (`error`), km/h at the interface only ([`KMH`]);
 //! 1. **components**: tracks as data ([`Track`]), the rapier2d world (`world`), vehicle dynamics
-//!    ([`Vehicle`]), the ray-cast LiDAR ([`Lidar`]) and its distance-only form ([`GapSensor`]), the V2V channel ([`V2vChannel`]), the lead's
-//!    driver and [`Phase`]s (`lead`); each owns its parameter struct;
+//!    ([`Vehicle`]), the ray-cast LiDAR ([`Lidar`]) and its distance-only form ([`GapSensor`]),
+//!    start / stop triggers with OpenSCENARIO semantics ([`trigger`]), the V2V channel
+//!    ([`V2vChannel`]), the drivers and [`Phase`]s of the lead and the `[[vehicles]]` (`lead`);
+//!    each owns its parameter struct;
 //! 2. **data**: the per-step [`Series`] (columns declared once), [`Metrics`];
 //! 3. **configuration**: the one key-patch mechanism ([`Patch`]), the controller registry
 //!    ([`ControllerKind`]), followers and platoons ([`FollowerConfig`], [`PlatoonSpec`]),
