@@ -148,6 +148,8 @@ pub struct Recorder {
     channels: [Channel; N_CHANNELS],
     mount: (f64, f64, f64),
     fields: Vec<PackedElementField>,
+    /// Frames of the scripted vehicles seen so far (`traffic/<name>`).
+    traffic_frames: Vec<String>,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -219,6 +221,7 @@ impl Recorder {
             channels,
             mount: (l.mount_x, l.mount_y, l.mount_yaw_deg.to_radians()),
             fields,
+            traffic_frames: Vec::new(),
         };
         let ns = time_ns(t);
         rec.write(Ch::Track, ns, &SceneUpdate { deletions: vec![], entities: vec![track_entity(ns, track)] })?;
@@ -441,6 +444,21 @@ impl Observer for Recorder {
             return Err(io_err(&self.path, e));
         }
         self.push_message(Ch::State, ns, start)
+    }
+
+    /// A scripted vehicle's pose on [`TOPIC_TF`] (frame `traffic/<name>`); the first time, its
+    /// body on [`TOPIC_VEHICLES`].
+    fn traffic(&mut self, t: f64, index: usize, name: &str, state: &VehicleState, (length, width): (f64, f64)) -> Result<(), SimError> {
+        let ns = time_ns(t);
+        if index >= self.traffic_frames.len() {
+            let frame = format!("traffic/{name}");
+            let body = vehicle_entity(ns, &frame, length, width, TRAFFIC_COLOR);
+            self.write(Ch::Vehicles, ns, &SceneUpdate { deletions: vec![], entities: vec![body] })?;
+            self.traffic_frames.push(frame);
+        }
+        let frame = self.traffic_frames.get(index).cloned().unwrap_or_default();
+        let msg = FrameTransforms { transforms: vec![transform(ns, FRAME_WORLD, &frame, state.x, state.y, state.yaw)] };
+        self.write(Ch::Tf, ns, &msg)
     }
 
     /// A follower's first contact: a marker on [`TOPIC_COLLISIONS`].

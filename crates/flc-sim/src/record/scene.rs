@@ -21,6 +21,8 @@ pub(super) const fn rgba(r: f64, g: f64, b: f64, a: f64) -> Color {
 
 pub(super) const LEAD_COLOR: Color = rgba(0.95, 0.35, 0.2, 0.9);
 pub(super) const FOLLOWER_COLOR: Color = rgba(0.2, 0.55, 0.95, 0.9);
+/// Scripted vehicles besides the lead.
+pub(super) const TRAFFIC_COLOR: Color = rgba(0.65, 0.65, 0.7, 0.9);
 pub(super) const LOOKAHEAD_COLOR: Color = rgba(1.0, 0.2, 0.9, 1.0);
 
 /// Entity names (`clusters/<name>` on [`TOPIC_DETECTOR`]) and colours of the detector's clusters:

@@ -393,6 +393,9 @@ impl<O: Observer> Simulation<O> {
             }
             (front, front_len) = (fs, len);
         }
+        for (i, tr) in self.state.traffic.iter().enumerate() {
+            self.observer.traffic(self.state.t, i, &tr.name, tr.vehicle.state(), (tr.params.length, tr.params.width))?;
+        }
 
         // Stop conditions.
         if collided && self.state.scenario.stop.on_collision {

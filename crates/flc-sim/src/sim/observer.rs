@@ -33,6 +33,14 @@ pub trait Observer {
         Ok(())
     }
 
+    /// One physics step of scripted vehicle `index` (of `[[vehicles]]`, called `name`, a
+    /// `length` x `width` box): its state after the step at time `t`. Called after
+    /// [`Observer::step`], only in scenarios with traffic.
+    fn traffic(&mut self, t: f64, index: usize, name: &str, state: &VehicleState, size: (f64, f64)) -> Result<(), SimError> {
+        let _ = (t, index, name, state, size);
+        Ok(())
+    }
+
     /// Follower `follower`'s (1-based) first contact with anything, right after the step it
     /// happened in (before that step's [`Observer::step`]).
     fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
@@ -72,6 +80,9 @@ impl<O: Observer> Observer for Option<O> {
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         self.as_mut().map_or(Ok(()), |o| o.step(record, lead, follower))
     }
+    fn traffic(&mut self, t: f64, index: usize, name: &str, state: &VehicleState, size: (f64, f64)) -> Result<(), SimError> {
+        self.as_mut().map_or(Ok(()), |o| o.traffic(t, index, name, state, size))
+    }
     fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
         self.as_mut().map_or(Ok(()), |o| o.collision(follower, info))
     }
@@ -97,6 +108,9 @@ impl<O: Observer + ?Sized> Observer for Box<O> {
     }
     fn step(&mut self, record: &StepRecord, lead: &VehicleState, follower: &VehicleState) -> Result<(), SimError> {
         (**self).step(record, lead, follower)
+    }
+    fn traffic(&mut self, t: f64, index: usize, name: &str, state: &VehicleState, size: (f64, f64)) -> Result<(), SimError> {
+        (**self).traffic(t, index, name, state, size)
     }
     fn collision(&mut self, follower: usize, info: &CollisionInfo) -> Result<(), SimError> {
         (**self).collision(follower, info)
