@@ -327,3 +327,34 @@ fn sigint_to_the_cli_finishes_the_recording() {
     let n = assert_partial(&path, 100);
     assert!(n < 300_000, "the run went to the end: {n} steps");
 }
+
+#[test]
+fn a_recording_shows_the_scripted_traffic() {
+    // scenarios/cut-in.toml: one scripted car; its body on /vehicles once, its pose every step.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/cut-in.toml");
+    let mut s = Scenario::from_file(&path).expect("scenario");
+    s.duration = 8.0;
+    let dir = tmpdir("traffic");
+    let r = run_with(&s, Some(&dir)).expect("run");
+    let file = std::fs::read_dir(&dir).expect("dir").flatten().map(|e| e.path()).find(|p| p.extension().is_some_and(|x| x == "mcap")).expect("mcap");
+    let (msgs, _) = read_all(&file);
+    let t = by_topic(&msgs);
+    let bodies: Vec<String> = t[TOPIC_VEHICLES]
+        .iter()
+        .flat_map(|m| {
+            let u: SceneUpdate = foxglove::Decode::decode(&m.data[..]).expect("scene update");
+            u.entities.into_iter().map(|e| e.id)
+        })
+        .collect();
+    assert_eq!(bodies, ["lead", "follower", "traffic/cutin"]);
+    let poses: Vec<f64> = t[TOPIC_TF]
+        .iter()
+        .filter_map(|m| {
+            let tf: FrameTransforms = foxglove::Decode::decode(&m.data[..]).expect("tf");
+            tf.transforms.iter().find(|x| x.child_frame_id == "traffic/cutin").and_then(|x| x.translation.map(|p| p.y))
+        })
+        .collect();
+    assert_eq!(poses.len(), r.series.len());
+    // It starts in lane 1 (3.5 m left) and ends in the ego's lane.
+    assert!((poses[0] - 3.5).abs() < 0.05 && poses.last().is_some_and(|y| y.abs() < 0.2), "{} -> {:?}", poses[0], poses.last());
+}
