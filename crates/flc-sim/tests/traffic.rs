@@ -283,3 +283,54 @@ fn references_lanes_and_names_are_validated_with_dotted_keys() {
     let e = err("[stop]\ntrigger = { kind = \"speed\", entity = \"nobody\", rule = \"less_than\", value = 1.0 }\n");
     assert!(e.contains("stop.trigger.entity"), "{e}");
 }
+
+#[test]
+fn in_a_platoon_a_car_cutting_in_between_two_followers_becomes_the_second_ones_vehicle_in_front() {
+    let text = r#"
+name = "platoon-cut-in"
+controller = "flc-robust"
+duration = 10.0
+[track]
+kind = "custom"
+centerline = [[0.0, 0.0], [3000.0, 0.0]]
+lanes = 2
+[lead]
+initial_speed = 13.889
+[[lead.phases]]
+kind = "hold"
+duration = 60.0
+[follower]
+initial_speed = 13.889
+# The robust FLC's equilibrium gap, 3 + 1.5 v.
+initial_gap = 23.833
+lane_keeping = true
+[v2v]
+enabled = false
+[platoon]
+followers = 2
+# Follower 2's front bumper is at 5.9 m: the car's rear 12 m ahead of it, in lane 1.
+[[vehicles]]
+name = "cutin"
+s = 20.35
+lane = 1
+initial_speed = 13.889
+[[vehicles.phases]]
+kind = "lane_change"
+lane = 0
+duration = 2.0
+start = { kind = "simulation_time", rule = "greater_or_equal", value = 3.0 }
+[[vehicles.phases]]
+kind = "hold"
+duration = 60.0
+"#;
+    let r = run(&Scenario::from_toml_str(text, "platoon-cut-in.toml").expect("scenario")).expect("run");
+    let p = r.platoon.as_ref().expect("platoon");
+    let (s1, s2) = (&p.followers[0].series, &p.followers[1].series);
+    // Follower 2 measured ~24 m to follower 1, then ~12 m to the car that cut in.
+    assert!((s2.gap[0] - 23.8).abs() < 0.5, "{}", s2.gap[0]);
+    let k = s2.gap.iter().position(|&g| g < 16.0).expect("the cut-in car becomes follower 2's vehicle in front");
+    assert!(s2.t[k] > 3.0 && s2.t[k] < 5.5 && s2.gap[k] > 9.0 && s2.gap[k] < 14.0, "t {} gap {}", s2.t[k], s2.gap[k]);
+    // Follower 1 still follows the lead.
+    assert!(s1.gap.iter().all(|&g| g > 20.0));
+    assert!(p.followers.iter().all(|f| f.collision.is_none()));
+}

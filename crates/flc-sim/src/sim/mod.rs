@@ -98,6 +98,8 @@ struct State {
     follower_s0: Vec<f64>,
     /// The `[[vehicles]]` besides the lead.
     traffic: Vec<Traffic>,
+    /// With traffic: the vehicle in front of each follower and its length ([`Simulation::fill_fronts`]), reused.
+    fronts: Vec<(VehicleState, f64)>,
     /// Start and stop triggers.
     triggers: Triggers,
     source: V2vSource,
@@ -179,6 +181,7 @@ impl Simulation {
             follower_s0: s_pos[1..].to_vec(),
             followers,
             traffic,
+            fronts: Vec::new(),
             triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any },
             source: platoon.v2v_source,
             lead_weight: platoon.lead_weight,
@@ -331,11 +334,15 @@ impl<O: Observer> Simulation<O> {
         // 3. LiDAR scans -> pipelines (every follower sees the world as it is at the start of the step).
         // `front`: the vehicle in front of this follower (for ideal perception: its true gap and
         // speed); nothing moves during this loop.
-        let mut front = self.ego_front(ls);
-        for f in &mut self.state.followers {
+        self.fill_fronts();
+        let mut front = (ls, self.state.scenario.lead.vehicle.length);
+        for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
-            let (front_state, front_len) = std::mem::replace(&mut front, (fs, len));
+            let (mut front_state, mut front_len) = std::mem::replace(&mut front, (fs, len));
+            if let Some(fr) = self.state.fronts.get(k) {
+                (front_state, front_len) = *fr;
+            }
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
                 let truth = (bumper_gap(&front_state, front_len, &fs, len), front_state.speed);
                 f.control_tick(
@@ -378,12 +385,16 @@ impl<O: Observer> Simulation<O> {
             self.record_contacts(&contacts)?;
         }
         let ls = *self.state.lead.state();
-        let (mut front, mut front_len) = self.ego_front(ls);
+        self.fill_fronts();
+        let (mut front, mut front_len) = (ls, self.state.scenario.lead.vehicle.length);
         let mut all_still = ls.speed < 0.05;
         let mut collided = false;
-        for f in &mut self.state.followers {
+        for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
+            if let Some(fr) = self.state.fronts.get(k) {
+                (front, front_len) = *fr;
+            }
             let gap = bumper_gap(&front, front_len, &fs, len);
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;
@@ -441,16 +452,30 @@ impl<O: Observer> Simulation<O> {
         Ok(())
     }
 
-    /// The vehicle in front of follower 1 and its length: the lead, or with `[[vehicles]]` the
-    /// nearest scripted vehicle ahead in its lane (the lead if none is).
-    fn ego_front(&self, ls: VehicleState) -> (VehicleState, f64) {
-        let st = &self.state;
-        let lead = (ls, st.scenario.lead.vehicle.length);
-        let Some(ego) = st.followers.first().filter(|_| !st.traffic.is_empty()) else { return lead };
+    /// With `[[vehicles]]`: the vehicle in front of each follower and its length, into
+    /// `fronts`: the nearest vehicle ahead in its lane among the lead, the traffic and the
+    /// followers ahead of it (the one it follows in the string if none is). Without traffic
+    /// `fronts` stays empty and each follower's vehicle in front is the one ahead in the string.
+    fn fill_fronts(&mut self) {
+        let st = &mut self.state;
+        if st.traffic.is_empty() {
+            return;
+        }
+        st.fronts.clear();
         let ll = &st.scenario.lead.vehicle;
-        let candidates =
-            std::iter::once((ls, ll.length, ll.width)).chain(st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length, t.params.width)));
-        nearest_ahead(ego.vehicle.state(), ego.cfg.follower.vehicle.width, candidates).unwrap_or(lead)
+        let lead = (*st.lead.state(), ll.length, ll.width);
+        for k in 0..st.followers.len() {
+            let f = &st.followers[k];
+            let v = &f.cfg.follower.vehicle;
+            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length, g.cfg.follower.vehicle.width));
+            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length, t.params.width));
+            let fallback = k.checked_sub(1).map_or((lead.0, lead.1), |j| {
+                let g = &st.followers[j];
+                (*g.vehicle.state(), g.cfg.follower.vehicle.length)
+            });
+            let front = nearest_ahead(f.vehicle.state(), v.width, std::iter::once(lead).chain(traffic).chain(ahead)).unwrap_or(fallback);
+            st.fronts.push(front);
+        }
     }
 
     fn truth(&self) -> Truth<'_> {
