@@ -622,27 +622,55 @@ impl Serialize for Group {
     }
 }
 
-impl<'de> Deserialize<'de> for Group {
+/// The two TOML shapes of a group and of a trigger: one condition table, or an array of `T`s
+/// (conditions for a group, groups for a trigger).
+enum TableOrArray<T> {
+    Table(Condition),
+    Array(Vec<T>),
+}
+
+/// What an array of `Self` is, for serde's "expected ..." message.
+trait Element {
+    const EXPECTING: &'static str;
+}
+
+impl Element for Condition {
+    const EXPECTING: &'static str = "a condition group: a condition table or an array of condition tables";
+}
+
+impl Element for Group {
+    const EXPECTING: &'static str = "a trigger: a condition table, or an array of condition groups (ORed)";
+}
+
+impl<'de, T: Deserialize<'de> + Element> Deserialize<'de> for TableOrArray<T> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Group;
+        struct V<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + Element> Visitor<'de> for V<T> {
+            type Value = TableOrArray<T>;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a condition group: a condition table or an array of condition tables")
+                f.write_str(T::EXPECTING)
             }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Group, A::Error> {
-                let c = Condition::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-                Ok(Group { conditions: vec![c], bare: true })
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+                Ok(TableOrArray::Table(Condition::deserialize(serde::de::value::MapAccessDeserializer::new(map))?))
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Group, A::Error> {
-                let mut conditions = Vec::new();
-                while let Some(c) = seq.next_element::<Condition>()? {
-                    conditions.push(c);
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut items = Vec::new();
+                while let Some(x) = seq.next_element::<T>()? {
+                    items.push(x);
                 }
-                Ok(Group { conditions, bare: false })
+                Ok(TableOrArray::Array(items))
             }
         }
-        d.deserialize_any(V)
+        d.deserialize_any(V(std::marker::PhantomData))
+    }
+}
+
+impl<'de> Deserialize<'de> for Group {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match TableOrArray::<Condition>::deserialize(d)? {
+            TableOrArray::Table(c) => Group { conditions: vec![c], bare: true },
+            TableOrArray::Array(conditions) => Group { conditions, bare: false },
+        })
     }
 }
 
@@ -657,25 +685,10 @@ impl Serialize for Trigger {
 
 impl<'de> Deserialize<'de> for Trigger {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Trigger;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a trigger: a condition table, or an array of condition groups (ORed)")
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Trigger, A::Error> {
-                let c = Condition::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-                Ok(Trigger::when(c))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Trigger, A::Error> {
-                let mut groups = Vec::new();
-                while let Some(g) = seq.next_element::<Group>()? {
-                    groups.push(g);
-                }
-                Ok(Trigger { groups, single: false })
-            }
-        }
-        d.deserialize_any(V)
+        Ok(match TableOrArray::<Group>::deserialize(d)? {
+            TableOrArray::Table(c) => Trigger::when(c),
+            TableOrArray::Array(groups) => Trigger { groups, single: false },
+        })
     }
 }
 
