@@ -277,6 +277,13 @@ impl Track {
         (p[0] + u * (q[0] - p[0]) / len, p[1] + u * (q[1] - p[1]) / len, h)
     }
 
+    /// The point `offset` m to the left of the centreline at `s` (+ left) and the road's heading
+    /// there: where objects and vehicles given by `(s, offset)` stand.
+    pub fn place(&self, s: f64, offset: f64) -> (f64, f64, f64) {
+        let (x, y, h) = self.pose_at(s);
+        (x - offset * h.sin(), y + offset * h.cos(), h)
+    }
+
     /// Signed curvature at `s`, 1/m (+ left), from the heading change over the neighbouring segments.
     pub fn curvature_at(&self, s: f64) -> f64 {
         // Over +-10 m, so that the polyline's piecewise-constant heading averages out.

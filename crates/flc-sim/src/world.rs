@@ -130,10 +130,7 @@ impl World {
         // queries here are one sector box per scan and one pair search per step, and contacts and
         // ray hits do not depend on the tree's shape (same results, `fan_casting_*` tests).
         pw.broad_phase = BroadPhaseBvh::with_optimization_strategy(BvhOptimizationStrategy::None);
-        let place = |s: f64, offset: f64| {
-            let (x, y, h) = track.pose_at(s);
-            (x - offset * h.sin(), y + offset * h.cos(), h)
-        };
+        let place = |s: f64, offset: f64| track.place(s, offset);
         for (index, o) in track.objects.iter().enumerate() {
             // The object's index travels with its colliders (reported in contacts).
             let tag = index as u128;

@@ -88,16 +88,16 @@ pub(super) fn track_entity(ns: u64, track: &Track) -> SceneEntity {
                 let pts = (0..=n)
                     .map(|k| {
                         let s = from_s + (to_s - from_s) * k as f64 / n as f64;
-                        let (x, y, h) = track.pose_at(s);
-                        Point3 { x: x - offset * h.sin(), y: y + offset * h.cos(), z: 0.5 }
+                        let (x, y, _) = track.place(s, offset);
+                        Point3 { x, y, z: 0.5 }
                     })
                     .collect();
                 e.lines.push(line(line_primitive::Type::LineStrip, pts, 0.2, rgba(0.75, 0.75, 0.8, 1.0)));
             }
             RoadsideObject::Post { s, offset, radius, .. } => {
-                let (x, y, h) = track.pose_at(s);
+                let (x, y, _) = track.place(s, offset);
                 e.cylinders.push(CylinderPrimitive {
-                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.6, 0.0)),
+                    pose: Some(pose(x, y, 0.6, 0.0)),
                     size: Some(v3(2.0 * radius, 2.0 * radius, 1.2)),
                     bottom_scale: 1.0,
                     top_scale: 1.0,
@@ -105,9 +105,9 @@ pub(super) fn track_entity(ns: u64, track: &Track) -> SceneEntity {
                 });
             }
             RoadsideObject::ParkedCar { s, offset, heading_offset, .. } => {
-                let (x, y, h) = track.pose_at(s);
+                let (x, y, h) = track.place(s, offset);
                 e.cubes.push(CubePrimitive {
-                    pose: Some(pose(x - offset * h.sin(), y + offset * h.cos(), 0.75, h + heading_offset)),
+                    pose: Some(pose(x, y, 0.75, h + heading_offset)),
                     size: Some(v3(4.7, 1.8, 1.5)),
                     color: Some(rgba(0.55, 0.55, 0.6, 1.0)),
                 });

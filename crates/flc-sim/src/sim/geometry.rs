@@ -17,9 +17,8 @@ pub(super) struct Road<'a> {
 /// vehicle at `state` whose projection on the centreline is at `s`.
 pub(super) fn centreline_steer(track: &Track, pp: &PurePursuit, state: &VehicleState, s: f64, offset: f64) -> f64 {
     let d_ahead = pp.lookahead(state.speed);
-    let (tx, ty, th) = track.pose_at(s + d_ahead);
-    let (nx, ny) = (-th.sin(), th.cos());
-    let (gx, gy) = (tx + offset * nx - state.x, ty + offset * ny - state.y);
+    let (px, py, _) = track.place(s + d_ahead, offset);
+    let (gx, gy) = (px - state.x, py - state.y);
     let (c, sn) = (state.yaw.cos(), state.yaw.sin());
     let local = Point2::new(c * gx + sn * gy, -sn * gx + c * gy);
     pp.step(Some(local), state.speed).steer

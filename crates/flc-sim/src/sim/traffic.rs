@@ -41,10 +41,10 @@ impl Traffic {
     /// Places `spec` on `track` in `world`.
     pub(super) fn new(spec: &ScriptedVehicle, track: &Track, world: &mut World) -> Result<Self, SimError> {
         let offset = spec.offset.or(spec.lane.map(|l| track.lane_offset(l))).unwrap_or(0.0);
-        let (x, y, h) = track.pose_at(spec.s);
+        let (x, y, h) = track.place(spec.s, offset);
         let state = VehicleState {
-            x: x - offset * h.sin(),
-            y: y + offset * h.cos(),
+            x,
+            y,
             yaw: h + spec.heading,
             speed: spec.initial_speed,
             ..VehicleState::default()
