@@ -29,7 +29,7 @@ use flc_core::PurePursuit;
 use self::follower::Follower;
 use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
-use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead};
+use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
@@ -182,7 +182,7 @@ impl Simulation {
             followers,
             traffic,
             fronts: Vec::new(),
-            triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any },
+            triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any, fired: Vec::new() },
             source: platoon.v2v_source,
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
@@ -479,61 +479,47 @@ impl<O: Observer> Simulation<O> {
     }
 
     fn truth(&self) -> Truth<'_> {
-        let st = &self.state;
-        Truth {
-            track: &st.track,
-            lead: (&st.lead, st.lead_x0, &st.lead_driver),
-            traffic: &st.traffic,
-            followers: &st.followers,
-            follower_s0: &st.follower_s0,
-        }
+        truth!(self.state)
     }
 
     /// Evaluates every armed start trigger at `t` and starts the phases whose trigger fires.
     fn fire_start_triggers(&mut self, t: f64) {
-        let mut fired = Vec::new();
-        let mut states = std::mem::take(&mut self.state.triggers.phases);
-        {
-            let truth = self.truth();
-            let st = &self.state;
-            let mut check = |e: usize, d: &LeadDriver, phases: &[crate::lead::ScriptedPhase], states: &mut [crate::trigger::TriggerState]| {
-                if let Some(k) = d.armed() {
-                    if let (Some(trig), Some(ts)) = (phases.get(k).and_then(|p| p.start.as_ref()), states.get_mut(k)) {
-                        if ts.update(trig, &truth, t) {
-                            fired.push((e, k));
-                        }
-                    }
-                }
+        let st = &mut self.state;
+        let truth = truth!(st);
+        let Triggers { phases, fired, .. } = &mut st.triggers;
+        fired.clear();
+        for (e, states) in phases.iter_mut().enumerate() {
+            let (driver, script) = match e.checked_sub(1) {
+                None => (&st.lead_driver, &st.scenario.lead.phases),
+                Some(i) => match (st.traffic.get(i), st.scenario.vehicles.get(i)) {
+                    (Some(tr), Some(v)) => (&tr.driver, &v.phases),
+                    _ => continue,
+                },
             };
-            if let Some(s0) = states.get_mut(0) {
-                check(0, &st.lead_driver, &st.scenario.lead.phases, s0);
-            }
-            for (i, tr) in st.traffic.iter().enumerate() {
-                if let Some(si) = states.get_mut(i + 1) {
-                    check(i + 1, &tr.driver, &st.scenario.vehicles[i].phases, si);
+            let Some(k) = driver.armed() else { continue };
+            if let (Some(trig), Some(ts)) = (script.get(k).and_then(|p| p.start.as_ref()), states.get_mut(k)) {
+                if ts.update(trig, &truth, t) {
+                    fired.push((e, k));
                 }
             }
         }
-        self.state.triggers.phases = states;
-        for (e, k) in fired {
-            if e == 0 {
-                let v = self.state.lead.state().speed;
-                self.state.lead_driver.fire(k, t, v);
-            } else if let Some(tr) = self.state.traffic.get_mut(e - 1) {
-                let v = tr.vehicle.state().speed;
-                tr.driver.fire(k, t, v);
+        for &(e, k) in &st.triggers.fired {
+            match e.checked_sub(1) {
+                None => st.lead_driver.fire(k, t, st.lead.state().speed),
+                Some(i) => {
+                    if let Some(tr) = st.traffic.get_mut(i) {
+                        tr.driver.fire(k, t, tr.vehicle.state().speed);
+                    }
+                }
             }
         }
     }
 
     /// `true` when the scenario's stop trigger fires (ground truth after the step).
     fn stop_trigger_fired(&mut self) -> bool {
-        let Some(trig) = self.state.scenario.stop.trigger.clone() else { return false };
-        let t = self.state.t;
-        let mut ts = std::mem::take(&mut self.state.triggers.stop);
-        let fired = ts.update(&trig, &self.truth(), t);
-        self.state.triggers.stop = ts;
-        fired
+        let st = &mut self.state;
+        let Some(trig) = &st.scenario.stop.trigger else { return false };
+        st.triggers.stop.update(trig, &truth!(st), st.t)
     }
 
     fn lead_centreline_steer(&self, ls: &VehicleState, s: f64, offset: f64) -> f64 {

@@ -83,7 +83,24 @@ pub(super) struct Triggers {
     pub(super) stop: TriggerState,
     /// `false`: no trigger anywhere (nothing to evaluate).
     pub(super) any: bool,
+    /// `(entity, phase)` of the triggers that fired this step (reused buffer).
+    pub(super) fired: Vec<(usize, usize)>,
 }
+
+/// The [`Truth`] of a loop state, borrowing only the fields it reads (so that the trigger
+/// states can be updated meanwhile).
+macro_rules! truth {
+    ($st:expr) => {
+        $crate::sim::traffic::Truth {
+            track: &$st.track,
+            lead: (&$st.lead, $st.lead_x0, &$st.lead_driver),
+            traffic: &$st.traffic,
+            followers: &$st.followers,
+            follower_s0: &$st.follower_s0,
+        }
+    };
+}
+pub(super) use truth;
 
 /// The ground truth triggers see (`crate::trigger::WorldView`).
 pub(super) struct Truth<'a> {
