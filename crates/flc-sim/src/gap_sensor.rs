@@ -18,27 +18,24 @@
 //! Determinism: one ChaCha8 stream, seeded by the caller; each measurement draws the same number of
 //! values (jitter, scan drop, dropout, noise) whatever the configuration.
 
-use std::collections::VecDeque;
-
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::lidar::LidarParams;
+use crate::lidar::{LidarParams, ScanSchedule};
 
 /// The distance sensor (see the module docs).
 #[derive(Debug, Clone)]
 pub struct GapSensor {
     params: LidarParams,
     rng: ChaCha8Rng,
-    next_t: f64,
-    /// Measurements waiting for delivery: `None` = dropped scan, `Some(None)` = no object seen.
-    queue: VecDeque<Option<Option<f64>>>,
+    /// The LiDAR's schedule; a measurement is the distance seen (`None`: no object).
+    schedule: ScanSchedule<Option<f64>>,
 }
 
 impl GapSensor {
     /// A sensor with the LiDAR's parameters (validated by the caller) and random stream `seed`.
     pub fn new(params: LidarParams, seed: u64) -> Self {
-        Self { params, rng: ChaCha8Rng::seed_from_u64(seed), next_t: 0.0, queue: VecDeque::new() }
+        Self { params, rng: ChaCha8Rng::seed_from_u64(seed), schedule: ScanSchedule::new() }
     }
 
     /// Its parameters.
@@ -50,18 +47,16 @@ impl GapSensor {
     /// in front). Returns `None` when no measurement is delivered now, `Some(d)` when one is,
     /// `d` being the distance seen (`None`: no object, or the scan was dropped).
     pub fn tick(&mut self, t: f64, true_gap: Option<f64>) -> Option<Option<f64>> {
-        if t + 1e-9 < self.next_t {
+        if !self.schedule.due(t) {
             return None;
         }
         let p = &self.params;
         let jitter = self.rng.random_range(-1.0..=1.0) * p.jitter;
-        self.next_t += (1.0 + jitter) / p.rate_hz;
         let scan_dropped = self.rng.random::<f64>() < p.scan_drop_prob;
         let object_lost = self.rng.random::<f64>() < p.dropout_prob;
         let noise = p.range_noise_std * self.rng.sample::<f64, _>(rand_distr::StandardNormal);
         let seen = true_gap.filter(|g| g.is_finite() && *g <= p.max_range && !object_lost).map(|g| (g + noise).max(0.0));
-        self.queue.push_back((!scan_dropped).then_some(seen));
-        if self.queue.len() > p.latency_frames as usize { Some(self.queue.pop_front().flatten().flatten()) } else { None }
+        self.schedule.take(&self.params, jitter, (!scan_dropped).then_some(seen)).map(Option::flatten)
     }
 }
 

@@ -97,6 +97,42 @@ pub struct Scan {
     pub points: Vec<[f64; 2]>,
 }
 
+/// When a scan-based sensor measures and when it delivers, from its [`LidarParams`]: a
+/// measurement at the first call at or after each slot, slots `(1 + jitter) / rate_hz` apart
+/// from t = 0, delivered `latency_frames` measurements late. Shared by [`Lidar`] and
+/// [`crate::GapSensor`].
+#[derive(Debug, Clone)]
+pub(crate) struct ScanSchedule<T> {
+    next_t: f64,
+    /// Measurements waiting for delivery (`None`: dropped).
+    queue: VecDeque<Option<T>>,
+}
+
+impl<T> ScanSchedule<T> {
+    pub(crate) fn new() -> Self {
+        Self { next_t: 0.0, queue: VecDeque::new() }
+    }
+
+    /// Time of the next measurement, s.
+    pub(crate) fn next_t(&self) -> f64 {
+        self.next_t
+    }
+
+    /// `true` if a measurement is due at `t`.
+    pub(crate) fn due(&self, t: f64) -> bool {
+        t + 1e-9 >= self.next_t
+    }
+
+    /// Queues the measurement taken now (`None`: dropped), schedules the next one `jitter`
+    /// (a fraction of the period) off the nominal period, and returns the measurement due for
+    /// delivery: `None` if none is yet (latency), `Some(None)` if it was dropped.
+    pub(crate) fn take(&mut self, p: &LidarParams, jitter: f64, measurement: Option<T>) -> Option<Option<T>> {
+        self.next_t += (1.0 + jitter) / p.rate_hz;
+        self.queue.push_back(measurement);
+        if self.queue.len() > p.latency_frames as usize { self.queue.pop_front() } else { None }
+    }
+}
+
 /// The LiDAR: schedule, ray casting and impairments.
 pub struct Lidar {
     params: LidarParams,
@@ -106,8 +142,7 @@ pub struct Lidar {
     rng_dropout: ChaCha8Rng,
     rng_scan: ChaCha8Rng,
     noise: Option<Normal<f64>>,
-    next_t: f64,
-    queue: VecDeque<Option<Scan>>,
+    schedule: ScanSchedule<Scan>,
     /// Ray angles in the sensor frame, ascending, rad.
     angles: Vec<f64>,
     /// `(cos, sin)` of each ray's angle in the sensor frame.
@@ -136,8 +171,7 @@ impl Lidar {
             rng_dropout: stream(2),
             rng_scan: stream(3),
             noise,
-            next_t: 0.0,
-            queue: VecDeque::new(),
+            schedule: ScanSchedule::new(),
             angles,
             unit,
             dirs: Vec::with_capacity(n),
@@ -153,21 +187,19 @@ impl Lidar {
     /// Time of the next capture, s: [`Lidar::tick`] captures at the first call with
     /// `t >= next_scan_time()` and then advances it by one (jittered) frame interval.
     pub fn next_scan_time(&self) -> f64 {
-        self.next_t
+        self.schedule.next_t()
     }
 
     /// Called every physics step at time `t`: captures a scan when one is due and returns the
     /// scan due for delivery now (after latency; `None` if none is due or it was dropped).
     pub fn tick(&mut self, t: f64, world: &World, ego: Body, pose: &VehicleState) -> Option<Scan> {
-        if t + 1e-9 < self.next_t {
+        if !self.schedule.due(t) {
             return None;
         }
         let j = if self.params.jitter > 0.0 { self.rng_scan.random_range(-self.params.jitter..=self.params.jitter) } else { 0.0 };
-        self.next_t += (1.0 + j) / self.params.rate_hz;
         let dropped = self.params.scan_drop_prob > 0.0 && self.rng_scan.random::<f64>() < self.params.scan_drop_prob;
         let scan = self.capture(t, world, ego, pose);
-        self.queue.push_back((!dropped).then_some(scan));
-        if self.queue.len() > self.params.latency_frames as usize { self.queue.pop_front().flatten() } else { None }
+        self.schedule.take(&self.params, j, (!dropped).then_some(scan)).flatten()
     }
 
     /// Casts one scan now (no scheduling, no latency).
