@@ -68,6 +68,12 @@ class Trace:
     columns: dict[str, list[float]] = field(default_factory=lambda: {c: [] for c in TRACE_COLUMNS})
     leader: list[str] = field(default_factory=list)
 
+    def append(self, leader: str, **row: float) -> None:
+        """Adds one step: a value for every column of :data:`TRACE_COLUMNS` and the leader's id."""
+        for k in TRACE_COLUMNS:
+            self.columns[k].append(float(row[k]))
+        self.leader.append(leader)
+
     def array(self, name: str) -> np.ndarray:
         """One column as a NumPy array."""
         return np.asarray(self.columns[name], dtype=float)
@@ -160,33 +166,23 @@ class FlcVehicle:
         t = float(traci.simulation.getTime())
         dt = float(traci.simulation.getDeltaT())
         own = float(traci.vehicle.getSpeed(vid))
-        leader = traci.vehicle.getLeader(vid, self.leader_range)
-        gap: Optional[float] = None
-        front: Optional[float] = None
-        leader_id = ""
-        if leader and leader[0]:
-            leader_id = leader[0]
-            # getLeader's distance is the gap minus the follower's minGap.
-            gap = float(leader[1]) + float(traci.vehicle.getMinGap(vid))
-            front = float(traci.vehicle.getSpeed(leader_id))
+        leader_id, gap, front = _leader(traci, vid, self.leader_range)
         out: dict[str, Any] = json.loads(self._inner.step(t, dt, gap, front, own))
         traci.vehicle.setSpeed(vid, out["speed"])
-        row = self.trace.columns
         nan = float("nan")
-        for k, v in (
-            ("t", t),
-            ("gap", nan if gap is None else gap),
-            ("front_speed", nan if front is None else front),
-            ("speed", own),
-            ("set_speed", out["speed"]),
-            ("speed_command", out["speed_command"]),
-            ("accel_command", out["accel_command"]),
-            ("distance", nan if out["distance"] is None else out["distance"]),
-            ("active_flc", 1.0 if out["active"] == "flc" else 0.0),
-            ("switches", float(out["switches"])),
-        ):
-            row[k].append(v)
-        self.trace.leader.append(leader_id)
+        self.trace.append(
+            leader_id,
+            t=t,
+            gap=nan if gap is None else gap,
+            front_speed=nan if front is None else front,
+            speed=own,
+            set_speed=out["speed"],
+            speed_command=out["speed_command"],
+            accel_command=out["accel_command"],
+            distance=nan if out["distance"] is None else out["distance"],
+            active_flc=1.0 if out["active"] == "flc" else 0.0,
+            switches=out["switches"],
+        )
         self.last = out
         return out
 
@@ -359,13 +355,19 @@ def cacc_platoon(
             tmp.cleanup()
 
 
+def _leader(traci: Any, vid: str, leader_range: float) -> tuple[str, Optional[float], Optional[float]]:
+    """SUMO's leader of `vid`: its id ("" if none), the bumper gap (``getLeader``'s distance is
+    the gap minus the follower's ``minGap``) and its speed."""
+    leader = traci.vehicle.getLeader(vid, leader_range)
+    if not (leader and leader[0]):
+        return "", None, None
+    return leader[0], float(leader[1]) + float(traci.vehicle.getMinGap(vid)), float(traci.vehicle.getSpeed(leader[0]))
+
+
 def _observe(traci: Any, tr: Trace, vid: str, t: float) -> None:
     """Records a SUMO-driven vehicle in a :class:`Trace` (for the reference run)."""
-    leader = traci.vehicle.getLeader(vid, 250.0)
-    gap = float(leader[1]) + float(traci.vehicle.getMinGap(vid)) if leader and leader[0] else float("nan")
+    leader_id, gap, front = _leader(traci, vid, 250.0)
+    g = float("nan") if gap is None else gap
     own = float(traci.vehicle.getSpeed(vid))
-    front = float(traci.vehicle.getSpeed(leader[0])) if leader and leader[0] else float("nan")
-    for k, v in (("t", t), ("gap", gap), ("front_speed", front), ("speed", own), ("set_speed", own), ("speed_command", own),
-                 ("accel_command", float(traci.vehicle.getAcceleration(vid))), ("distance", gap), ("active_flc", 0.0), ("switches", 0.0)):
-        tr.columns[k].append(v)
-    tr.leader.append(leader[0] if leader else "")
+    tr.append(leader_id, t=t, gap=g, front_speed=float("nan") if front is None else front, speed=own, set_speed=own,
+              speed_command=own, accel_command=float(traci.vehicle.getAcceleration(vid)), distance=g, active_flc=0.0, switches=0.0)
