@@ -181,24 +181,6 @@ impl Scenario {
         Ok(())
     }
 
-    /// The scripted vehicles' names, specs' keys and phases, then the followers (no phases), as
-    /// the trigger checks see them ([`crate::trigger::validate_scripts`]).
-    fn entities(&self) -> (Vec<String>, Vec<String>) {
-        let mut names = vec!["lead".to_string()];
-        let mut keys = vec!["lead.phases".to_string()];
-        for (i, v) in self.vehicles.iter().enumerate() {
-            names.push(v.name.clone());
-            keys.push(format!("vehicles[{i}].phases"));
-        }
-        names.push(EGO.to_string());
-        keys.push("follower".to_string());
-        for k in 1..=self.n_followers() {
-            names.push(format!("follower {k}"));
-            keys.push("follower".to_string());
-        }
-        (names, keys)
-    }
-
     /// `[[vehicles]]`, lanes and every trigger: names unique and not reserved, lanes on the
     /// track, triggers naming existing entities and phases, no cycle of phases waiting on each
     /// other; errors name the dotted key.
@@ -228,16 +210,20 @@ impl Scenario {
             }
             lane_change(&format!("{key}.phases"), &v.phases)?;
         }
-        let (names, keys) = self.entities();
-        let mut entities: Vec<ScriptedEntity<'_>> = Vec::with_capacity(names.len());
-        for (i, (n, k)) in names.iter().zip(&keys).enumerate() {
-            let starts = match i {
-                0 => self.lead.phases.iter().map(|p| p.start.as_ref()).collect(),
-                i if i <= self.vehicles.len() => self.vehicles[i - 1].phases.iter().map(|p| p.start.as_ref()).collect(),
-                _ => Vec::new(),
-            };
-            entities.push(ScriptedEntity { name: n, key: k, starts });
+        // Every entity a trigger may name, as the trigger checks see it: the scripted vehicles
+        // with their phases, then the followers (no phases).
+        let keys: Vec<String> = (0..self.vehicles.len()).map(|i| format!("vehicles[{i}].phases")).collect();
+        let followers: Vec<String> = (1..=self.n_followers()).map(|k| format!("follower {k}")).collect();
+        fn starts(phases: &[ScriptedPhase]) -> Vec<Option<&Trigger>> {
+            phases.iter().map(|p| p.start.as_ref()).collect()
         }
+        let mut entities = vec![ScriptedEntity { name: "lead", key: "lead.phases", starts: starts(&self.lead.phases) }];
+        entities.extend(self.vehicles.iter().zip(&keys).map(|(v, key)| ScriptedEntity { name: &v.name, key, starts: starts(&v.phases) }));
+        entities.extend(std::iter::once(EGO).chain(followers.iter().map(String::as_str)).map(|name| ScriptedEntity {
+            name,
+            key: "follower",
+            starts: Vec::new(),
+        }));
         validate_scripts(&entities)?;
         if let Some(t) = &self.stop.trigger {
             let table: Vec<(&str, usize)> = entities.iter().map(|e| (e.name, e.starts.len())).collect();
