@@ -130,15 +130,10 @@ pub struct LeadDriver {
 }
 
 impl LeadDriver {
-    /// Builds the driver; `phases` must have been validated ([`crate::Scenario::validate`]).
-    /// Lane changes to a lane index go to `lane_offset(lane)`.
-    pub fn new(vehicle: VehicleParams, phases: &[ScriptedPhase], initial_speed: f64) -> Self {
-        Self::on_track(vehicle, phases, initial_speed, 0.0, 0.0, &|_| 0.0)
-    }
-
-    /// A driver whose vehicle starts with its centre at `s0` along the centreline and lateral
-    /// `offset0`; lane indices go through `lane_offset` ([`crate::Track::lane_offset`]).
-    pub fn on_track(
+    /// The driver of a vehicle that starts with its centre at `s0` along the centreline and
+    /// lateral `offset0`; `phases` must have been validated ([`crate::Scenario::validate`]);
+    /// lane indices go through `lane_offset` ([`crate::Track::lane_offset`]).
+    pub fn new(
         vehicle: VehicleParams,
         phases: &[ScriptedPhase],
         initial_speed: f64,

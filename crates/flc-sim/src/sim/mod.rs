@@ -176,7 +176,7 @@ impl Simulation {
             world,
             lead_body,
             lead: Vehicle::new(*ll, lead_state),
-            lead_driver: LeadDriver::on_track(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], 0.0, &|l| track.lane_offset(l)),
+            lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], 0.0, &|l| track.lane_offset(l)),
             lead_steer: centreline_pursuit(ll)?,
             follower_s0: s_pos[1..].to_vec(),
             followers,

@@ -55,7 +55,7 @@ impl Traffic {
             params: spec.vehicle,
             body: world.add_vehicle(&spec.vehicle, &state),
             vehicle: Vehicle::new(spec.vehicle, state),
-            driver: LeadDriver::on_track(spec.vehicle, &spec.phases, spec.initial_speed, spec.s, offset, &lane_offset),
+            driver: LeadDriver::new(spec.vehicle, &spec.phases, spec.initial_speed, spec.s, offset, &lane_offset),
             steer: centreline_pursuit(&spec.vehicle)?,
             s0: spec.s,
             cmd: (0.0, 0.0),
