@@ -30,6 +30,7 @@ mod gap_sensor;
 mod lead;
 mod lidar;
 mod metrics;
+pub mod openscenario;
 pub mod paper;
 mod patch;
 mod platoon;
