@@ -20,6 +20,10 @@ pub struct FollowerSpec {
     pub initial_speed: f64,
     /// Initial bumper-to-bumper gap to the lead, m. The paper: 7 m at standstill.
     pub initial_gap: f64,
+    /// Initial position of the (last) follower's centre along the centreline, m (`None`,
+    /// default: half its length + 1 m, just after the track's start).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start_s: Option<f64>,
     /// Vehicle model.
     pub vehicle: VehicleParams,
     /// Low-level speed controller (turns the pipeline's speed command into drive / brake).
@@ -66,6 +70,7 @@ impl Default for FollowerSpec {
         Self {
             initial_speed: 0.0,
             initial_gap: 7.0,
+            start_s: None,
             vehicle: VehicleParams::default(),
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,

@@ -40,6 +40,7 @@ pub mod report;
 mod runner;
 mod scenario;
 mod series;
+pub mod story;
 mod sim;
 pub mod string_stability;
 pub mod sweep;

@@ -167,6 +167,7 @@ impl Scenario {
                 Phase::Hold { until_x: Some(650.0), until_t: None, duration: None }.into(),
                 Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into(),
             ],
+            ..LeadSpec::default()
         };
         match controller {
             ControllerKind::Pid => {}
@@ -198,6 +199,7 @@ impl Scenario {
             PurePursuitParams::default(),
             StopSpec::default(),
             Some(speed_kmh),
+            None,
             None,
             Vec::new(),
             None,

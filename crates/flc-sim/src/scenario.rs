@@ -128,6 +128,11 @@ pub struct Scenario {
     /// The max speed (km/h) of the paper experiment this scenario was built from, if any (reported
     /// as `speed_kmh` in the JSON; informational).
     pub speed_kmh: Option<f64>,
+    /// The storyboard (`[story]`, [`crate::story`]): acts, events and actions with OpenSCENARIO
+    /// semantics driving the lead, the `[[vehicles]]` and optionally the ego (what `.xosc`
+    /// files import to). With a story, the lead and the vehicles have no `phases`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub story: Option<crate::story::Story>,
     /// A platoon: N followers behind the lead (`crate::platoon`); `None`: one follower.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub platoon: Option<PlatoonSpec>,

@@ -170,6 +170,64 @@ pub enum PhaseEvent {
     Ended,
 }
 
+/// A variable value (OpenSCENARIO `VariableDeclaration` / parameter types): number, boolean or
+/// text.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum VarValue {
+    /// `boolean`.
+    Bool(bool),
+    /// Any numeric type.
+    Num(f64),
+    /// `string` (and `dateTime`).
+    Text(String),
+}
+
+/// OpenSCENARIO `StoryboardElementState` of an `element_state` condition. Transitions hold from
+/// the moment they happen until the element's next transition (an event that runs again starts
+/// over); states hold while the element is in them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ElementEvent {
+    /// `startTransition`.
+    StartTransition,
+    /// `endTransition`: it completed by itself.
+    EndTransition,
+    /// `stopTransition`: it was stopped (stop trigger, override).
+    StopTransition,
+    /// `skipTransition`: it was skipped (priority `skip`).
+    SkipTransition,
+    /// `completeState`.
+    CompleteState,
+    /// `runningState`.
+    RunningState,
+    /// `standbyState`.
+    StandbyState,
+}
+
+/// The runtime state of a storyboard element, as a [`WorldView`] reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ElementStatus {
+    /// In `runningState`.
+    pub running: bool,
+    /// In `completeState`.
+    pub complete: bool,
+    /// The last transition (`None`: none yet, standby), one of the transition variants.
+    pub last: Option<ElementEvent>,
+}
+
+impl ElementStatus {
+    /// Whether the element is in / has just had `e`.
+    pub fn holds(&self, e: ElementEvent) -> bool {
+        match e {
+            ElementEvent::RunningState => self.running,
+            ElementEvent::CompleteState => self.complete,
+            ElementEvent::StandbyState => !self.running && !self.complete,
+            t => self.last == Some(t),
+        }
+    }
+}
+
 /// The test of a [`Condition`] (TOML `kind = "..."`). `entity` is OpenSCENARIO's triggering
 /// entity (`TriggeringEntities` with one `EntityRef`), `of` the reference entity (`entityRef`).
 /// `value` / `rule` / `tolerance` compare the measured quantity ([`Rule`]); `tolerance` is only
@@ -280,6 +338,91 @@ pub enum ConditionKind {
         /// Distance, m.
         value: f64,
     },
+    /// `ByEntityCondition/AccelerationCondition`: the longitudinal acceleration of `entity`, m/s².
+    Acceleration {
+        /// Triggering entity.
+        entity: String,
+        /// Threshold, m/s².
+        value: f64,
+        /// Comparison.
+        rule: Rule,
+        /// Half width of `equal_to`, m/s².
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tolerance: Option<f64>,
+    },
+    /// `ByEntityCondition/StandStillCondition`: `entity` has been at standstill (speed below
+    /// 1e-3 m/s) for at least `duration` s.
+    StandStill {
+        /// Triggering entity.
+        entity: String,
+        /// Duration, s.
+        duration: f64,
+    },
+    /// `ByEntityCondition/RelativeSpeedCondition`: the speed of `entity` minus that of `of`, m/s.
+    RelativeSpeed {
+        /// Triggering entity.
+        entity: String,
+        /// Reference entity.
+        of: String,
+        /// Threshold, m/s.
+        value: f64,
+        /// Comparison.
+        rule: Rule,
+        /// Half width of `equal_to`, m/s.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tolerance: Option<f64>,
+    },
+    /// `ByEntityCondition/DistanceCondition`: the distance from `entity` to the road position
+    /// `s`, `lateral` (m along / across the centreline), see [`DistanceType`] (`freespace`: from
+    /// the entity's bounding box).
+    Distance {
+        /// Triggering entity.
+        entity: String,
+        /// Position along the centreline, m.
+        s: f64,
+        /// Lateral offset of the position, m (+ left).
+        #[serde(default)]
+        lateral: f64,
+        /// `relativeDistanceType`.
+        distance: DistanceType,
+        /// From the bounding box (`true`) or the reference point.
+        freespace: bool,
+        /// Threshold, m.
+        value: f64,
+        /// Comparison.
+        rule: Rule,
+        /// Half width of `equal_to`, m.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tolerance: Option<f64>,
+    },
+    /// `ByEntityCondition/CollisionCondition`: `entity` has touched `with` (an entity name), or
+    /// anything when `with` is not given.
+    Collision {
+        /// Triggering entity.
+        entity: String,
+        /// The other entity (`None`: anything).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        with: Option<String>,
+    },
+    /// `ByValueCondition/VariableCondition` (and `ParameterCondition`, parameters being
+    /// variables set once): story variable `variable` compared with `value` (numbers with the
+    /// rule; booleans and text only `equal_to` / `not_equal_to`).
+    Variable {
+        /// The variable (`[[story.variables]]`).
+        variable: String,
+        /// Compared value.
+        value: VarValue,
+        /// Comparison.
+        rule: Rule,
+    },
+    /// `ByValueCondition/StoryboardElementStateCondition` on a storyboard element of `[story]`
+    /// (story, act, maneuver group, maneuver, event or action, by name).
+    ElementState {
+        /// The element's name.
+        element: String,
+        /// The state or transition waited for.
+        state: ElementEvent,
+    },
     /// `ByValueCondition/StoryboardElementStateCondition` on a phase: phase `phase` (index in
     /// the entity's phase list, from 0) of `entity` has started / ended.
     PhaseState {
@@ -346,6 +489,10 @@ pub struct EntityState {
     pub width: f64,
     /// Distance travelled since the start, m.
     pub traveled: f64,
+    /// Longitudinal acceleration, m/s².
+    pub accel: f64,
+    /// Time it has been at standstill (speed < 1e-3 m/s) without interruption, s (0 while moving).
+    pub still_for: f64,
 }
 
 /// Start / end times of one phase (`None`: not yet).
@@ -364,6 +511,18 @@ pub trait WorldView {
     fn entity(&self, name: &str) -> Option<EntityState>;
     /// The status of phase `phase` of entity `name` (default: not started).
     fn phase(&self, name: &str, phase: usize) -> PhaseStatus;
+    /// The status of storyboard element `name` (default: none; its conditions do not hold).
+    fn element(&self, _name: &str) -> Option<ElementStatus> {
+        None
+    }
+    /// The value of story variable `name` (default: none).
+    fn variable(&self, _name: &str) -> Option<VarValue> {
+        None
+    }
+    /// Whether entity `a` has touched `b` (`None`: anything) so far (default: no).
+    fn collided(&self, _a: &str, _b: Option<&str>) -> bool {
+        false
+    }
 }
 
 /// Longitudinal / lateral distance from `a` to `b` (reference points or box gaps).
@@ -374,6 +533,33 @@ fn gaps(a: &EntityState, b: &EntityState, freespace: bool) -> (f64, f64) {
         ((da - 0.5 * (a.length + b.length)).max(0.0), (dl - 0.5 * (a.width + b.width)).max(0.0))
     } else {
         (da, dl)
+    }
+}
+
+/// `a` compared with `b` by `rule`: numbers by value (`Rule::holds`), booleans and text equal or
+/// not (a number compared with text parses the text; anything else does not hold).
+fn compare_values(a: &VarValue, b: &VarValue, rule: Rule) -> bool {
+    use VarValue as V;
+    let num = |v: &V| match v {
+        V::Num(x) => Some(*x),
+        V::Text(t) => t.trim().parse::<f64>().ok(),
+        V::Bool(_) => None,
+    };
+    match (a, b) {
+        (V::Bool(x), V::Bool(y)) => match rule {
+            Rule::EqualTo => x == y,
+            Rule::NotEqualTo => x != y,
+            _ => false,
+        },
+        (V::Text(x), V::Text(y)) if num(a).is_none() || num(b).is_none() => match rule {
+            Rule::EqualTo => x == y,
+            Rule::NotEqualTo => x != y,
+            _ => false,
+        },
+        _ => match (num(a), num(b)) {
+            (Some(x), Some(y)) => rule.holds(x, y, None),
+            _ => false,
+        },
     }
 }
 
@@ -412,7 +598,26 @@ impl ConditionKind {
                 Some((e.s - s).hypot(dl))
             }
             ConditionKind::TraveledDistance { entity, .. } => Some(world.entity(entity)?.traveled),
-            ConditionKind::PhaseState { .. } => None,
+            ConditionKind::Acceleration { entity, .. } => Some(world.entity(entity)?.accel),
+            ConditionKind::StandStill { entity, .. } => Some(world.entity(entity)?.still_for),
+            ConditionKind::RelativeSpeed { entity, of, .. } => {
+                let (a, b) = pair(entity, of)?;
+                Some(a.speed - b.speed)
+            }
+            ConditionKind::Distance { entity, s, lateral, distance, freespace, .. } => {
+                let e = world.entity(entity)?;
+                let point = EntityState { s: *s, lateral: *lateral, length: 0.0, width: 0.0, ..e };
+                let (dx, dy) = gaps(&e, &point, *freespace);
+                Some(match distance {
+                    DistanceType::Longitudinal => dx,
+                    DistanceType::Lateral => dy,
+                    DistanceType::Euclidean => dx.hypot(dy),
+                })
+            }
+            ConditionKind::PhaseState { .. }
+            | ConditionKind::Collision { .. }
+            | ConditionKind::Variable { .. }
+            | ConditionKind::ElementState { .. } => None,
         }
     }
 
@@ -423,9 +628,18 @@ impl ConditionKind {
             | ConditionKind::RelativeDistance { value, rule, tolerance, .. }
             | ConditionKind::TimeHeadway { value, rule, tolerance, .. }
             | ConditionKind::Ttc { value, rule, tolerance, .. }
-            | ConditionKind::Speed { value, rule, tolerance, .. } => {
+            | ConditionKind::Speed { value, rule, tolerance, .. }
+            | ConditionKind::Acceleration { value, rule, tolerance, .. }
+            | ConditionKind::RelativeSpeed { value, rule, tolerance, .. }
+            | ConditionKind::Distance { value, rule, tolerance, .. } => {
                 self.measure(world, t).is_some_and(|x| rule.holds(x, *value, *tolerance))
             }
+            ConditionKind::StandStill { duration, .. } => {
+                self.measure(world, t).is_some_and(|d| Rule::GreaterOrEqual.holds(d, *duration, None))
+            }
+            ConditionKind::Collision { entity, with } => world.collided(entity, with.as_deref()),
+            ConditionKind::Variable { variable, value, rule } => world.variable(variable).is_some_and(|v| compare_values(&v, value, *rule)),
+            ConditionKind::ElementState { element, state } => world.element(element).is_some_and(|e| e.holds(*state)),
             ConditionKind::ReachPosition { tolerance, .. } => {
                 self.measure(world, t).is_some_and(|d| Rule::LessOrEqual.holds(d, *tolerance, None))
             }
@@ -445,11 +659,22 @@ impl ConditionKind {
     /// The entities the test names, with their keys (`entity`, `of`).
     fn entity_refs(&self) -> Vec<(&'static str, &str)> {
         match self {
-            ConditionKind::SimulationTime { .. } => vec![],
+            ConditionKind::SimulationTime { .. } | ConditionKind::Variable { .. } | ConditionKind::ElementState { .. } => vec![],
             ConditionKind::RelativeDistance { entity, of, .. }
             | ConditionKind::TimeHeadway { entity, of, .. }
+            | ConditionKind::RelativeSpeed { entity, of, .. }
             | ConditionKind::Ttc { entity, of, .. } => vec![("entity", entity), ("of", of)],
-            ConditionKind::Speed { entity, .. }
+            ConditionKind::Collision { entity, with } => {
+                let mut v = vec![("entity", entity.as_str())];
+                if let Some(w) = with {
+                    v.push(("with", w.as_str()));
+                }
+                v
+            }
+            ConditionKind::Acceleration { entity, .. }
+            | ConditionKind::StandStill { entity, .. }
+            | ConditionKind::Distance { entity, .. }
+            | ConditionKind::Speed { entity, .. }
             | ConditionKind::ReachPosition { entity, .. }
             | ConditionKind::TraveledDistance { entity, .. }
             | ConditionKind::PhaseState { entity, .. } => vec![("entity", entity)],
@@ -589,6 +814,32 @@ fn validate_condition(cond: &Condition, entities: &[(&str, usize)]) -> Result<()
             check_range("tolerance", *tolerance, 0.0, 1.0e4, "m")
         }
         ConditionKind::TraveledDistance { value, .. } => check_range("value", *value, 0.0, 1.0e7, "m"),
+        ConditionKind::Acceleration { value, rule, tolerance, .. } => compare(*value, -100.0, 100.0, "m/s²", *rule, *tolerance),
+        ConditionKind::RelativeSpeed { entity, of, value, rule, tolerance } => {
+            differ(entity, of)?;
+            compare(*value, -200.0, 200.0, "m/s", *rule, *tolerance)
+        }
+        ConditionKind::StandStill { duration, .. } => check_range("duration", *duration, 0.0, 1.0e5, "s"),
+        ConditionKind::Distance { s, lateral, value, rule, tolerance, .. } => {
+            check_range("s", *s, -1.0e7, 1.0e7, "m")?;
+            check_range("lateral", *lateral, -1.0e4, 1.0e4, "m")?;
+            compare(*value, 0.0, 1.0e7, "m", *rule, *tolerance)
+        }
+        ConditionKind::Collision { entity, with } => match with {
+            Some(w) => differ(entity, w),
+            None => Ok(()),
+        },
+        ConditionKind::Variable { value, rule, .. } => match value {
+            VarValue::Num(v) => check_range("value", *v, -1.0e300, 1.0e300, ""),
+            _ if rule.takes_tolerance() => Ok(()),
+            _ => Err(ConfigError::new("rule", "booleans and text compare only with `equal_to` / `not_equal_to`")),
+        },
+        ConditionKind::ElementState { element, .. } => {
+            if element.is_empty() {
+                return Err(ConfigError::new("element", "must name a storyboard element"));
+            }
+            Ok(())
+        }
         ConditionKind::PhaseState { entity, phase, .. } => {
             let count = entities.iter().find(|(n, _)| n == entity).map_or(0, |(_, c)| *c);
             if *phase >= count {
@@ -949,7 +1200,7 @@ mod tests {
     }
 
     fn car(s: f64, speed: f64, traveled: f64) -> EntityState {
-        EntityState { s, lateral: 0.0, speed, length: 4.5, width: 1.8, traveled }
+        EntityState { s, lateral: 0.0, speed, length: 4.5, width: 1.8, traveled, ..EntityState::default() }
     }
 
     /// Ego at 20 m/s behind the lead at 15 m/s; bumper-to-bumper gap 40 - 5 t.
@@ -1088,7 +1339,7 @@ mod tests {
 
     #[test]
     fn distance_types_and_freespace() {
-        let a = EntityState { s: 0.0, lateral: 0.0, speed: 0.0, length: 4.0, width: 2.0, traveled: 0.0 };
+        let a = EntityState { s: 0.0, lateral: 0.0, speed: 0.0, length: 4.0, width: 2.0, traveled: 0.0, ..EntityState::default() };
         let b = EntityState { s: 10.0, lateral: 3.5, ..a };
         let w = Fake { cars: vec![("a", a), ("b", b)], ..Fake::default() };
         let m = |distance: &str, freespace: bool| {

@@ -21,6 +21,20 @@ pub struct LeadSpec {
     pub vehicle: VehicleParams,
     /// The manoeuvre.
     pub phases: Vec<ScriptedPhase>,
+    /// Initial position of its centre along the centreline, m (`None`, default: `initial_gap`
+    /// ahead of the follower; one follower only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s: Option<f64>,
+    /// Initial lateral offset of its centre from the centreline, m (+ left). Default 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub offset: f64,
+    /// Initial heading relative to the road, rad (+ left). Default 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub heading: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// A scripted vehicle besides the lead (TOML `[[vehicles]]`): other traffic, a cut-in car, a
@@ -77,7 +91,7 @@ impl ScriptedVehicle {
 
 impl Default for LeadSpec {
     fn default() -> Self {
-        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new() }
+        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new(), s: None, offset: 0.0, heading: 0.0 }
     }
 }
 

@@ -116,7 +116,7 @@ fn entity_state(track: &Track, v: &Vehicle, s0: f64) -> EntityState {
     let st = v.state();
     let p = track.project(st.x, st.y);
     let par = v.params();
-    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0 }
+    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0, accel: st.accel, still_for: 0.0 }
 }
 
 /// Follower index (0-based) of a trigger name: `ego` or `follower <k>`.

@@ -1,0 +1,279 @@
+//! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
+//! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
+
+use super::{Action, Dimension, Shape, Transition};
+use crate::trigger::WorldView;
+
+/// Speed below which an entity counts as standing, m/s.
+const STILL: f64 = 1.0e-3;
+
+/// A running longitudinal action.
+#[derive(Debug, Clone, PartialEq)]
+struct Long {
+    action: usize,
+    v0: f64,
+    v1: f64,
+    shape: Shape,
+    /// Duration of the transition, s (0: step).
+    duration: f64,
+    t0: f64,
+    /// Relative target tracked after the transition: `(entity, delta, factor)`.
+    track: Option<(String, f64, f64)>,
+}
+
+/// A running lateral action.
+#[derive(Debug, Clone, PartialEq)]
+struct Lat {
+    action: usize,
+    from: f64,
+    to: f64,
+    shape: Shape,
+    /// `true`: `extent` is a distance along the road, else a time.
+    by_distance: bool,
+    extent: f64,
+    t0: f64,
+    x0: f64,
+}
+
+/// What one step of a [`Motion`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotionStep {
+    /// The longitudinal action that ended this step.
+    pub long_done: Option<usize>,
+    /// The lateral action that ended this step.
+    pub lat_done: Option<usize>,
+}
+
+/// The lateral position of a lane change or lane offset of shape `shape` at progress `p`
+/// between `from` and `to` (m).
+pub fn lateral_shape(shape: Shape, from: f64, to: f64, p: f64) -> f64 {
+    from + (to - from) * shape.at(p)
+}
+
+/// An entity moved by its story actions: at `s` (m along the centreline, its centre) and
+/// `offset` (m from the centreline, + left) with `speed` (m/s); `heading` relative to the road
+/// (rad, + left) follows the lateral motion.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motion {
+    /// Centre position along the centreline, m.
+    pub s: f64,
+    /// Lateral offset of the centre from the centreline, m (+ left).
+    pub offset: f64,
+    /// Speed, m/s.
+    pub speed: f64,
+    /// Acceleration over the last step, m/s².
+    pub accel: f64,
+    /// Heading relative to the road, rad.
+    pub heading: f64,
+    /// Distance travelled, m.
+    pub traveled: f64,
+    /// Time at standstill without interruption, s.
+    pub still_for: f64,
+    lane_width: f64,
+    /// The entity's own length (freespace placements), m.
+    own_len: Option<f64>,
+    long: Option<Long>,
+    lat: Option<Lat>,
+}
+
+impl Motion {
+    /// An entity at rest in its motion (no action running) at `s`, `offset`, `speed`, on a track
+    /// of lanes `lane_width` wide.
+    pub fn new(s: f64, offset: f64, speed: f64, lane_width: f64) -> Self {
+        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, still_for: 0.0, lane_width, own_len: None, long: None, lat: None }
+    }
+
+    /// This motion for an entity `length` m long (freespace placements).
+    pub fn with_length(mut self, length: f64) -> Self {
+        self.own_len = Some(length);
+        self
+    }
+
+    /// The running longitudinal and lateral actions.
+    pub fn running(&self) -> (Option<usize>, Option<usize>) {
+        (self.long.as_ref().map(|l| l.action), self.lat.as_ref().map(|l| l.action))
+    }
+
+    /// Stops action `i` if it runs here (`true` if it did).
+    pub fn stop(&mut self, i: usize) -> bool {
+        let mut hit = false;
+        if self.long.as_ref().is_some_and(|l| l.action == i) {
+            self.long = None;
+            hit = true;
+        }
+        if self.lat.as_ref().is_some_and(|l| l.action == i) {
+            self.lat = None;
+            hit = true;
+        }
+        hit
+    }
+
+    /// The lane index (0 = the centreline's lane, + left) an offset lies in.
+    fn lane_of(&self, offset: f64) -> f64 {
+        if self.lane_width > 0.0 { (offset / self.lane_width).round() } else { 0.0 }
+    }
+
+    /// Starts action `i` (`action`) at time `t`, reading reference entities from `world`.
+    /// Returns the action of the same domain it replaces (to be ended as stopped), and whether
+    /// the action already ended (a step transition, a placement). Non-motion actions do nothing.
+    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
+        match action {
+            Action::Speed { speed, of, delta, factor, continuous, transition } => {
+                let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
+                let (target, track) = match (speed, of) {
+                    (Some(v), _) => (*v, None),
+                    (None, Some(name)) => {
+                        let v_of = world.entity(name).map_or(self.speed, |e| e.speed);
+                        let (d, f) = (delta.unwrap_or(0.0), factor.unwrap_or(1.0));
+                        let v = if factor.is_some() { v_of * f } else { v_of + d };
+                        (v.max(0.0), continuous.then(|| (name.clone(), if factor.is_some() { 0.0 } else { d }, if factor.is_some() { f } else { 1.0 })))
+                    }
+                    (None, None) => (self.speed, None),
+                };
+                let duration = speed_duration(transition, self.speed, target);
+                self.long = Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track });
+                let _ = t;
+                (replaced, false)
+            }
+            Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
+                let replaced = self.lat.take().map(|l| l.action).filter(|&a| a != i);
+                let to = match (offset, of, lanes) {
+                    (Some(o), _, _) => *o + lane_offset,
+                    (None, Some(name), Some(n)) => {
+                        let ref_offset = world.entity(name).map_or(self.offset, |e| e.lateral);
+                        (self.lane_of(ref_offset) + f64::from(*n)) * self.lane_width + lane_offset
+                    }
+                    _ => self.offset,
+                };
+                self.start_lateral(i, to, transition);
+                (replaced, false)
+            }
+            Action::LaneOffset { offset, of, shape, max_lateral_acc } => {
+                let replaced = self.lat.take().map(|l| l.action).filter(|&a| a != i);
+                let centre = self.lane_of(self.offset) * self.lane_width;
+                let base = match of {
+                    Some(name) => world.entity(name).map_or(0.0, |e| e.lateral - self.lane_of(e.lateral) * self.lane_width),
+                    None => 0.0,
+                };
+                let to = centre + base + offset;
+                let change = (to - self.offset).abs();
+                // Peak lateral acceleration of the shape over a change `c` in time `T`: linear has
+                // none inside (taken as cubic), cubic 6 c / T², sinusoidal pi² c / (2 T²).
+                let k = match shape {
+                    Shape::Sinusoidal => std::f64::consts::PI * std::f64::consts::PI / 2.0,
+                    _ => 6.0,
+                };
+                let duration = if *shape == Shape::Step || change == 0.0 { 0.0 } else { (k * change / max_lateral_acc).sqrt() };
+                let tr = Transition { shape: *shape, dimension: Dimension::Time, value: duration };
+                self.start_lateral(i, to, &tr);
+                (replaced, false)
+            }
+            Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead } => {
+                let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
+                if let Some(r) = world.entity(of) {
+                    let mut d = distance.unwrap_or_else(|| time_gap.unwrap_or(0.0) * self.speed);
+                    if *freespace {
+                        // The actor's length is not known here: the caller's world gives it.
+                        d += 0.5 * r.length + 0.5 * self.own_length(world, r.length);
+                    }
+                    self.s = if *ahead { r.s + d } else { r.s - d };
+                }
+                (replaced, true)
+            }
+            _ => (None, true),
+        }
+    }
+
+    /// The actor's own length for freespace placements: not part of the motion; the world
+    /// answers for the reference only, so the reference's is used when unknown.
+    fn own_length(&self, _world: &dyn WorldView, fallback: f64) -> f64 {
+        self.own_len.unwrap_or(fallback)
+    }
+
+    fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition) {
+        let (by_distance, extent) = match tr.dimension {
+            Dimension::Distance => (true, tr.value),
+            _ => (false, tr.value),
+        };
+        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0: f64::NAN, x0: self.traveled });
+    }
+
+    /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)
+    /// here; `world` answers the speeds of relative targets.
+    pub fn step(&mut self, t: f64, dt: f64, curvature: f64, world: &dyn WorldView) -> MotionStep {
+        let mut out = MotionStep::default();
+        let t1 = t + dt;
+        let v_prev = self.speed;
+        if let Some(l) = &mut self.long {
+            if l.t0.is_nan() {
+                l.t0 = t;
+            }
+            let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
+            let mut v = l.v0 + (l.v1 - l.v0) * l.shape.at(p);
+            if p >= 1.0 - 1e-12 {
+                v = l.v1;
+                match &l.track {
+                    Some((name, d, f)) => {
+                        if let Some(e) = world.entity(name) {
+                            v = (e.speed * f + d).max(0.0);
+                        }
+                    }
+                    None => out.long_done = Some(l.action),
+                }
+            }
+            self.speed = v.max(0.0);
+        }
+        if out.long_done.is_some() {
+            self.long = None;
+        }
+        self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+        let ds_path = self.speed * dt;
+        // Along a curve the centreline moves `1 - kappa offset` times as fast as a point at
+        // `offset`: the entity covers `ds_path` on its own path.
+        let scale = 1.0 - curvature * self.offset;
+        let ds = if scale > 0.1 { ds_path / scale } else { ds_path };
+        self.s += ds;
+        self.traveled += ds_path;
+        let offset_prev = self.offset;
+        if let Some(l) = &mut self.lat {
+            if l.t0.is_nan() {
+                l.t0 = t;
+            }
+            let p = if l.extent <= 0.0 || l.shape == Shape::Step {
+                1.0
+            } else if l.by_distance {
+                (self.traveled - l.x0) / l.extent
+            } else {
+                (t1 - l.t0) / l.extent
+            };
+            self.offset = lateral_shape(l.shape, l.from, l.to, p);
+            if p >= 1.0 - 1e-12 {
+                self.offset = l.to;
+                out.lat_done = Some(l.action);
+            }
+        }
+        if out.lat_done.is_some() {
+            self.lat = None;
+        }
+        self.heading = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
+        self.still_for = if self.speed < STILL { self.still_for + dt } else { 0.0 };
+        out
+    }
+}
+
+/// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
+/// rate`, `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
+/// (every shape is symmetric); 0 for a step.
+pub fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
+    if tr.shape == Shape::Step {
+        return 0.0;
+    }
+    match tr.dimension {
+        Dimension::Time => tr.value,
+        Dimension::Rate => (v1 - v0).abs() / tr.value,
+        Dimension::Distance => {
+            let mean = 0.5 * (v0 + v1);
+            if mean > 1e-9 { tr.value / mean } else { 0.0 }
+        }
+    }
+}
