@@ -230,9 +230,62 @@ impl Scenario {
             starts: Vec::new(),
         }));
         validate_scripts(&entities)?;
+        let table: Vec<(&str, usize)> = entities.iter().map(|e| (e.name, e.starts.len())).collect();
         if let Some(t) = &self.stop.trigger {
-            let table: Vec<(&str, usize)> = entities.iter().map(|e| (e.name, e.starts.len())).collect();
             t.validate("stop.trigger", &table)?;
+        }
+        if let Some(ls) = self.lead.s {
+            check_range("lead.s", ls, -1.0e6, 1.0e6, "m")?;
+            if self.n_followers() > 1 {
+                return Err(ConfigError::new("lead.s", "a platoon places the lead by the followers' gaps: leave `lead.s` out"));
+            }
+        }
+        check_range("lead.offset", self.lead.offset, -50.0, 50.0, "m")?;
+        check_range("lead.heading", self.lead.heading, -3.2, 3.2, "rad")?;
+        if let Some(fs) = self.follower.start_s {
+            check_range("follower.start_s", fs, -1.0e6, 1.0e6, "m")?;
+        }
+        if let Some(story) = &self.story {
+            self.validate_story(story, &table)?;
+        }
+        Ok(())
+    }
+
+    /// `[story]`: no phases beside it, sizes, names, actors, actions, and every trigger (element
+    /// names included).
+    fn validate_story(&self, story: &crate::story::Story, table: &[(&str, usize)]) -> Result<(), ConfigError> {
+        if !self.lead.phases.is_empty() {
+            return Err(ConfigError::new("lead.phases", "with [story] the story moves the lead: give it no phases"));
+        }
+        if let Some(i) = self.vehicles.iter().position(|v| !v.phases.is_empty()) {
+            return Err(ConfigError::new(format!("vehicles[{i}].phases"), "with [story] the story moves the vehicles: give them no phases"));
+        }
+        let names: Vec<&str> = table.iter().map(|(n, _)| *n).collect();
+        story.validate(&names)?;
+        let elements = story.element_names();
+        let mut sorted = elements.clone();
+        sorted.sort_unstable();
+        let known = |e: &str| sorted.binary_search(&e).is_ok();
+        let mut all = story.triggers();
+        if let Some(t) = &self.stop.trigger {
+            all.push(("stop.trigger".to_string(), t));
+        }
+        for (key, trig) in all {
+            trig.validate(&key, table)?;
+            for (g, grp) in trig.groups().enumerate() {
+                for (c, cond) in grp.iter().enumerate() {
+                    if let crate::trigger::ConditionKind::ElementState { element, .. } = &cond.kind {
+                        if !known(element) {
+                            return Err(ConfigError::new(format!("{}.element", trig.condition_key(&key, g, c)), format!("no storyboard element `{element}`")));
+                        }
+                    }
+                    if let crate::trigger::ConditionKind::Variable { variable, .. } = &cond.kind {
+                        if !story.variables.iter().any(|v| v.name == *variable) {
+                            return Err(ConfigError::new(format!("{}.variable", trig.condition_key(&key, g, c)), format!("no variable `{variable}` in story.variables")));
+                        }
+                    }
+                }
+            }
         }
         Ok(())
     }

@@ -144,6 +144,12 @@ impl Vehicle {
         self.state.speed = if speed.is_finite() { speed.max(0.0) } else { 0.0 };
     }
 
+    /// Puts the vehicle at `state` (a story moving it kinematically, [`crate::story::Motion`]);
+    /// actuator states are kept.
+    pub fn set_state(&mut self, state: VehicleState) {
+        self.state = state;
+    }
+
     /// The parameters.
     pub fn params(&self) -> &VehicleParams {
         &self.params

@@ -19,6 +19,7 @@ mod follower;
 mod geometry;
 mod links;
 mod observer;
+mod story;
 mod traffic;
 
 pub(crate) use links::sub_seed;
@@ -29,6 +30,7 @@ use flc_core::PurePursuit;
 use self::follower::Follower;
 use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
+use self::story::{StoryRun, pose_of};
 use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
@@ -102,6 +104,11 @@ struct State {
     fronts: Vec<(VehicleState, f64)>,
     /// Start and stop triggers.
     triggers: Triggers,
+    /// `[story]`: its runtime and the motions of the entities it drives.
+    story: Option<StoryRun>,
+    /// How long each vehicle has stood still (0 = the lead, then the traffic, then the
+    /// followers), s.
+    still: Vec<f64>,
     source: V2vSource,
     lead_weight: f64,
     relay: bool,
@@ -130,7 +137,7 @@ impl Simulation {
         let n = configs.len();
         let mut s_pos = vec![0.0; n + 1];
         if let Some(last) = configs.last() {
-            s_pos[n] = last.follower.vehicle.length / 2.0 + 1.0;
+            s_pos[n] = last.follower.start_s.unwrap_or(last.follower.vehicle.length / 2.0 + 1.0);
         }
         for k in (1..=n).rev() {
             let c = &configs[k - 1];
@@ -142,11 +149,17 @@ impl Simulation {
             let front_len = if k == 1 { ll.length } else { configs[k - 2].follower.vehicle.length };
             s_pos[k - 1] = s_pos[k] + c.follower.vehicle.length / 2.0 + gap + front_len / 2.0;
         }
+        if let (Some(ls), 1) = (s.lead.s, n) {
+            s_pos[0] = ls;
+        }
         let state_at = |sp: f64, speed: f64| {
             let (x, y, yaw) = track.pose_at(sp);
             VehicleState { x, y, yaw, speed, ..VehicleState::default() }
         };
-        let lead_state = state_at(s_pos[0], s.lead.initial_speed);
+        let lead_state = {
+            let (x, y, yaw) = track.place(s_pos[0], s.lead.offset);
+            VehicleState { x, y, yaw: yaw + s.lead.heading, speed: s.lead.initial_speed, ..VehicleState::default() }
+        };
         // Bodies: follower 1, the lead, then followers 2..N.
         let mut bodies = Vec::with_capacity(n);
         let mut lead_body = None;
@@ -170,19 +183,30 @@ impl Simulation {
         phase_triggers.extend(s.vehicles.iter().map(|v| per_phase(&v.phases)));
         let any = s.stop.trigger.is_some()
             || s.lead.phases.iter().chain(s.vehicles.iter().flat_map(|v| v.phases.iter())).any(|p| p.start.is_some());
+        let story = s.story.as_ref().map(|story| {
+            let mut initial = vec![(lead_state, ll.length)];
+            initial.extend(traffic.iter().map(|t| (*t.vehicle.state(), t.params.length)));
+            if let Some(f) = followers.first() {
+                initial.push((*f.vehicle.state(), f.cfg.follower.vehicle.length));
+            }
+            StoryRun::new(story, &track, &initial)
+        });
+        let still = vec![0.0; 1 + traffic.len() + followers.len()];
         let state = State {
             scenario: s.clone(),
             lead_x0: s_pos[0],
             world,
             lead_body,
             lead: Vehicle::new(*ll, lead_state),
-            lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], 0.0, &|l| track.lane_offset(l)),
+            lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], s.lead.offset, &|l| track.lane_offset(l)),
             lead_steer: centreline_pursuit(ll)?,
             follower_s0: s_pos[1..].to_vec(),
             followers,
             traffic,
             fronts: Vec::new(),
             triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any, fired: Vec::new() },
+            story,
+            still,
             source: platoon.v2v_source,
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
@@ -266,12 +290,21 @@ impl<O: Observer> Simulation<O> {
         if self.state.triggers.any {
             self.fire_start_triggers(t);
         }
+        if self.state.story.is_some() {
+            self.step_story(t, dt);
+        }
         let ls = *self.state.lead.state();
         let lproj = self.state.track.project(ls.x, ls.y);
-        let lcmd = self.state.lead_driver.step(t, ls.speed, lproj.s - self.state.lead_x0);
+        let mut lcmd = self.state.lead_driver.step(t, ls.speed, lproj.s - self.state.lead_x0);
+        let tracking = |st: &State, j: usize, p: &crate::vehicle::VehicleParams, v: f64| st.story.as_ref().and_then(|r| r.tracking(j, p, v));
+        if let Some((accel, offset)) = tracking(&self.state, 0, &self.state.scenario.lead.vehicle, ls.speed) {
+            (lcmd.accel, lcmd.lateral_offset) = (accel, offset);
+        }
         let lead_steer = self.lead_centreline_steer(&ls, lproj.s, lcmd.lateral_offset);
-        for tr in &mut self.state.traffic {
-            tr.command(t, &self.state.track);
+        for i in 0..self.state.traffic.len() {
+            let tr = &self.state.traffic[i];
+            let over = tracking(&self.state, 1 + i, &tr.params, tr.vehicle.state().speed);
+            self.state.traffic[i].command(t, &self.state.track, over);
         }
         if let Some(onset) = self.state.lead_driver.brake_onset() {
             for f in &mut self.state.followers {
@@ -359,22 +392,53 @@ impl<O: Observer> Simulation<O> {
             }
         }
 
-        // 4. Low-level control and dynamics.
-        for f in &mut self.state.followers {
+        // 4. Low-level control and dynamics (the story's kinematic entities are put where their
+        //    motion is).
+        let ego_slot = 1 + self.state.traffic.len();
+        for (k, f) in self.state.followers.iter_mut().enumerate() {
             let v = f.vehicle.state().speed;
             f.accel_cmd = f.speed_ctrl.step(f.speed_cmd, v, dt);
-            f.vehicle.step(f.accel_cmd, f.steer_cmd, dt);
+            match self.state.story.as_ref().filter(|r| k == 0 && r.ego_scripted) {
+                Some(r) if r.kinematic(ego_slot) => {
+                    if let Some(m) = r.motions.get(ego_slot) {
+                        f.accel_cmd = m.accel;
+                        f.vehicle.set_state(pose_of(&self.state.track, m, f.steer_cmd));
+                    }
+                }
+                Some(r) => {
+                    if let Some((accel, _)) = r.tracking(ego_slot, &f.cfg.follower.vehicle, v) {
+                        f.accel_cmd = accel;
+                    }
+                    f.vehicle.step(f.accel_cmd, f.steer_cmd, dt);
+                }
+                None => f.vehicle.step(f.accel_cmd, f.steer_cmd, dt),
+            }
         }
-        self.state.lead.step(lcmd.accel, lead_steer, dt);
+        match self.state.story.as_ref().filter(|r| r.kinematic(0)).and_then(|r| r.motions.first()) {
+            Some(m) => self.state.lead.set_state(pose_of(&self.state.track, m, 0.0)),
+            None => self.state.lead.step(lcmd.accel, lead_steer, dt),
+        }
         for (i, f) in self.state.followers.iter().enumerate() {
             self.state.world.set_pose(f.body, f.vehicle.state());
             if i == 0 {
                 self.state.world.set_pose(self.state.lead_body, self.state.lead.state());
             }
         }
-        for tr in &mut self.state.traffic {
-            tr.advance(dt);
+        for (i, tr) in self.state.traffic.iter_mut().enumerate() {
+            match self.state.story.as_ref().filter(|r| r.kinematic(1 + i)).and_then(|r| r.motions.get(1 + i)) {
+                Some(m) => tr.vehicle.set_state(pose_of(&self.state.track, m, 0.0)),
+                None => tr.advance(dt),
+            }
             self.state.world.set_pose(tr.body, tr.vehicle.state());
+        }
+        {
+            let st = &mut self.state;
+            let speeds = std::iter::once(st.lead.state().speed)
+                .chain(st.traffic.iter().map(|t| t.vehicle.state().speed))
+                .chain(st.followers.iter().map(|f| f.vehicle.state().speed));
+            for (still, v) in st.still.iter_mut().zip(speeds) {
+                *still = if v < 1.0e-3 { *still + dt } else { 0.0 };
+            }
         }
         let contacts = self.state.world.step(dt);
         self.state.t += dt;
@@ -415,7 +479,11 @@ impl<O: Observer> Simulation<O> {
         if self.state.triggers.any && self.stop_trigger_fired() {
             return Ok(false);
         }
-        if self.state.lead_driver.finished() && all_still {
+        let scripts_done = match &self.state.story {
+            Some(r) => r.state.complete(),
+            None => self.state.lead_driver.finished(),
+        };
+        if scripts_done && all_still {
             let since = *self.state.standstill_since.get_or_insert(self.state.t);
             if self.state.t - since >= self.state.scenario.stop.standstill_time {
                 return Ok(false);
@@ -480,6 +548,29 @@ impl<O: Observer> Simulation<O> {
 
     fn truth(&self) -> Truth<'_> {
         truth!(self.state)
+    }
+
+    /// `[story]` at `t`: its triggers on the ground truth at the start of the step, then the
+    /// motions of its entities to `t + dt`.
+    fn step_story(&mut self, t: f64, dt: f64) {
+        let st = &mut self.state;
+        let Some(story) = st.scenario.story.as_ref() else { return };
+        let Some(mut run) = st.story.take() else { return };
+        let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
+        let n = names.len();
+        let slot = |name: &str| -> Option<usize> {
+            match name {
+                "lead" => Some(0),
+                crate::scenario::EGO => Some(n + 1),
+                _ => names.iter().position(|x| *x == name).map(|i| i + 1),
+            }
+        };
+        let ego = st.followers.first().map(|f| (*f.vehicle.state(), f.cfg.follower.vehicle.length)).unwrap_or_default();
+        {
+            let truth = truth!(st);
+            run.step(story, &truth, &slot, &st.track, (&ego.0, ego.1), t, dt);
+        }
+        st.story = Some(run);
     }
 
     /// Evaluates every armed start trigger at `t` and starts the phases whose trigger fires.

@@ -62,12 +62,14 @@ impl Traffic {
         })
     }
 
-    /// Step 1 of the loop: the driver's command for this step.
-    pub(super) fn command(&mut self, t: f64, track: &Track) {
+    /// Step 1 of the loop: the driver's command for this step (`over`: the acceleration demand
+    /// and lateral offset of a story's motion, instead of the phases').
+    pub(super) fn command(&mut self, t: f64, track: &Track, over: Option<(f64, f64)>) {
         let st = *self.vehicle.state();
         let proj = track.project(st.x, st.y);
         let c = self.driver.step(t, st.speed, proj.s - self.s0);
-        self.cmd = (c.accel, centreline_steer(track, &self.steer, &st, proj.s, c.lateral_offset));
+        let (accel, offset) = over.unwrap_or((c.accel, c.lateral_offset));
+        self.cmd = (accel, centreline_steer(track, &self.steer, &st, proj.s, offset));
     }
 
     /// Step 4: dynamics.
@@ -97,6 +99,9 @@ macro_rules! truth {
             traffic: &$st.traffic,
             followers: &$st.followers,
             follower_s0: &$st.follower_s0,
+            story: $st.story.as_ref().map(|r| &r.state),
+            contacts: &$st.other_contacts,
+            still: &$st.still,
         }
     };
 }
@@ -110,13 +115,19 @@ pub(super) struct Truth<'a> {
     pub(super) followers: &'a [Follower],
     /// Each follower's centre position along the centreline at the start.
     pub(super) follower_s0: &'a [f64],
+    /// The story's runtime (element states, variables).
+    pub(super) story: Option<&'a crate::story::StoryState>,
+    /// Contacts without a follower.
+    pub(super) contacts: &'a [crate::metrics::ContactRecord],
+    /// Standstill times (0 = lead, traffic, followers).
+    pub(super) still: &'a [f64],
 }
 
-fn entity_state(track: &Track, v: &Vehicle, s0: f64) -> EntityState {
+fn entity_state(track: &Track, v: &Vehicle, s0: f64, still_for: f64) -> EntityState {
     let st = v.state();
     let p = track.project(st.x, st.y);
     let par = v.params();
-    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0, accel: st.accel, still_for: 0.0 }
+    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0, accel: st.accel, still_for }
 }
 
 /// Follower index (0-based) of a trigger name: `ego` or `follower <k>`.
@@ -129,14 +140,48 @@ fn follower_index(name: &str) -> Option<usize> {
 
 impl WorldView for Truth<'_> {
     fn entity(&self, name: &str) -> Option<EntityState> {
+        let still = |i: usize| self.still.get(i).copied().unwrap_or(0.0);
         if name == "lead" {
-            return Some(entity_state(self.track, self.lead.0, self.lead.1));
+            return Some(entity_state(self.track, self.lead.0, self.lead.1, still(0)));
         }
         if let Some(k) = follower_index(name) {
             let f = self.followers.get(k)?;
-            return Some(entity_state(self.track, &f.vehicle, self.follower_s0.get(k).copied().unwrap_or(0.0)));
+            return Some(entity_state(self.track, &f.vehicle, self.follower_s0.get(k).copied().unwrap_or(0.0), still(1 + self.traffic.len() + k)));
         }
-        self.traffic.iter().find(|t| t.name == name).map(|t| entity_state(self.track, &t.vehicle, t.s0))
+        let i = self.traffic.iter().position(|t| t.name == name)?;
+        self.traffic.get(i).map(|t| entity_state(self.track, &t.vehicle, t.s0, still(1 + i)))
+    }
+
+    fn element(&self, name: &str) -> Option<crate::trigger::ElementStatus> {
+        self.story?.element(name)
+    }
+
+    fn variable(&self, name: &str) -> Option<crate::trigger::VarValue> {
+        self.story?.variable(name).cloned()
+    }
+
+    fn collided(&self, a: &str, b: Option<&str>) -> bool {
+        // A follower's first contact, under its trigger names (`ego` = `follower 1`).
+        let follower_hit = |k: usize, other: &str| {
+            self.followers.get(k).and_then(|f| f.collision.as_ref()).is_some_and(|c| {
+                let name = c.object.name();
+                other.is_empty() || name.as_deref() == Some(other) || (other == crate::scenario::EGO && name.as_deref() == Some("follower 1"))
+            })
+        };
+        let is = |n: &str, who: &str| n == who || (who == crate::scenario::EGO && n == "follower 1");
+        if let Some(k) = follower_index(a) {
+            return follower_hit(k, b.unwrap_or(""));
+        }
+        if let Some(k) = b.and_then(follower_index) {
+            return follower_hit(k, a);
+        }
+        self.contacts.iter().any(|c| {
+            let (na, nb) = (c.a.name().unwrap_or_default(), c.b.name().unwrap_or_default());
+            match b {
+                None => is(&na, a) || is(&nb, a),
+                Some(b) => (is(&na, a) && is(&nb, b)) || (is(&na, b) && is(&nb, a)),
+            }
+        }) || (b.is_none() && (0..self.followers.len()).any(|k| follower_hit(k, a)))
     }
 
     fn phase(&self, name: &str, phase: usize) -> PhaseStatus {

@@ -1,0 +1,143 @@
+//! `[story]` in the loop: the storyboard's runtime ([`StoryState`]) evaluated on ground truth at
+//! the start of every step, and the motion ([`Motion`]) of every entity it drives: the lead, the
+//! `[[vehicles]]` and, while the story has it, the ego.
+
+use crate::story::{Action, Dynamics, EgoMode, Motion, Started, Story, StoryState};
+use crate::track::Track;
+use crate::trigger::WorldView;
+use crate::vehicle::{VehicleParams, VehicleState};
+
+/// Gain of the driver that tracks a story's speed in `dynamics = "vehicle"`, 1/s.
+const TRACK_GAIN: f64 = 3.0;
+
+/// The story's runtime and the motions of its entities (slot 0 = the lead, `1..=n` = the
+/// traffic, `n + 1` = the ego).
+pub(super) struct StoryRun {
+    pub(super) state: StoryState,
+    pub(super) motions: Vec<Motion>,
+    /// The story drives the ego now (`ego = "scripted"`, or a `controller` action handed it over).
+    pub(super) ego_scripted: bool,
+    pub(super) dynamics: Dynamics,
+    started: Vec<Started>,
+    stopped: Vec<usize>,
+}
+
+/// The motion of a vehicle at `state` on `track`, `length` m long.
+pub(super) fn motion_of(track: &Track, state: &VehicleState, length: f64) -> Motion {
+    let p = track.project(state.x, state.y);
+    let mut m = Motion::new(p.s, p.lateral_offset, state.speed, track.lane_width).with_length(length);
+    m.heading = crate::track::wrap(state.yaw - p.heading);
+    m
+}
+
+/// The pose a motion puts its vehicle in.
+pub(super) fn pose_of(track: &Track, m: &Motion, steer: f64) -> VehicleState {
+    let (x, y, h) = track.place(m.s, m.offset);
+    VehicleState { x, y, yaw: h + m.heading, speed: m.speed, accel: m.accel, steer }
+}
+
+impl StoryRun {
+    /// The runtime of `story` for entities at `initial` (lead, traffic..., ego: state and length).
+    pub(super) fn new(story: &Story, track: &Track, initial: &[(VehicleState, f64)]) -> Self {
+        Self {
+            state: StoryState::new(story),
+            motions: initial.iter().map(|(st, len)| motion_of(track, st, *len)).collect(),
+            ego_scripted: story.ego == EgoMode::Scripted,
+            dynamics: story.dynamics,
+            started: Vec::new(),
+            stopped: Vec::new(),
+        }
+    }
+
+    /// The ego's slot.
+    fn ego(&self) -> usize {
+        self.motions.len().saturating_sub(1)
+    }
+
+    /// One evaluation at `t`: starts / stops actions (`slot` maps an entity name to its slot;
+    /// `world` is the ground truth at the start of the step, `ego_now` the ego's state, from
+    /// which its motion restarts when the story takes it over), then advances every motion to
+    /// `t + dt` along `track`.
+    pub(super) fn step(
+        &mut self,
+        story: &Story,
+        world: &dyn WorldView,
+        slot: &dyn Fn(&str) -> Option<usize>,
+        track: &Track,
+        ego_now: (&VehicleState, f64),
+        t: f64,
+        dt: f64,
+    ) {
+        self.started.clear();
+        self.stopped.clear();
+        self.state.step(story, world, t, &mut self.started, &mut self.stopped);
+        for &x in &self.stopped {
+            for m in &mut self.motions {
+                m.stop(x);
+            }
+        }
+        let ego = self.ego();
+        for k in 0..self.started.len() {
+            let i = self.started[k].action;
+            let Some((action, actors)) = self.state.action(story, i) else { continue };
+            if let Action::Controller { longitudinal } = action {
+                if actors.iter().any(|a| slot(a) == Some(ego)) {
+                    let scripted = !*longitudinal;
+                    if scripted && !self.ego_scripted {
+                        self.motions[ego] = motion_of(track, ego_now.0, ego_now.1);
+                    }
+                    self.ego_scripted = scripted;
+                }
+                continue;
+            }
+            if !(action.is_longitudinal() || action.is_lateral()) {
+                continue;
+            }
+            for a in actors {
+                let Some(j) = slot(a) else {
+                    self.state.end_action(i, true);
+                    continue;
+                };
+                if j == ego && !self.ego_scripted {
+                    // flc's controller drives the ego: its story actions do not run.
+                    self.state.end_action(i, true);
+                    continue;
+                }
+                let Some(m) = self.motions.get_mut(j) else { continue };
+                let (replaced, done) = m.start(i, action, t, world);
+                if let Some(r) = replaced {
+                    self.state.end_action(r, true);
+                }
+                if done {
+                    self.state.end_action(i, false);
+                }
+            }
+        }
+        for j in 0..self.motions.len() {
+            if j == ego && !self.ego_scripted {
+                continue;
+            }
+            let m = &mut self.motions[j];
+            let kappa = track.curvature_at(m.s);
+            let out = m.step(t, dt, kappa, world);
+            if let Some(i) = out.long_done {
+                self.state.end_action(i, false);
+            }
+            if let Some(i) = out.lat_done {
+                self.state.end_action(i, false);
+            }
+        }
+    }
+
+    /// `true` when slot `j` moves kinematically (its pose is set from its motion).
+    pub(super) fn kinematic(&self, j: usize) -> bool {
+        self.dynamics == Dynamics::Kinematic && (j != self.ego() || self.ego_scripted)
+    }
+
+    /// `dynamics = "vehicle"`: the acceleration demand (with the resistance feed-forward) and
+    /// the lateral offset that track slot `j`'s motion with a vehicle `p` at speed `speed`.
+    pub(super) fn tracking(&self, j: usize, p: &VehicleParams, speed: f64) -> Option<(f64, f64)> {
+        let m = self.motions.get(j)?;
+        Some((m.accel + TRACK_GAIN * (m.speed - speed) + p.resistance(speed), m.offset))
+    }
+}
