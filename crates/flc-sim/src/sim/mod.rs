@@ -242,6 +242,22 @@ impl<O: Observer> Simulation<O> {
         (p.started, p.ended)
     }
 
+    /// The status of the `[story]` element `name` now (`None`: no story or no such element).
+    pub fn element(&self, name: &str) -> Option<crate::trigger::ElementStatus> {
+        self.state.story.as_ref()?.state.element(name)
+    }
+
+    /// The value of `[story]` variable `name` now.
+    pub fn variable(&self, name: &str) -> Option<crate::trigger::VarValue> {
+        self.state.story.as_ref()?.state.variable(name).cloned()
+    }
+
+    /// `true` while the story drives the ego (`[story] ego = "scripted"` or after a
+    /// `controller` action handed it over).
+    pub fn ego_scripted(&self) -> bool {
+        self.state.story.as_ref().is_some_and(|r| r.ego_scripted)
+    }
+
     /// The state of the scripted vehicle `name` (`lead` or a `[[vehicles]]` name) now.
     pub fn scripted_state(&self, name: &str) -> Option<&VehicleState> {
         if name == "lead" {
