@@ -252,6 +252,17 @@ impl<O: Observer> Simulation<O> {
         self.state.story.as_ref()?.state.variable(name).cloned()
     }
 
+    /// Every start / end / stop / skip of a `[story]` event (`true`) or action (`false`) so far,
+    /// with its name: `(time, is_event, name, transition)`.
+    pub fn story_transitions(&self) -> Vec<(f64, bool, String, crate::trigger::ElementEvent)> {
+        let (Some(run), Some(story)) = (self.state.story.as_ref(), self.state.scenario.story.as_ref()) else { return Vec::new() };
+        run.state
+            .transitions()
+            .iter()
+            .map(|tr| (tr.t, tr.event, run.state.name(story, tr.event, tr.index).unwrap_or_default().to_string(), tr.what))
+            .collect()
+    }
+
     /// `true` while the story drives the ego (`[story] ego = "scripted"` or after a
     /// `controller` action handed it over).
     pub fn ego_scripted(&self) -> bool {
