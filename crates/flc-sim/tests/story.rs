@@ -197,10 +197,12 @@ actions = [{ name = "stop", kind = "speed", speed = 0.0, shape = "linear", dimen
 "#;
     let (tr, sim) = run(&scenario(body), "lead");
     let first = |pred: &dyn Fn(f64) -> bool| tr.t.iter().zip(&tr.speed).find(|(_, v)| pred(**v)).map(|(t, _)| *t).expect("happens");
-    // e1 fires at the evaluation at t = 1.0 and sets `go`; e2 sees it at the next evaluation
-    // (t = 1.01) and steps to 10 m/s in that step; it ends there, e3 starts 1 s later.
-    assert!((first(&|v| v == 10.0) - 1.02).abs() < 1e-9, "e2: {}", first(&|v| v == 10.0));
-    assert!((first(&|v| v < 10.0 - 1e-9) - 2.03).abs() < 1e-9, "e3: {}", first(&|v| v < 10.0 - 1e-9));
+    // e1 fires at the evaluation at t = 1.0 and sets `go`; e2, evaluated after it in the same
+    // step (document order, as esmini), sees it and steps to 10 m/s in that step (t = 1.01
+    // after it); it ends in that step, which conditions see from the next evaluation (1.01):
+    // with the 1 s delay e3 starts at 2.01 and shows at 2.02.
+    assert!((first(&|v| v == 10.0) - 1.01).abs() < 1e-9, "e2: {}", first(&|v| v == 10.0));
+    assert!((first(&|v| v < 10.0 - 1e-9) - 2.02).abs() < 1e-9, "e3: {}", first(&|v| v < 10.0 - 1e-9));
     assert_eq!(sim.variable("go"), Some(flc_sim::trigger::VarValue::Bool(true)));
     assert!(sim.element("maneuver").expect("maneuver").complete);
 }
