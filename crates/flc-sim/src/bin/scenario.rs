@@ -8,8 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use clap::Parser;
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
 use flc_sim::report::{self, RunRecord};
-use flc_sim::openscenario::{self, ImportOptions, Imported, RoadChoice};
-use flc_sim::story::{Dynamics, EgoMode};
+use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{RunOptions, SimError};
 
@@ -112,30 +111,9 @@ enum Command {
 
 /// The import options the command line gives.
 fn import_options(cli: &Cli) -> Result<ImportOptions, String> {
-    let mut params = Vec::new();
-    for p in &cli.param {
-        let (name, value) = p.split_once('=').ok_or_else(|| format!("`--param`: expected NAME=VALUE, got `{p}`"))?;
-        if name.trim().is_empty() {
-            return Err(format!("`--param`: empty parameter name in `{p}`"));
-        }
-        params.push((name.trim().to_string(), value.to_string()));
-    }
-    let ego_mode = match cli.ego_mode.as_str() {
-        "controller" => EgoMode::Controller,
-        "scripted" => EgoMode::Scripted,
-        other => return Err(format!("`--ego-mode`: must be controller or scripted, got `{other}`")),
-    };
-    let road = match cli.road.as_str() {
-        "file" => RoadChoice::File,
-        "straight" => RoadChoice::Straight,
-        other => return Err(format!("`--road`: must be file or straight, got `{other}`")),
-    };
-    let dynamics = match cli.traffic_dynamics.as_str() {
-        "kinematic" => Dynamics::Kinematic,
-        "vehicle" => Dynamics::Vehicle,
-        other => return Err(format!("`--traffic-dynamics`: must be kinematic or vehicle, got `{other}`")),
-    };
-    Ok(ImportOptions { params, ego: cli.ego.clone(), ego_mode, controller: None, road, dynamics })
+    let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
+    let params = cli.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
+    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)
 }
 
 /// `true` for an OpenSCENARIO file name.
