@@ -10,6 +10,7 @@
 //! - `catalog`, `entities`, `storyboard`: entities, init and storyboard -> [`crate::Scenario`].
 
 pub mod error;
+pub mod road;
 pub mod xml;
 
 pub use error::ImportError;
