@@ -11,6 +11,7 @@
 
 pub mod error;
 mod options;
+pub mod road;
 pub mod xml;
 
 pub use error::ImportError;
