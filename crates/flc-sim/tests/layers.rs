@@ -140,6 +140,23 @@ fn crate_src(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name).join("src")
 }
 
+/// Only the OpenSCENARIO importer knows XML exists: no other module of flc-sim names the XML
+/// crate (the model, the loop and the sinks see `Scenario` only).
+#[test]
+fn only_the_importer_reads_xml() {
+    let src = crate_src("flc-sim");
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    for f in files {
+        let rel = f.strip_prefix(&src).expect("under src");
+        if rel.starts_with("openscenario") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).expect("read");
+        assert!(!code(&text).contains("roxmltree"), "{} uses the XML reader: only `openscenario` may", rel.display());
+    }
+}
+
 #[test]
 fn no_crate_has_an_import_cycle() {
     for krate in ["flc-core", "flc-sim", "flc-py"] {
@@ -154,9 +171,9 @@ fn no_crate_has_an_import_cycle() {
 /// the layers below.
 const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units"],
-    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "trigger", "lead"],
+    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "trigger", "lead", "story"],
     &["series", "metrics"],
-    &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability"],
+    &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],
     &["record", "report"],
     &["runner"],
