@@ -18,6 +18,11 @@ use super::xml;
 /// Most runs one distribution file may ask for.
 pub const MAX_RUNS: u64 = 100_000;
 
+/// Largest total size of the expanded runs (the sum over all runs of each parameter's name and
+/// value lengths plus 64 bytes per pair), bytes: a few runs repeating huge value sets must not
+/// grow memory without bound either.
+pub const MAX_EXPANDED_BYTES: u128 = 128 * 1024 * 1024;
+
 /// Slack of a `DistributionRange`, as a fraction of `stepWidth`: a value counts as inside the
 /// range when it exceeds `upperLimit` by at most this much of a step (so `0..0.3` by `0.1`
 /// gives 4 values despite rounding).
@@ -123,8 +128,22 @@ pub fn read(doc: &roxmltree::Document<'_>, file: &Path) -> Result<Distribution, 
         all.push(choices);
     }
 
-    // Pass 3: the runs, the last distribution varying fastest.
+    // The size of the expansion: each choice of distribution k appears total / count_k times.
     let total = counts.iter().product::<u64>();
+    let mut bytes: u128 = 0;
+    for (choices, &n) in all.iter().zip(&counts) {
+        let size: u128 = choices.iter().flatten().map(|(a, b)| (a.len() + b.len() + 64) as u128).sum();
+        bytes = bytes.saturating_add(size.saturating_mul(u128::from(total / n.max(1))));
+    }
+    if bytes > MAX_EXPANDED_BYTES {
+        return Err(ImportError::at(
+            f,
+            det,
+            format!("the {total} runs would hold {bytes} bytes of parameter values, more than the limit of {MAX_EXPANDED_BYTES}"),
+        ));
+    }
+
+    // Pass 3: the runs, the last distribution varying fastest.
     let mut runs = Vec::with_capacity(usize::try_from(total).unwrap_or(0));
     for r in 0..total {
         let mut picks = vec![0usize; all.len()];
@@ -407,6 +426,10 @@ mod tests {
         let many: String = (0..40).map(|i| set(&format!("p{i}"), &["1", "2", "3", "4", "5", "6", "7", "8", "9"])).collect();
         let e = read_str(&file(&many)).expect_err("overflow").to_string();
         assert!(e.contains("combinations"), "{e}");
+        // Few runs, each repeating a huge value: refused by size.
+        let huge = "x".repeat(2 * 1024 * 1024);
+        let e = read_str(&file(&(range_xml("a", "1", "100", "1") + &set("b", &[&huge])))).expect_err("bytes").to_string();
+        assert!(e.contains("bytes of parameter values"), "{e}");
     }
 
     #[test]

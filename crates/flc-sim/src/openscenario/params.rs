@@ -11,6 +11,10 @@ use super::error::ImportError;
 use super::expr::{self, Value};
 use super::xml;
 
+/// Longest `string`/`dateTime` parameter or variable value, bytes (every `$name` reference
+/// copies the value, so a huge one referenced many times would multiply memory).
+pub const MAX_TEXT: usize = 4096;
+
 /// The declared type of a parameter or variable (`parameterType` / `variableType`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamType {
@@ -27,7 +31,7 @@ pub enum ParamType {
     /// `string`: any text.
     String,
     /// `dateTime`: an ISO 8601 date and time (`YYYY-MM-DDThh:mm:ss`, then optional fraction and
-    /// zone), kept as text.
+    /// zone; at most 64 bytes), kept as text.
     DateTime,
 }
 
@@ -101,9 +105,15 @@ impl ParamType {
                 },
                 Value::Num(x) => Err(format!("a number ({x}) is not a boolean")),
             },
-            Self::String => Ok(Value::Str(v.to_string())),
+            Self::String => {
+                let s = v.to_string();
+                if s.len() > MAX_TEXT {
+                    return Err(format!("a text of {} bytes is longer than the limit of {MAX_TEXT}", s.len()));
+                }
+                Ok(Value::Str(s))
+            }
             Self::DateTime => match v {
-                Value::Str(s) if is_date_time(s.trim()) => Ok(Value::Str(s.trim().to_string())),
+                Value::Str(s) if s.trim().len() <= 64 && is_date_time(s.trim()) => Ok(Value::Str(s.trim().to_string())),
                 other => Err(format!("`{other}` is not a dateTime (YYYY-MM-DDThh:mm:ss)")),
             },
         }
@@ -609,6 +619,9 @@ mod tests {
         assert!(e.contains("not a boolean"), "{e}");
         let e = err(&decl(r#"<ParameterDeclaration name="d" parameterType="double" value="inf"/>"#), &[]);
         assert!(e.contains("not a finite number"), "{e}");
+        let long = "y".repeat(MAX_TEXT + 1);
+        let e = err(&decl(&format!(r#"<ParameterDeclaration name="s" parameterType="string" value="{long}"/>"#)), &[]);
+        assert!(e.contains("longer than the limit"), "{e}");
         let e = err(&decl(r#"<ParameterDeclaration name="t" parameterType="dateTime" value="today"/>"#), &[]);
         assert!(e.contains("not a dateTime"), "{e}");
         let e = err(&decl(r#"<ParameterDeclaration name="x" parameterType="float" value="1"/>"#), &[]);
