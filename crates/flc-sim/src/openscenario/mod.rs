@@ -9,7 +9,11 @@
 //! - `distribution`: `ParameterValueDistribution` files;
 //! - `catalog`, `entities`, `storyboard`: entities, init and storyboard -> [`crate::Scenario`].
 
+pub mod distribution;
 pub mod error;
+pub mod expr;
+pub mod params;
+pub mod road;
 pub mod xml;
 
 pub use error::ImportError;
