@@ -36,6 +36,13 @@ def _key_path(key: str) -> list[Union[str, int]]:
     return path
 
 
+def _param_text(v: Any) -> str:
+    # Parameter values as OpenSCENARIO writes them: booleans as true/false, numbers as repr.
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return str(v)
+
+
 class Scenario:
     """One closed-loop run, as the simulator's scenario file (``docs/scenarios.md``).
 
@@ -48,6 +55,7 @@ class Scenario:
         # Validate through Rust: unknown keys / out-of-range values raise ScenarioError naming the key.
         self._json = _flc.check_scenario(json.dumps(dict(data), allow_nan=True))
         self._data: dict[str, Any] = json.loads(self._json)
+        self._params: dict[str, str] = {}
 
     @classmethod
     def _patched(cls, scenario_json: str, overrides: Mapping[str, Any]) -> "Scenario":
@@ -75,9 +83,75 @@ class Scenario:
         return cls._patched(_flc.brakedemo_scenario(), overrides)
 
     @classmethod
-    def load(cls, path: Union[str, "os.PathLike[str]"], **overrides: Any) -> "Scenario":
-        """Read a TOML scenario file."""
-        return cls._patched(_flc.load_scenario(os.fspath(path)), overrides)
+    def load(
+        cls,
+        path: Union[str, "os.PathLike[str]"],
+        params: Optional[Mapping[str, Any]] = None,
+        *,
+        ego: Optional[str] = None,
+        ego_mode: str = "controller",
+        road: str = "file",
+        traffic_dynamics: str = "kinematic",
+        controller: Optional[str] = None,
+        **overrides: Any,
+    ) -> "Scenario":
+        """Read a scenario file: TOML, or ASAM OpenSCENARIO ``.xosc`` (``docs/openscenario.md``).
+
+        For ``.xosc``: ``params`` sets parameters (as ``scenario --param NAME=VALUE``), ``ego``
+        names the entity flc drives, ``ego_mode="scripted"`` makes it follow its storyboard (as
+        esmini does), ``road="straight"`` replaces a missing road, ``traffic_dynamics="vehicle"``
+        moves the scripted entities through their vehicle models, ``controller`` overrides the
+        file's controller. A distribution file has several runs: use :meth:`load_all`.
+        Keyword ``overrides`` patch the result as in :meth:`from_dict`.
+        """
+        runs = cls.load_all(
+            path,
+            params,
+            ego=ego,
+            ego_mode=ego_mode,
+            road=road,
+            traffic_dynamics=traffic_dynamics,
+            controller=controller,
+            **overrides,
+        )
+        if len(runs) != 1:
+            raise ScenarioError(f"{os.fspath(path)}: {len(runs)} runs (a distribution): use Scenario.load_all")
+        return runs[0]
+
+    @classmethod
+    def load_all(
+        cls,
+        path: Union[str, "os.PathLike[str]"],
+        params: Optional[Mapping[str, Any]] = None,
+        *,
+        ego: Optional[str] = None,
+        ego_mode: str = "controller",
+        road: str = "file",
+        traffic_dynamics: str = "kinematic",
+        controller: Optional[str] = None,
+        **overrides: Any,
+    ) -> "list[Scenario]":
+        """Every run of a scenario file: one for TOML and ``.xosc`` files, one per combination of
+        an OpenSCENARIO ``ParameterValueDistribution`` (its parameter values in
+        :attr:`params`). Arguments as :meth:`load`."""
+        p = os.fspath(path)
+        if not p.lower().endswith(".xosc"):
+            if params:
+                raise ScenarioError("`params`: only OpenSCENARIO (.xosc) files take parameters")
+            return [cls._patched(_flc.load_scenario(p), overrides)]
+        pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
+        out = []
+        for scenario_json, values in _flc.import_openscenario(p, pairs, ego, ego_mode, road, traffic_dynamics, controller):
+            s = cls._patched(scenario_json, overrides)
+            s._params = dict(values)
+            out.append(s)
+        return out
+
+    @property
+    def params(self) -> "dict[str, str]":
+        """The OpenSCENARIO parameter values this run was imported with (distributions; empty
+        otherwise)."""
+        return dict(self._params)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], **overrides: Any) -> "Scenario":

@@ -46,6 +46,26 @@ fn load_scenario(path: PathBuf) -> PyResult<String> {
     to_json(&Scenario::from_file(&path).map_err(scenario_err)?)
 }
 
+/// Imports an OpenSCENARIO file (`flc_sim::openscenario::import`): one `(scenario JSON,
+/// parameter values)` per run (a `ParameterValueDistribution` has one per combination). Bad
+/// files and options raise `ScenarioError` naming the file, line and element, or the option.
+#[pyfunction]
+#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller))]
+fn import_openscenario(
+    path: PathBuf,
+    params: Vec<(String, String)>,
+    ego: Option<String>,
+    ego_mode: &str,
+    road: &str,
+    traffic_dynamics: &str,
+    controller: Option<&str>,
+) -> PyResult<Vec<(String, Vec<(String, String)>)>> {
+    let opts = flc_sim::openscenario::ImportOptions::from_words(params, ego, ego_mode, road, traffic_dynamics, controller)
+        .map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let import = flc_sim::openscenario::import(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, r.params))).collect()
+}
+
 /// Validates scenario JSON (defaults filled in) and returns the normalised JSON.
 #[pyfunction]
 fn check_scenario(json: &str) -> PyResult<String> {
@@ -260,6 +280,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(import_openscenario, m)?)?;
     m.add_function(wrap_pyfunction!(check_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;

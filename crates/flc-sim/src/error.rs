@@ -52,6 +52,10 @@ pub enum SimError {
     /// A core parameter struct was rejected.
     #[error("invalid controller parameter: {0}")]
     Param(#[from] flc_core::ParamError),
+    /// An input file was rejected; the message names the file, line or key (an OpenSCENARIO
+    /// import error).
+    #[error("{0}")]
+    Input(String),
     /// An I/O error while writing results.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),

@@ -261,9 +261,15 @@ fn row(point: &SweepPoint, metrics: &Metrics) -> String {
 
 /// The CSV header for a sweep.
 pub fn header(spec: &SweepSpec) -> String {
+    let keys: Vec<String> = spec.axes.iter().map(|a| a.key.clone()).collect();
+    header_of(&keys)
+}
+
+/// The CSV header for points whose values are named `keys`.
+fn header_of(keys: &[String]) -> String {
     let mut h = vec!["run_id".to_string()];
-    h.extend(spec.axes.iter().map(|a| a.key.clone()));
-    if !spec.axes.iter().any(|a| a.key == "controller") {
+    h.extend(keys.iter().cloned());
+    if !keys.iter().any(|k| k == "controller") {
         h.push("controller".into());
     }
     h.push("seed".into());
@@ -287,6 +293,15 @@ pub fn finished_ids(out: &Path) -> HashSet<usize> {
 /// Runs the points not yet in `out`, appending one CSV row per finished run (flushed as it
 /// finishes). Returns the number of runs done now.
 pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
+    let keys: Vec<String> = spec.axes.iter().map(|a| a.key.clone()).collect();
+    run_points(&keys, points, out, progress)
+}
+
+/// Runs `points` (their values named `keys`, the CSV's columns after `run_id`) in parallel,
+/// streaming one row per finished run into `out` and skipping the ids already there, as
+/// [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
+/// (the keys are their parameters). Returns the number of runs done.
+pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
     use rayon::prelude::*;
     let done = finished_ids(out);
     let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
@@ -295,7 +310,7 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
     if fresh {
         // Rewrite from scratch (an existing file without finished rows is replaced).
         file = std::fs::File::create(out)?;
-        writeln!(file, "{}", header(spec))?;
+        writeln!(file, "{}", header_of(keys))?;
     }
     let writer = Mutex::new(std::io::BufWriter::new(file));
     let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use clap::Parser;
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
 use flc_sim::report::{self, RunRecord};
+use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{RunOptions, SimError};
 
@@ -29,9 +30,30 @@ static STOP: AtomicBool = AtomicBool::new(false);
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
-    /// Scenario file(s) (TOML, schema in docs/scenarios.md). Repeat or list several.
+    /// Scenario file(s): TOML (schema in docs/scenarios.md) or ASAM OpenSCENARIO `.xosc`
+    /// (docs/openscenario.md; a `ParameterValueDistribution` file runs every combination).
+    /// Repeat or list several.
     #[arg(long = "config", value_name = "FILE", num_args = 1..)]
     config: Vec<PathBuf>,
+    /// `.xosc`: set a parameter, NAME=VALUE (repeatable; as esmini's --param).
+    #[arg(long = "param", value_name = "NAME=VALUE", global = true)]
+    param: Vec<String>,
+    /// `.xosc`: the entity flc's controller drives (default: `Ego` / `ego`, else the first).
+    #[arg(long, value_name = "NAME", global = true)]
+    ego: Option<String>,
+    /// `.xosc`: `controller` (flc's controller drives the ego) or `scripted` (the ego follows its
+    /// storyboard, as esmini's default controller does: for comparing whole files with esmini).
+    #[arg(long, value_name = "MODE", default_value = "controller", global = true)]
+    ego_mode: String,
+    /// `.xosc`: the road: `file` (the referenced OpenDRIVE file) or `straight` (4 lanes of 3.5 m
+    /// along +x, for files whose road is missing).
+    #[arg(long, value_name = "ROAD", default_value = "file", global = true)]
+    road: String,
+    /// `.xosc`: how the scripted entities move: `kinematic` (exactly as their actions
+    /// prescribe, as in esmini) or `vehicle` (a driver tracks them through each entity's vehicle
+    /// model: actuator lag, dead time, limits).
+    #[arg(long, value_name = "MODEL", default_value = "kinematic", global = true)]
+    traffic_dynamics: String,
     /// Print one JSON record per run on stdout (fields documented in docs/scenarios.md) instead of the table.
     #[arg(long)]
     json: bool,
@@ -45,10 +67,12 @@ struct Cli {
     /// Maximum speeds of the paper experiment, km/h, comma separated (ignored with --config).
     #[arg(long, value_name = "KMH", value_delimiter = ',', default_values_t = PAPER_SPEEDS_KMH)]
     speeds: Vec<f64>,
-    /// Controllers of the paper experiment, comma separated, by their scenario-file names (flc,
-    /// pid, pipeline, the baselines, ...; a wrong name lists them all). Ignored with --config.
-    #[arg(long, value_name = "NAME", value_delimiter = ',', default_value = "flc,pid,pipeline")]
-    controllers: Vec<String>,
+    /// Controllers, comma separated, by their scenario-file names (flc, pid, pipeline, the
+    /// baselines, ...; a wrong name lists them all): of the paper experiment (default
+    /// flc,pid,pipeline), or driving the ego of `.xosc` files (default: the file's
+    /// controller, else flc). Ignored for TOML files.
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    controllers: Option<Vec<String>>,
     /// Which presets of the paper experiment to run: realistic, paper or both (ignored with --config).
     #[arg(long, value_name = "PRESET", default_value = "both")]
     preset: String,
@@ -65,6 +89,15 @@ struct Cli {
 
 #[derive(Debug, clap::Subcommand)]
 enum Command {
+    /// Print the TOML twin of an OpenSCENARIO file (running it gives bit-identical results);
+    /// with --out, write one `<name>.toml` per run (a distribution has several) into DIR.
+    Convert {
+        /// The `.xosc` file.
+        file: PathBuf,
+        /// Write the TOML file(s) into DIR instead of printing.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+    },
     /// Run a sweep file (grid or random sample over scenario fields; docs/safety-envelope.md) in
     /// parallel, streaming one CSV row per finished run; re-running skips finished rows.
     Sweep {
@@ -74,6 +107,100 @@ enum Command {
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
     },
+}
+
+/// The import options the command line gives.
+fn import_options(cli: &Cli) -> Result<ImportOptions, String> {
+    let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
+    let params = cli.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
+    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)
+}
+
+/// `true` for an OpenSCENARIO file name.
+fn is_xosc(path: &std::path::Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xosc"))
+}
+
+/// The runs of a `.xosc` file (one per distribution combination, times each controller of
+/// `--controllers`); warnings go to stderr.
+fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, String> {
+    let opts = import_options(cli)?;
+    let controllers = match &cli.controllers {
+        None => vec![None],
+        Some(list) => list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>().map_err(|e| format!("`--controllers`: {e}"))?,
+    };
+    let mut out = Vec::new();
+    for c in controllers {
+        let import = openscenario::import(path, &ImportOptions { controller: c, ..opts.clone() }).map_err(|e| e.to_string())?;
+        for w in &import.warnings {
+            eprintln!("warning: {w}");
+        }
+        out.extend(import.runs);
+    }
+    Ok(out)
+}
+
+fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+    let runs = match import_xosc(file, cli) {
+        Ok(r) => r,
+        Err(e) => return bad_input(e),
+    };
+    match out {
+        None if runs.len() == 1 => match runs[0].scenario.to_toml() {
+            Ok(t) => {
+                print!("{t}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => bad_input(e),
+        },
+        None => bad_input(format!("{}: {} runs (a distribution): give `--out DIR` to write one TOML file per run", file.display(), runs.len())),
+        Some(dir) => {
+            if let Err(e) = std::fs::create_dir_all(dir) {
+                return bad_input(format!("`--out` {}: {e}", dir.display()));
+            }
+            for r in &runs {
+                let stem = r.scenario.run_file_stem();
+                let path = dir.join(format!("{stem}.toml"));
+                let text = match r.scenario.to_toml() {
+                    Ok(t) => t,
+                    Err(e) => return bad_input(e),
+                };
+                if let Err(e) = std::fs::write(&path, text) {
+                    eprintln!("error: writing {}: {e}", path.display());
+                    return ExitCode::FAILURE;
+                }
+                eprintln!("{}", path.display());
+            }
+            ExitCode::SUCCESS
+        }
+    }
+}
+
+/// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
+/// combination with its parameter values.
+fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+    use flc_sim::sweep::{SweepPoint, run_points};
+    let runs = match import_xosc(file, cli) {
+        Ok(r) => r,
+        Err(e) => return bad_input(e),
+    };
+    let keys: Vec<String> = runs.first().map(|r| r.params.iter().map(|(k, _)| k.clone()).collect()).unwrap_or_default();
+    let points: Vec<SweepPoint> = runs
+        .into_iter()
+        .enumerate()
+        .map(|(id, r)| SweepPoint { id, values: r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect(), scenario: r.scenario })
+        .collect();
+    let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
+    match run_points(&keys, &points, &out, true) {
+        Ok(n) => {
+            eprintln!("{n} runs done ({} in the distribution), rows in {}", points.len(), out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
@@ -108,6 +235,11 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
     let mut out = Vec::new();
     if !cli.config.is_empty() {
         for path in &cli.config {
+            if is_xosc(path) {
+                let runs = import_xosc(path, cli).map_err(SimError::Input)?;
+                out.extend(runs.into_iter().map(|r| (r.scenario, None)));
+                continue;
+            }
             let s = Scenario::from_file(path)?;
             // A file with `[[variants]]` runs each variant.
             let variants = s.expand_variants().map_err(|e| SimError::File { path: path.display().to_string(), message: e.to_string() })?;
@@ -122,7 +254,8 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
                 return Err(flc_sim::ConfigError::new("--preset", format!("must be realistic, paper or both, got `{other}`")).into());
             }
         };
-        let controllers = cli.controllers.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
+        let default = ["flc", "pid", "pipeline"].map(String::from).to_vec();
+        let controllers = cli.controllers.as_ref().unwrap_or(&default).iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
         for &speed in &cli.speeds {
             flc_sim::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
         }
@@ -174,11 +307,18 @@ fn main() -> ExitCode {
             return bad_input(format!("`--threads`: {e}"));
         }
     }
-    if let Some(Command::Sweep { file, out }) = &cli.command {
-        if cli.record.is_some() {
-            return bad_input("`--record` does not apply to `sweep`");
+    match &cli.command {
+        Some(Command::Sweep { file, out }) => {
+            if cli.record.is_some() {
+                return bad_input("`--record` does not apply to `sweep`");
+            }
+            if is_xosc(file) {
+                return sweep_xosc(&cli, file, out.as_deref());
+            }
+            return sweep(file, out.as_deref());
         }
-        return sweep(file, out.as_deref());
+        Some(Command::Convert { file, out }) => return convert(&cli, file, out.as_deref()),
+        None => {}
     }
     let list = match scenarios(&cli) {
         Ok(l) => l,

@@ -26,6 +26,7 @@ pub mod distribution;
 mod entities;
 pub mod error;
 pub mod expr;
+mod options;
 pub mod params;
 mod position;
 pub mod road;
@@ -884,7 +885,7 @@ mod tests {
         // Ego: the catalog defaults, centre 1.4 m ahead of s = 20.
         assert!(close(s.follower.start_s.unwrap_or(0.0), 21.4));
         assert!(close(s.follower.vehicle.length, 4.5));
-        assert!(close(s.lead.s.unwrap_or(0.0), 71.5));
+        assert!(close(s.lead.s.unwrap_or(0.0), 71.83));
         assert_eq!(s.vehicles.len(), 1);
         assert!(close(s.vehicles[0].s, 41.9) && close(s.vehicles[0].offset.unwrap_or(0.0), 3.5));
         // The ObjectController's catalog entry names flc-robust.

@@ -242,6 +242,33 @@ impl<O: Observer> Simulation<O> {
         (p.started, p.ended)
     }
 
+    /// The status of the `[story]` element `name` now (`None`: no story or no such element).
+    pub fn element(&self, name: &str) -> Option<crate::trigger::ElementStatus> {
+        self.state.story.as_ref()?.state.element(name)
+    }
+
+    /// The value of `[story]` variable `name` now.
+    pub fn variable(&self, name: &str) -> Option<crate::trigger::VarValue> {
+        self.state.story.as_ref()?.state.variable(name).cloned()
+    }
+
+    /// Every start / end / stop / skip of a `[story]` event (`true`) or action (`false`) so far,
+    /// with its name: `(time, is_event, name, transition)`.
+    pub fn story_transitions(&self) -> Vec<(f64, bool, String, crate::trigger::ElementEvent)> {
+        let (Some(run), Some(story)) = (self.state.story.as_ref(), self.state.scenario.story.as_ref()) else { return Vec::new() };
+        run.state
+            .transitions()
+            .iter()
+            .map(|tr| (tr.t, tr.event, run.state.name(story, tr.event, tr.index).unwrap_or_default().to_string(), tr.what))
+            .collect()
+    }
+
+    /// `true` while the story drives the ego (`[story] ego = "scripted"` or after a
+    /// `controller` action handed it over).
+    pub fn ego_scripted(&self) -> bool {
+        self.state.story.as_ref().is_some_and(|r| r.ego_scripted)
+    }
+
     /// The state of the scripted vehicle `name` (`lead` or a `[[vehicles]]` name) now.
     pub fn scripted_state(&self, name: &str) -> Option<&VehicleState> {
         if name == "lead" {

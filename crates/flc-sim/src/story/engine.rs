@@ -12,6 +12,23 @@ pub struct Started {
     pub action: usize,
 }
 
+/// One logged transition of an event or action ([`StoryState::transitions`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    /// Simulation time at the start of the step it happened in, s.
+    pub t: f64,
+    /// `true`: an event; `false`: an action.
+    pub event: bool,
+    /// Index of the event / action (document order).
+    pub index: usize,
+    /// What happened.
+    pub what: ElementEvent,
+}
+
+/// Most transitions kept in the log (a hostile story re-running events forever cannot grow it
+/// without bound).
+const MAX_LOG: usize = 100_000;
+
 /// Where an action sits: `(act, group, maneuver, event, action)` indices.
 type Path = (usize, usize, usize, usize, usize);
 
@@ -117,10 +134,13 @@ pub struct StoryState {
     executions: Vec<u32>,
     /// Actors still running each action.
     actors_left: Vec<usize>,
+    /// Time of the evaluation being processed (the start of the step), s.
+    now: f64,
+    /// Every transition of an event or action: `(time, event?, index, transition)`.
+    log: Vec<Transition>,
     /// Which act / event triggers fired this step (reused).
     fired_acts: Vec<usize>,
     stopped_acts: Vec<usize>,
-    fired_events: Vec<usize>,
 }
 
 fn start(s: &mut ElementStatus) {
@@ -216,9 +236,10 @@ impl StoryState {
             event_start: vec![TriggerState::new(); n_events],
             executions: vec![0; n_events],
             actors_left: vec![0; n_actions],
+            now: 0.0,
+            log: Vec::new(),
             fired_acts: Vec::new(),
             stopped_acts: Vec::new(),
-            fired_events: Vec::new(),
         }
     }
 
@@ -251,6 +272,7 @@ impl StoryState {
     /// on their actors). Variable and controller actions take effect and end at once (they are
     /// pushed to `started` too, so that the caller can apply controller actions).
     pub fn step(&mut self, story: &Story, world: &dyn WorldView, t: f64, started: &mut Vec<Started>, stopped: &mut Vec<usize>) {
+        self.now = t;
         // Acts: start triggers (on the state at the start of the step).
         self.fired_acts.clear();
         {
@@ -273,37 +295,34 @@ impl StoryState {
             let i = self.fired_acts[k];
             self.start_act(i);
         }
-        // Events of running maneuvers (including those started just now).
-        self.fired_events.clear();
-        {
-            let view = View { world, elements: &self.e };
-            let mut idx = 0;
-            for a in &story.acts {
-                for g in &a.groups {
-                    for m in &g.maneuvers {
-                        for ev in &m.events {
-                            let i = idx;
-                            idx += 1;
-                            let st = self.e.events[i];
-                            let running_maneuver = self.e.maneuvers.get(self.event_maneuver[i]).is_some_and(|s| s.running);
-                            if st.running || st.complete || !running_maneuver {
-                                continue;
+        // Events of running maneuvers (including those started just now), in document order:
+        // each one sees what the events before it did in this step (variables, states), as in
+        // esmini.
+        let mut idx = 0;
+        for a in &story.acts {
+            for g in &a.groups {
+                for m in &g.maneuvers {
+                    for ev in &m.events {
+                        let i = idx;
+                        idx += 1;
+                        let st = self.e.events[i];
+                        let running_maneuver = self.e.maneuvers.get(self.event_maneuver[i]).is_some_and(|s| s.running);
+                        if st.running || st.complete || !running_maneuver {
+                            continue;
+                        }
+                        let fire = match &ev.start {
+                            None => true,
+                            Some(trig) => {
+                                let view = View { world, elements: &self.e };
+                                self.event_start[i].update(trig, &view, t)
                             }
-                            let fire = match &ev.start {
-                                None => true,
-                                Some(trig) => self.event_start[i].update(trig, &view, t),
-                            };
-                            if fire {
-                                self.fired_events.push(i);
-                            }
+                        };
+                        if fire {
+                            self.start_event(story, i, started, stopped);
                         }
                     }
                 }
             }
-        }
-        for k in 0..self.fired_events.len() {
-            let i = self.fired_events[k];
-            self.start_event(story, i, started, stopped);
         }
         // Act stop triggers.
         self.stopped_acts.clear();
@@ -322,6 +341,25 @@ impl StoryState {
             self.stop_act(i, stopped);
         }
         self.settle();
+    }
+
+    fn note(&mut self, event: bool, index: usize, what: ElementEvent) {
+        if self.log.len() < MAX_LOG {
+            self.log.push(Transition { t: self.now, event, index, what });
+        }
+    }
+
+    /// Every start / end / stop / skip of an event or action so far, in order.
+    pub fn transitions(&self) -> &[Transition] {
+        &self.log
+    }
+
+    /// The name of event `i` (`event`) or action `i` of `story`.
+    pub fn name<'s>(&self, story: &'s Story, event: bool, i: usize) -> Option<&'s str> {
+        let x = if event { self.event_actions.get(i)?.start } else { i };
+        let &(a, g, m, e, k) = self.action_path.get(x)?;
+        let ev = story.acts.get(a)?.groups.get(g)?.maneuvers.get(m)?.events.get(e)?;
+        Some(if event { ev.name.as_str() } else { ev.actions.get(k)?.name.as_str() })
     }
 
     fn start_act(&mut self, i: usize) {
@@ -344,6 +382,7 @@ impl StoryState {
         match ev.priority {
             Priority::Skip if !siblings.is_empty() => {
                 self.e.events[i].last = Some(ElementEvent::SkipTransition);
+                self.note(true, i, ElementEvent::SkipTransition);
                 self.event_start[i] = TriggerState::new();
                 return;
             }
@@ -356,10 +395,12 @@ impl StoryState {
         }
         self.executions[i] += 1;
         start(&mut self.e.events[i]);
+        self.note(true, i, ElementEvent::StartTransition);
         let n_actors = story.acts.get(a).and_then(|x| x.groups.get(g)).map_or(0, |x| x.actors.len());
         let range = self.event_actions[i].clone();
         for x in range {
             start(&mut self.e.actions[x]);
+            self.note(false, x, ElementEvent::StartTransition);
             started.push(Started { action: x });
             let Some((action, _)) = self.action(story, x) else { continue };
             match action {
@@ -391,11 +432,13 @@ impl StoryState {
         for x in self.event_actions[i].clone() {
             if self.e.actions[x].running {
                 finish(&mut self.e.actions[x], ElementEvent::StopTransition);
+                self.note(false, x, ElementEvent::StopTransition);
                 self.actors_left[x] = 0;
                 stopped.push(x);
             }
         }
         finish(&mut self.e.events[i], ElementEvent::StopTransition);
+        self.note(true, i, ElementEvent::StopTransition);
     }
 
     fn stop_act(&mut self, i: usize, stopped: &mut Vec<usize>) {
@@ -436,11 +479,13 @@ impl StoryState {
     /// while it has executions left).
     fn end_now(&mut self, i: usize, how: ElementEvent) {
         finish(&mut self.e.actions[i], how);
+        self.note(false, i, how);
         let Some(&ev) = self.action_event.get(i) else { return };
         if !self.e.events[ev].running || !self.event_actions[ev].clone().all(|x| self.e.actions[x].complete) {
             return;
         }
         finish(&mut self.e.events[ev], ElementEvent::EndTransition);
+        self.note(true, ev, ElementEvent::EndTransition);
         if self.executions[ev] < self.max_executions(ev) {
             self.e.events[ev].complete = false;
             self.event_start[ev] = TriggerState::new();

@@ -26,7 +26,7 @@
 mod engine;
 mod motion;
 
-pub use engine::{Started, StoryState};
+pub use engine::{Started, StoryState, Transition as StoryTransition};
 pub use motion::{Motion, MotionStep, lateral_shape, speed_duration};
 
 use serde::{Deserialize, Serialize};

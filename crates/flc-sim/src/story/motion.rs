@@ -33,6 +33,9 @@ struct Lat {
     extent: f64,
     t0: f64,
     x0: f64,
+    /// A lane change: the entity moves at its speed along its heading, so the lateral motion
+    /// takes from its progress along the road (esmini); a lane offset does not.
+    along_heading: bool,
 }
 
 /// What one step of a [`Motion`] did.
@@ -145,7 +148,7 @@ impl Motion {
                     }
                     _ => self.offset,
                 };
-                self.start_lateral(i, to, transition);
+                self.start_lateral(i, to, transition, true);
                 (replaced, false)
             }
             Action::LaneOffset { offset, of, shape, max_lateral_acc } => {
@@ -165,7 +168,7 @@ impl Motion {
                 };
                 let duration = if *shape == Shape::Step || change == 0.0 { 0.0 } else { (k * change / max_lateral_acc).sqrt() };
                 let tr = Transition { shape: *shape, dimension: Dimension::Time, value: duration };
-                self.start_lateral(i, to, &tr);
+                self.start_lateral(i, to, &tr, false);
                 (replaced, false)
             }
             Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead } => {
@@ -190,12 +193,12 @@ impl Motion {
         self.own_len.unwrap_or(fallback)
     }
 
-    fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition) {
+    fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool) {
         let (by_distance, extent) = match tr.dimension {
             Dimension::Distance => (true, tr.value),
             _ => (false, tr.value),
         };
-        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0: f64::NAN, x0: self.traveled });
+        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0: f64::NAN, x0: self.traveled, along_heading });
     }
 
     /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)
@@ -227,14 +230,9 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        let ds_path = self.speed * dt;
-        // Along a curve the centreline moves `1 - kappa offset` times as fast as a point at
-        // `offset`: the entity covers `ds_path` on its own path.
-        let scale = 1.0 - curvature * self.offset;
-        let ds = if scale > 0.1 { ds_path / scale } else { ds_path };
-        self.s += ds;
-        self.traveled += ds_path;
+        let step_len = self.speed * dt;
         let offset_prev = self.offset;
+        let mut along = step_len;
         if let Some(l) = &mut self.lat {
             if l.t0.is_nan() {
                 l.t0 = t;
@@ -242,7 +240,7 @@ impl Motion {
             let p = if l.extent <= 0.0 || l.shape == Shape::Step {
                 1.0
             } else if l.by_distance {
-                (self.traveled - l.x0) / l.extent
+                (self.traveled + step_len - l.x0) / l.extent
             } else {
                 (t1 - l.t0) / l.extent
             };
@@ -251,10 +249,20 @@ impl Motion {
                 self.offset = l.to;
                 out.lat_done = Some(l.action);
             }
+            if l.along_heading {
+                let d = self.offset - offset_prev;
+                along = (step_len * step_len - d * d).max(0.0).sqrt();
+            }
         }
         if out.lat_done.is_some() {
             self.lat = None;
         }
+        // Along a curve the centreline moves `1 - kappa offset` times as fast as a point at
+        // `offset`: the entity covers `along` on its own path.
+        let scale = 1.0 - curvature * self.offset;
+        let ds = if scale > 0.1 { along / scale } else { along };
+        self.s += ds;
+        self.traveled += along;
         self.heading = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
         self.still_for = if self.speed < STILL { self.still_for + dt } else { 0.0 };
         out
