@@ -890,15 +890,14 @@ mod tests {
         assert!(close(s.vehicles[0].s, 41.9) && close(s.vehicles[0].offset.unwrap_or(0.0), 3.5));
         // The ObjectController's catalog entry names flc-robust.
         assert_eq!(s.controller, ControllerKind::FlcRobust);
-        // The init activation is kept as an init event.
-        assert!(matches!(find_action(story_of(&imp), "init/ego/0"), Action::Controller { longitudinal: true }));
+        // The init activation has no effect: no init event.
+        assert!(story_of(&imp).acts.iter().all(|a| a.name != "init"));
+        assert!(imp.warnings.iter().any(|w| w.contains("<Init/ActivateControllerAction>")), "{:?}", imp.warnings);
         // --controllers wins; V2V follows the controller.
         let imp = fixture("catalogs.xosc", &ImportOptions { controller: Some(ControllerKind::Pipeline), ..ImportOptions::default() });
         assert_eq!(imp.runs[0].scenario.controller, ControllerKind::Pipeline);
         assert!(imp.runs[0].scenario.v2v.enabled);
-        // Scripted ego: activations hand nothing over.
         let imp = fixture("catalogs.xosc", &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() });
-        assert!(matches!(find_action(story_of(&imp), "init/ego/0"), Action::Controller { longitudinal: false }));
         assert_eq!(story_of(&imp).ego, EgoMode::Scripted);
     }
 

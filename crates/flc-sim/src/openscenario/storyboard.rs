@@ -118,9 +118,10 @@ fn typed(like: &VarValue, text: &str) -> Result<VarValue, String> {
             Ok(x) if x.is_finite() => Ok(VarValue::Num(x)),
             _ => Err(format!("`{text}` is not a number")),
         },
+        // xsd:boolean: true, false, 1, 0.
         VarValue::Bool(_) => match text.trim() {
-            "true" => Ok(VarValue::Bool(true)),
-            "false" => Ok(VarValue::Bool(false)),
+            "true" | "1" => Ok(VarValue::Bool(true)),
+            "false" | "0" => Ok(VarValue::Bool(false)),
             _ => Err(format!("`{text}` is not a boolean")),
         },
         VarValue::Text(_) => Ok(VarValue::Text(text.to_string())),
@@ -258,9 +259,16 @@ impl Sb<'_, '_, '_> {
                             if let Some(c) = xml::child(pa, "ControllerAction") {
                                 // AssignControllerAction in Init selects the controller (read
                                 // by the caller); an activation is an action.
+                                // In Init only a hand-over to the story has an effect (flc's
+                                // controller drives the ego from the start; a scripted ego
+                                // ignores activations).
                                 if let Some(act) = xml::child(c, "ActivateControllerAction") {
                                     let action = self.activate_controller(file, act, std::slice::from_ref(&who))?;
-                                    acts.push((pa, action));
+                                    if self.ego_mode == EgoMode::Controller && action == (Action::Controller { longitudinal: false }) {
+                                        acts.push((pa, action));
+                                    } else {
+                                        self.ctx.warn.note("Init/ActivateControllerAction", file, act, "no effect at t = 0 (flc's controller or the story already drives the ego)".into());
+                                    }
                                 }
                                 for x in xml::elements(c) {
                                     match x.tag_name().name() {
