@@ -1,0 +1,1197 @@
+//! `Storyboard` -> [`crate::story::Story`] and the scenario stop trigger: `Init` actions,
+//! `Story` / `Act` / `ManeuverGroup` / `Maneuver` / `Event` / `Action`, start and stop
+//! triggers and their conditions.
+
+use std::collections::BTreeMap;
+
+use super::error::ImportError;
+use super::expr::Value;
+use super::position::{self, Geo};
+use super::road::LaneMap;
+use super::xml;
+use super::Ctx;
+use crate::story::{Act, Action, Dimension, EgoMode, Event, Maneuver, ManeuverGroup, Priority, Shape, StoryAction, Transition, MAX_ELEMENTS};
+use crate::track::Track;
+use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, Rule, Trigger, VarValue};
+
+type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
+
+/// Most conditions in one trigger (as written).
+pub const MAX_CONDITIONS: usize = 1024;
+/// Most condition groups one trigger may expand to (`TriggeringEntities` with `any` and several
+/// entities distribute into OR groups).
+pub const MAX_GROUPS: usize = 64;
+/// The variable a skipped action (an environment change, a visual action) modifies by 0, so
+/// that its storyboard element exists and ends at once as in the file.
+pub const SKIPPED_VAR: &str = "osc:skipped";
+/// Prefix of the story variable standing for an OpenSCENARIO parameter (`ParameterCondition`,
+/// `ParameterAction`).
+pub const PARAM_PREFIX: &str = "param:";
+
+/// What the storyboard needs to know about an entity (by its scenario name).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Facts {
+    /// `BoundingBox/Center` x, y (the box centre from the reference point), m.
+    pub center: [f64; 2],
+    /// Its reference point's initial `s` along the road, m.
+    pub road_s: f64,
+    /// A `MiscObject` (no action may move it).
+    pub misc: bool,
+    /// The ego.
+    pub ego: bool,
+}
+
+/// The initial state `Init` gives an entity (before names and the track exist).
+#[derive(Debug, Clone, Default)]
+pub struct InitState<'a, 'i> {
+    /// Its `TeleportAction/Position` and the file.
+    pub position: Option<Node<'a, 'i>>,
+    /// Initial speed, m/s (a `SpeedAction` with a `step` shape or a time of 0).
+    pub speed: Option<f64>,
+    /// An initial speed relative to another entity (OpenSCENARIO name, delta or factor).
+    pub relative_speed: Option<(String, bool, f64)>,
+}
+
+/// The storyboard translator.
+pub struct Sb<'c, 'a, 't> {
+    /// The import context.
+    pub ctx: &'c mut Ctx<'a, 't>,
+    /// OpenSCENARIO name -> scenario name.
+    pub names: &'c BTreeMap<String, String>,
+    /// Scenario name -> facts.
+    pub facts: &'c BTreeMap<String, Facts>,
+    /// The road.
+    pub geo: &'c Geo,
+    /// The track.
+    pub track: &'c Track,
+    /// Its lanes.
+    pub lanes: &'c LaneMap,
+    /// Who drives the ego.
+    pub ego_mode: EgoMode,
+    /// Declared variables and their initial values (in order).
+    pub variables: Vec<(String, VarValue)>,
+    /// `param:NAME` variables used (initial value = the parameter's value).
+    pub param_vars: BTreeMap<String, VarValue>,
+    /// An action was skipped ([`SKIPPED_VAR`] is needed).
+    pub skipped_used: bool,
+    /// Storyboard elements built so far.
+    pub elements: usize,
+}
+
+/// `dynamicsShape`.
+fn shape_of(s: &str) -> Shape {
+    match s {
+        "linear" => Shape::Linear,
+        "cubic" => Shape::Cubic,
+        "sinusoidal" => Shape::Sinusoidal,
+        _ => Shape::Step,
+    }
+}
+
+const SHAPES: [&str; 4] = ["step", "linear", "cubic", "sinusoidal"];
+const RULES: [&str; 6] = ["greaterThan", "lessThan", "equalTo", "greaterOrEqual", "lessOrEqual", "notEqualTo"];
+
+fn rule_of(s: &str) -> Rule {
+    match s {
+        "greaterThan" => Rule::GreaterThan,
+        "lessThan" => Rule::LessThan,
+        "equalTo" => Rule::EqualTo,
+        "greaterOrEqual" => Rule::GreaterOrEqual,
+        "lessOrEqual" => Rule::LessOrEqual,
+        _ => Rule::NotEqualTo,
+    }
+}
+
+/// A parameter or expression value as a story variable value.
+pub fn var_value(v: &Value) -> VarValue {
+    match v {
+        Value::Num(x) => VarValue::Num(*x),
+        Value::Bool(b) => VarValue::Bool(*b),
+        Value::Str(s) => VarValue::Text(s.clone()),
+    }
+}
+
+/// `text` as a value of the kind of `like`.
+fn typed(like: &VarValue, text: &str) -> Result<VarValue, String> {
+    match like {
+        VarValue::Num(_) => match text.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(VarValue::Num(x)),
+            _ => Err(format!("`{text}` is not a number")),
+        },
+        // xsd:boolean: true, false, 1, 0.
+        VarValue::Bool(_) => match text.trim() {
+            "true" | "1" => Ok(VarValue::Bool(true)),
+            "false" | "0" => Ok(VarValue::Bool(false)),
+            _ => Err(format!("`{text}` is not a boolean")),
+        },
+        VarValue::Text(_) => Ok(VarValue::Text(text.to_string())),
+    }
+}
+
+/// The one element child of `c`.
+fn only_child<'a, 'i>(file: &str, c: Node<'a, 'i>) -> Result<Node<'a, 'i>, ImportError> {
+    let mut it = xml::elements(c);
+    match (it.next(), it.next()) {
+        (Some(x), None) => Ok(x),
+        _ => Err(ImportError::at(file, c, format!("a <{}> holds exactly one action", c.tag_name().name()))),
+    }
+}
+
+/// Whether the `SpeedAction` `node` takes effect at once (a `step` shape or a time of 0).
+pub fn immediate_speed(ctx: &Ctx<'_, '_>, file: &str, node: Node<'_, '_>) -> Result<bool, ImportError> {
+    let d = xml::child(node, "SpeedActionDynamics").ok_or_else(|| ImportError::at(file, node, "<SpeedActionDynamics> is missing"))?;
+    let shape = ctx.params.req_enum(d, "dynamicsShape", file, &SHAPES)?;
+    let dim = ctx.params.enum_attr(d, "dynamicsDimension", file, &["time", "rate", "distance"])?;
+    let value = ctx.params.num_attr(d, "value", file)?.unwrap_or(0.0);
+    Ok(shape == "step" || (dim.as_deref() == Some("time") && value == 0.0))
+}
+
+/// The `SpeedAction` of a `PrivateAction` (`LongitudinalAction/SpeedAction`), if that is what it is.
+pub fn speed_action<'a, 'i>(private: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
+    let l = xml::child(private, "LongitudinalAction")?;
+    xml::child(l, "SpeedAction")
+}
+
+/// Reads `Init`'s per-entity state: teleports and immediate speed actions (by OpenSCENARIO name;
+/// `entities` are the names in order). The other init actions are [`Sb::init_act`]'s.
+pub fn init_state<'a, 'i>(ctx: &mut Ctx<'_, '_>, file: &str, init: Node<'a, 'i>, entities: &[String]) -> Result<Vec<InitState<'a, 'i>>, ImportError> {
+    let mut out: Vec<InitState<'a, 'i>> = vec![InitState::default(); entities.len()];
+    for actions in xml::elements(init) {
+        if actions.tag_name().name() != "Actions" {
+            return Err(ImportError::unsupported(file, actions));
+        }
+        for p in xml::children(actions, "Private") {
+            let name = ctx.params.req_str(p, "entityRef", file)?;
+            let i = entities.iter().position(|e| *e == name).ok_or_else(|| ImportError::at(file, p, format!("no entity `{name}`")))?;
+            let Some(st) = out.get_mut(i) else { continue };
+            for pa in xml::elements(p) {
+                if pa.tag_name().name() != "PrivateAction" {
+                    return Err(ImportError::unsupported(file, pa));
+                }
+                if let Some(t) = xml::child(pa, "TeleportAction") {
+                    if st.position.is_some() {
+                        return Err(ImportError::at(file, t, format!("a second TeleportAction for `{name}` in Init")));
+                    }
+                    st.position = Some(xml::child(t, "Position").ok_or_else(|| ImportError::at(file, t, "<Position> is missing"))?);
+                } else if let Some(sa) = speed_action(pa) {
+                    if !immediate_speed(ctx, file, sa)? {
+                        continue;
+                    }
+                    let target = xml::child(sa, "SpeedActionTarget").ok_or_else(|| ImportError::at(file, sa, "<SpeedActionTarget> is missing"))?;
+                    if let Some(a) = xml::child(target, "AbsoluteTargetSpeed") {
+                        st.speed = Some(ctx.params.req_num(a, "value", file)?);
+                        st.relative_speed = None;
+                    } else if let Some(r) = xml::child(target, "RelativeTargetSpeed") {
+                        let of = ctx.params.req_str(r, "entityRef", file)?;
+                        let kind = ctx.params.req_enum(r, "speedTargetValueType", file, &["delta", "factor"])?;
+                        st.relative_speed = Some((of, kind == "delta", ctx.params.req_num(r, "value", file)?));
+                        st.speed = None;
+                    } else {
+                        return Err(ImportError::at(file, target, "expected AbsoluteTargetSpeed or RelativeTargetSpeed"));
+                    }
+                }
+            }
+        }
+    }
+    // Relative initial speeds, against the others' absolute ones (chains resolved in turn).
+    for _ in 0..entities.len() {
+        let mut progress = false;
+        for i in 0..out.len() {
+            let Some((of, delta, v)) = out.get(i).and_then(|s| s.relative_speed.clone()) else { continue };
+            let Some(base) = entities.iter().position(|e| *e == of).and_then(|j| out.get(j)).and_then(|s| s.speed) else { continue };
+            if let Some(s) = out.get_mut(i) {
+                s.speed = Some(if delta { base + v } else { base * v });
+                s.relative_speed = None;
+                progress = true;
+            }
+        }
+        if !progress {
+            break;
+        }
+    }
+    if let Some((i, s)) = out.iter().enumerate().find(|(_, s)| s.relative_speed.is_some()) {
+        let of = s.relative_speed.as_ref().map(|r| r.0.clone()).unwrap_or_default();
+        let e = entities.get(i).cloned().unwrap_or_default();
+        return Err(ImportError::at(file, init, format!("the initial speed of `{e}` is relative to `{of}`, which has no absolute initial speed")));
+    }
+    Ok(out)
+}
+
+impl Sb<'_, '_, '_> {
+    fn count(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+        self.elements += 1;
+        if self.elements > MAX_ELEMENTS {
+            return Err(ImportError::at(file, node, format!("more than {MAX_ELEMENTS} storyboard elements")));
+        }
+        Ok(())
+    }
+
+    /// The scenario name of the entity named by attribute `attr` of `node`.
+    fn entity(&self, file: &str, node: Node<'_, '_>, attr: &str) -> Result<String, ImportError> {
+        let n = self.ctx.params.req_str(node, attr, file)?;
+        self.names.get(&n).cloned().ok_or_else(|| ImportError::at(file, node, format!("no entity `{n}`")))
+    }
+
+    fn facts(&self, name: &str) -> Facts {
+        self.facts.get(name).copied().unwrap_or(Facts { center: [0.0, 0.0], road_s: 0.0, misc: false, ego: false })
+    }
+
+    /// The init act's events: the `Init` actions other than teleports and immediate speeds, one
+    /// event per entity (its actions start together at t = 0). Init `VariableAction` /
+    /// `ParameterAction` set the initial values instead.
+    pub fn init_act(&mut self, file: &str, init: Node<'_, '_>) -> Result<Option<Act>, ImportError> {
+        let mut groups: Vec<ManeuverGroup> = Vec::new();
+        for actions in xml::elements(init) {
+            for a in xml::elements(actions) {
+                match a.tag_name().name() {
+                    "Private" => {
+                        let who = self.entity(file, a, "entityRef")?;
+                        let mut acts = Vec::new();
+                        for pa in xml::elements(a) {
+                            if xml::child(pa, "TeleportAction").is_some() {
+                                continue;
+                            }
+                            if let Some(sa) = speed_action(pa) {
+                                if immediate_speed(self.ctx, file, sa)? {
+                                    continue;
+                                }
+                            }
+                            if let Some(c) = xml::child(pa, "ControllerAction") {
+                                // AssignControllerAction in Init selects the controller (read
+                                // by the caller); an activation is an action.
+                                // In Init only a hand-over to the story has an effect (flc's
+                                // controller drives the ego from the start; a scripted ego
+                                // ignores activations).
+                                if let Some(act) = xml::child(c, "ActivateControllerAction") {
+                                    let action = self.activate_controller(file, act, std::slice::from_ref(&who))?;
+                                    if self.ego_mode == EgoMode::Controller && action == (Action::Controller { longitudinal: false }) {
+                                        acts.push((pa, action));
+                                    } else {
+                                        self.ctx.warn.note("Init/ActivateControllerAction", file, act, "no effect at t = 0 (flc's controller or the story already drives the ego)".into());
+                                    }
+                                }
+                                for x in xml::elements(c) {
+                                    match x.tag_name().name() {
+                                        "ActivateControllerAction" => {}
+                                        "AssignControllerAction" => self.assign_controller_in_init(file, x, &who)?,
+                                        _ => return Err(ImportError::unsupported(file, x)),
+                                    }
+                                }
+                                continue;
+                            }
+                            if let Some(action) = self.private_action(file, pa, std::slice::from_ref(&who))? {
+                                acts.push((pa, action));
+                            }
+                        }
+                        if acts.is_empty() {
+                            continue;
+                        }
+                        let event = format!("init/{who}");
+                        let mut actions = Vec::new();
+                        for (k, (node, action)) in acts.into_iter().enumerate() {
+                            self.count(file, node)?;
+                            actions.push(StoryAction { name: format!("{event}/{k}"), action });
+                        }
+                        self.elements += 3;
+                        groups.push(ManeuverGroup {
+                            name: format!("init/{who}"),
+                            actors: vec![who.clone()],
+                            maneuvers: vec![Maneuver {
+                                name: format!("init/{who}"),
+                                events: vec![Event { name: event, priority: Priority::Parallel, max_executions: 1, start: None, actions }],
+                            }],
+                        });
+                    }
+                    "GlobalAction" => self.init_global(file, a)?,
+                    _ => return Err(ImportError::unsupported(file, a)),
+                }
+            }
+        }
+        if groups.is_empty() {
+            return Ok(None);
+        }
+        self.elements += 1;
+        Ok(Some(Act { name: "init".into(), story: String::new(), start: None, stop: None, groups }))
+    }
+
+    /// An `AssignControllerAction` in Init: on the ego it was read as the controller choice; on
+    /// another entity it is skipped unless it activates the controller.
+    fn assign_controller_in_init(&mut self, file: &str, node: Node<'_, '_>, who: &str) -> Result<(), ImportError> {
+        if self.facts(who).ego {
+            return Ok(());
+        }
+        for attr in ["activateLongitudinal", "activateLateral"] {
+            if self.ctx.params.bool_attr(node, attr, file)? == Some(true) {
+                return Err(ImportError::at(file, node, format!("a controller activated on `{who}` (not the ego) is not supported")));
+            }
+        }
+        self.ctx.warn.skip(file, node, "a controller assigned to an entity other than the ego (never activated)");
+        Ok(())
+    }
+
+    /// A `GlobalAction` in Init: variable and parameter actions set initial values; environment
+    /// and infrastructure actions are skipped; anything else is an error.
+    fn init_global(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+        for g in xml::elements(node) {
+            match g.tag_name().name() {
+                "VariableAction" | "ParameterAction" => {
+                    let action = self.variable_action(file, g)?;
+                    let variable = match &action {
+                        Action::VariableSet { variable, .. } | Action::VariableModify { variable, .. } => variable.clone(),
+                        _ => continue,
+                    };
+                    let slot = match self.variables.iter_mut().find(|(n, _)| *n == variable) {
+                        Some((_, v)) => Some(v),
+                        None => self.param_vars.get_mut(&variable),
+                    };
+                    match (slot, action) {
+                        (Some(VarValue::Num(x)), Action::VariableModify { add, multiply, .. }) => {
+                            *x = *x * multiply.unwrap_or(1.0) + add.unwrap_or(0.0);
+                        }
+                        (Some(v), Action::VariableSet { value, .. }) => *v = value,
+                        _ => {}
+                    }
+                }
+                "EnvironmentAction" | "InfrastructureAction" => self.ctx.warn.skip(file, g, "changes neither motion nor sensing in flc"),
+                _ => return Err(ImportError::unsupported(file, g)),
+            }
+        }
+        Ok(())
+    }
+
+    /// The acts of every `Story` and the scenario stop trigger of `Storyboard` `node`.
+    pub fn storyboard(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Vec<Act>, Option<Trigger>), ImportError> {
+        let mut acts = Vec::new();
+        let mut stop = None;
+        for (i, c) in xml::elements(node).enumerate() {
+            match c.tag_name().name() {
+                "Init" => {}
+                "Story" => {
+                    self.ctx.params.push_scope();
+                    let r = self.ctx.params.declare_in(c, file, &BTreeMap::new()).and_then(|()| self.story(file, c, i));
+                    self.ctx.params.pop_scope();
+                    acts.extend(r?);
+                }
+                "StopTrigger" => stop = self.trigger(file, c)?,
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        Ok((acts, stop))
+    }
+
+    fn story(&mut self, file: &str, node: Node<'_, '_>, i: usize) -> Result<Vec<Act>, ImportError> {
+        let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("story{i}"));
+        let mut acts = Vec::new();
+        for (k, c) in xml::elements(node).enumerate() {
+            match c.tag_name().name() {
+                "ParameterDeclarations" => {}
+                "Act" => acts.push(self.act(file, c, &name, k)?),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        Ok(acts)
+    }
+
+    fn act(&mut self, file: &str, node: Node<'_, '_>, story: &str, i: usize) -> Result<Act, ImportError> {
+        self.count(file, node)?;
+        let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("{story}/act{i}"));
+        let mut act = Act { name, story: story.to_string(), start: None, stop: None, groups: Vec::new() };
+        for (k, c) in xml::elements(node).enumerate() {
+            match c.tag_name().name() {
+                "ManeuverGroup" => {
+                    let g = self.group(file, c, &act.name, k)?;
+                    act.groups.push(g);
+                }
+                "StartTrigger" => act.start = self.trigger(file, c)?,
+                "StopTrigger" => act.stop = self.trigger(file, c)?,
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        Ok(act)
+    }
+
+    fn group(&mut self, file: &str, node: Node<'_, '_>, act: &str, i: usize) -> Result<ManeuverGroup, ImportError> {
+        self.count(file, node)?;
+        let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("{act}/group{i}"));
+        if let Some(n) = self.ctx.params.int_attr(node, "maximumExecutionCount", file)? {
+            if n != 1 {
+                return Err(ImportError::at(file, node, format!("maximumExecutionCount = {n} of a ManeuverGroup is not supported (only 1)")));
+            }
+        }
+        let mut g = ManeuverGroup { name, actors: Vec::new(), maneuvers: Vec::new() };
+        for c in xml::elements(node) {
+            if c.tag_name().name() == "Actors" {
+                for e in xml::elements(c) {
+                    if e.tag_name().name() != "EntityRef" {
+                        return Err(ImportError::unsupported(file, e));
+                    }
+                    let who = self.entity(file, e, "entityRef")?;
+                    if !g.actors.contains(&who) {
+                        g.actors.push(who);
+                    }
+                }
+                if g.actors.is_empty() && self.ctx.params.bool_attr(c, "selectTriggeringEntities", file)? == Some(true) {
+                    return Err(ImportError::at(file, c, "actors chosen by selectTriggeringEntities are not supported: name them with EntityRef"));
+                }
+            }
+        }
+        for (k, c) in xml::elements(node).enumerate() {
+            match c.tag_name().name() {
+                "Actors" => {}
+                "Maneuver" => {
+                    let m = self.maneuver(file, c, &g.name, k, &g.actors)?;
+                    g.maneuvers.push(m);
+                }
+                "CatalogReference" => {
+                    let actors = g.actors.clone();
+                    let gname = g.name.clone();
+                    let m = self.catalog_maneuver(file, c, &gname, k, &actors)?;
+                    g.maneuvers.push(m);
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        Ok(g)
+    }
+
+    fn catalog_maneuver(&mut self, file: &str, node: Node<'_, '_>, group: &str, k: usize, actors: &[String]) -> Result<Maneuver, ImportError> {
+        // The entry is read inside the reference's parameter scope.
+        let cats = self.ctx.cats;
+        let catalog = self.ctx.params.req_str(node, "catalogName", file)?;
+        let entry = self.ctx.params.req_str(node, "entryName", file)?;
+        let (efile, enode) = match cats.find(&["ManeuverCatalog"], &catalog, &entry)? {
+            Some(x) => x,
+            None => return Err(ImportError::at(file, node, cats.not_found(&catalog, &entry))),
+        };
+        if enode.tag_name().name() != "Maneuver" {
+            return Err(ImportError::at(&efile, enode, "expected a <Maneuver> entry"));
+        }
+        self.ctx.enter_catalog(file, node, &catalog, &entry)?;
+        let overrides = super::catalog::assignments(&self.ctx.params, node, file);
+        let r = overrides.and_then(|o| {
+            self.ctx.params.push_scope();
+            let r = self.ctx.params.declare_in(enode, &efile, &o).and_then(|()| self.maneuver_body(&efile, enode, group, k, actors));
+            self.ctx.params.pop_scope();
+            r
+        });
+        self.ctx.leave_catalog();
+        r
+    }
+
+    fn maneuver(&mut self, file: &str, node: Node<'_, '_>, group: &str, k: usize, actors: &[String]) -> Result<Maneuver, ImportError> {
+        self.ctx.params.push_scope();
+        let r = self.ctx.params.declare_in(node, file, &BTreeMap::new()).and_then(|()| self.maneuver_body(file, node, group, k, actors));
+        self.ctx.params.pop_scope();
+        r
+    }
+
+    fn maneuver_body(&mut self, file: &str, node: Node<'_, '_>, group: &str, i: usize, actors: &[String]) -> Result<Maneuver, ImportError> {
+        self.count(file, node)?;
+        let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("{group}/maneuver{i}"));
+        let mut m = Maneuver { name, events: Vec::new() };
+        for (k, c) in xml::elements(node).enumerate() {
+            match c.tag_name().name() {
+                "ParameterDeclarations" => {}
+                "Event" => {
+                    let e = self.event(file, c, &m.name, k, actors)?;
+                    m.events.push(e);
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        Ok(m)
+    }
+
+    fn event(&mut self, file: &str, node: Node<'_, '_>, maneuver: &str, i: usize, actors: &[String]) -> Result<Event, ImportError> {
+        self.count(file, node)?;
+        let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("{maneuver}/event{i}"));
+        let priority = match self.ctx.params.enum_attr(node, "priority", file, &["overwrite", "override", "skip", "parallel"])?.as_deref() {
+            Some("skip") => Priority::Skip,
+            Some("parallel") => Priority::Parallel,
+            _ => Priority::Override,
+        };
+        let max_executions = match self.ctx.params.int_attr(node, "maximumExecutionCount", file)? {
+            None => 1,
+            Some(n) if (1..=1_000_000).contains(&n) => u32::try_from(n).unwrap_or(1),
+            Some(n) => return Err(ImportError::at(file, node, format!("maximumExecutionCount = {n}: must be 1 to 1000000"))),
+        };
+        let mut e = Event { name, priority, max_executions, start: None, actions: Vec::new() };
+        let mut k = 0usize;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "Action" => {
+                    self.count(file, c)?;
+                    let aname = self.ctx.params.str_attr(c, "name", file)?.unwrap_or_else(|| format!("{}/{k}", e.name));
+                    let action = self.action(file, c, actors)?;
+                    e.actions.push(StoryAction { name: aname, action });
+                    k += 1;
+                }
+                "StartTrigger" => e.start = self.trigger(file, c)?,
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        if e.actions.is_empty() {
+            return Err(ImportError::at(file, node, "an event needs at least one action"));
+        }
+        Ok(e)
+    }
+
+    /// A no-op standing for a skipped action.
+    fn skipped(&mut self) -> Action {
+        self.skipped_used = true;
+        Action::VariableModify { variable: SKIPPED_VAR.into(), add: Some(0.0), multiply: None }
+    }
+
+    /// An `Action`: `PrivateAction`, `GlobalAction` or (error) `UserDefinedAction`.
+    fn action(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
+        let mut it = xml::elements(node);
+        let (Some(c), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, node, "an <Action> holds exactly one action"));
+        };
+        match c.tag_name().name() {
+            "PrivateAction" => match self.private_action(file, c, actors)? {
+                Some(a) => Ok(a),
+                None => Ok(self.skipped()),
+            },
+            "GlobalAction" => {
+                let mut it = xml::elements(c);
+                let (Some(g), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, c, "a <GlobalAction> holds exactly one action"));
+                };
+                match g.tag_name().name() {
+                    "VariableAction" | "ParameterAction" => self.variable_action(file, g),
+                    "EnvironmentAction" | "InfrastructureAction" => {
+                        self.ctx.warn.skip(file, g, "changes neither motion nor sensing in flc");
+                        Ok(self.skipped())
+                    }
+                    _ => Err(ImportError::unsupported(file, g)),
+                }
+            }
+            _ => Err(ImportError::unsupported(file, c)),
+        }
+    }
+
+    /// A `PrivateAction` on `actors`; `None`: skipped (visual only).
+    fn private_action(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Option<Action>, ImportError> {
+        let mut it = xml::elements(node);
+        let (Some(c), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, node, "a <PrivateAction> holds exactly one action"));
+        };
+        let one = |c| only_child(file, c);
+        let moves = |sb: &Self, x: Node<'_, '_>| -> Result<(), ImportError> {
+            if let Some(m) = actors.iter().find(|a| sb.facts(a).misc) {
+                return Err(ImportError::at(file, x, format!("an action on `{m}`, a MiscObject (it cannot move)")));
+            }
+            Ok(())
+        };
+        match c.tag_name().name() {
+            "LongitudinalAction" => {
+                let x = one(c)?;
+                moves(self, x)?;
+                match x.tag_name().name() {
+                    "SpeedAction" => self.speed(file, x).map(Some),
+                    "LongitudinalDistanceAction" => self.longitudinal_distance(file, x).map(Some),
+                    _ => Err(ImportError::unsupported(file, x)),
+                }
+            }
+            "LateralAction" => {
+                let x = one(c)?;
+                moves(self, x)?;
+                match x.tag_name().name() {
+                    "LaneChangeAction" => self.lane_change(file, x, actors).map(Some),
+                    "LaneOffsetAction" => self.lane_offset(file, x).map(Some),
+                    _ => Err(ImportError::unsupported(file, x)),
+                }
+            }
+            "ActivateControllerAction" => self.activate_controller(file, c, actors).map(Some),
+            "ControllerAction" => {
+                let mut found = None;
+                for x in xml::elements(c) {
+                    match x.tag_name().name() {
+                        "ActivateControllerAction" => found = Some(self.activate_controller(file, x, actors)?),
+                        _ => return Err(ImportError::unsupported(file, x)),
+                    }
+                }
+                found.map(Some).ok_or_else(|| ImportError::at(file, c, "an empty ControllerAction"))
+            }
+            "VisibilityAction" | "AppearanceAction" => {
+                self.ctx.warn.skip(file, c, "visual only");
+                Ok(None)
+            }
+            _ => Err(ImportError::unsupported(file, c)),
+        }
+    }
+
+    /// `ActivateControllerAction` on the ego: flc's controller on (`longitudinal`, default
+    /// true) or off. With `--ego-mode scripted` it is kept as an element but hands nothing over.
+    fn activate_controller(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
+        if let Some(a) = actors.iter().find(|a| !self.facts(a).ego) {
+            return Err(ImportError::at(file, node, format!("a controller activated on `{a}` (not the ego) is not supported")));
+        }
+        let longitudinal = self.ctx.params.bool_attr(node, "longitudinal", file)?.unwrap_or(true);
+        if self.ego_mode == EgoMode::Scripted {
+            self.ctx.warn.note("ActivateControllerAction", file, node, "--ego-mode scripted: the ego follows the story; controller activations hand nothing over".into());
+            return Ok(Action::Controller { longitudinal: false });
+        }
+        Ok(Action::Controller { longitudinal })
+    }
+
+    fn speed(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        let mut dynamics = None;
+        let mut target = None;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "SpeedActionDynamics" => dynamics = Some(c),
+                "SpeedActionTarget" => target = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let d = dynamics.ok_or_else(|| ImportError::at(file, node, "<SpeedActionDynamics> is missing"))?;
+        let t = target.ok_or_else(|| ImportError::at(file, node, "<SpeedActionTarget> is missing"))?;
+        let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
+        let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
+            "rate" => Dimension::Rate,
+            "distance" => Dimension::Distance,
+            _ => Dimension::Time,
+        };
+        let value = p.req_num(d, "value", file)?;
+        if value < 0.0 || (shape != Shape::Step && value <= 0.0) {
+            return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
+        }
+        let transition = Transition { shape, dimension, value };
+        let mut it = xml::elements(t);
+        let (Some(x), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, t, "a <SpeedActionTarget> holds one target"));
+        };
+        match x.tag_name().name() {
+            "AbsoluteTargetSpeed" => {
+                Ok(Action::Speed { speed: Some(p.req_num(x, "value", file)?), of: None, delta: None, factor: None, continuous: false, transition })
+            }
+            "RelativeTargetSpeed" => {
+                let of = self.entity(file, x, "entityRef")?;
+                let p = &self.ctx.params;
+                let v = p.req_num(x, "value", file)?;
+                let delta = p.req_enum(x, "speedTargetValueType", file, &["delta", "factor"])? == "delta";
+                let continuous = p.bool_attr(x, "continuous", file)?.unwrap_or(false);
+                Ok(Action::Speed {
+                    speed: None,
+                    of: Some(of),
+                    delta: delta.then_some(v),
+                    factor: (!delta).then_some(v),
+                    continuous,
+                    transition,
+                })
+            }
+            _ => Err(ImportError::unsupported(file, x)),
+        }
+    }
+
+    fn longitudinal_distance(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        if let Some(c) = xml::elements(node).next() {
+            return Err(ImportError::unsupported(file, c));
+        }
+        let of = self.entity(file, node, "entityRef")?;
+        let p = &self.ctx.params;
+        if p.bool_attr(node, "continuous", file)? == Some(true) {
+            return Err(ImportError::at(file, node, "continuous=\"true\" is not supported (only a distance reached once)"));
+        }
+        let distance = p.num_attr(node, "distance", file)?;
+        let time_gap = p.num_attr(node, "timeGap", file)?;
+        let freespace = p.req_bool(node, "freespace", file)?;
+        let ahead = match p.enum_attr(node, "displacement", file, &["trailingReferencedEntity", "leadingReferencedEntity", "any"])?.as_deref() {
+            Some("leadingReferencedEntity") => true,
+            Some("any") => return Err(ImportError::at(file, node, "displacement=\"any\" is not supported")),
+            _ => false,
+        };
+        self.coordinate_system(file, node, false)?;
+        if distance.is_some() == time_gap.is_some() {
+            return Err(ImportError::at(file, node, "give `distance` or `timeGap`"));
+        }
+        Ok(Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead })
+    }
+
+    /// `coordinateSystem`: entity, road or lane (measured along the track either way); `warn`:
+    /// say it is approximated.
+    fn coordinate_system(&mut self, file: &str, node: Node<'_, '_>, warn: bool) -> Result<(), ImportError> {
+        if let Some(cs) = self.ctx.params.enum_attr(node, "coordinateSystem", file, &["entity", "road", "lane", "trajectory", "world"])? {
+            if !matches!(cs.as_str(), "entity" | "road" | "lane") {
+                return Err(ImportError::at(file, node, format!("coordinateSystem=\"{cs}\" is not supported (entity, road, lane)")));
+            }
+            if warn {
+                let key = format!("{}@coordinateSystem", node.tag_name().name());
+                self.ctx.warn.note(&key, file, node, "ignored: distances are measured along the track".into());
+            }
+        }
+        Ok(())
+    }
+
+    fn lane_change(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        let lane_offset = p.num_attr(node, "targetLaneOffset", file)?.unwrap_or(0.0);
+        let mut dynamics = None;
+        let mut target = None;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "LaneChangeActionDynamics" => dynamics = Some(c),
+                "LaneChangeTarget" => target = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let d = dynamics.ok_or_else(|| ImportError::at(file, node, "<LaneChangeActionDynamics> is missing"))?;
+        let t = target.ok_or_else(|| ImportError::at(file, node, "<LaneChangeTarget> is missing"))?;
+        let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
+        let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
+            "distance" => Dimension::Distance,
+            "rate" => return Err(ImportError::at(file, d, "a lane change by rate is not supported (time or distance)")),
+            _ => Dimension::Time,
+        };
+        let value = p.req_num(d, "value", file)?;
+        if value < 0.0 || (shape != Shape::Step && value <= 0.0) {
+            return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
+        }
+        let transition = Transition { shape, dimension, value };
+        let mut it = xml::elements(t);
+        let (Some(x), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, t, "a <LaneChangeTarget> holds one target"));
+        };
+        match x.tag_name().name() {
+            "AbsoluteTargetLane" => {
+                let lane = position::lane_id(&self.ctx.params, file, x, "value")?;
+                let first = actors.first().ok_or_else(|| ImportError::at(file, x, "a lane change needs an actor"))?;
+                let s = self.facts(first).road_s;
+                let offset = self.lanes.offset_of(lane, s).ok_or_else(|| {
+                    ImportError::at(file, x, format!("lane {lane} does not exist at s = {s:.1} m of road `{}`", self.geo.road.id))
+                })?;
+                Ok(Action::LaneChange { offset: Some(offset), of: None, lanes: None, lane_offset, transition })
+            }
+            "RelativeTargetLane" => {
+                let of = self.entity(file, x, "entityRef")?;
+                let n = self.ctx.params.req_int(x, "value", file)?;
+                let lanes = i32::try_from(n).map_err(|_| ImportError::at(file, x, format!("value = {n} lanes")))?;
+                Ok(Action::LaneChange { offset: None, of: Some(of), lanes: Some(lanes), lane_offset, transition })
+            }
+            _ => Err(ImportError::unsupported(file, x)),
+        }
+    }
+
+    fn lane_offset(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        if p.bool_attr(node, "continuous", file)? == Some(true) {
+            return Err(ImportError::at(file, node, "continuous=\"true\" is not supported (only an offset reached once)"));
+        }
+        let mut dynamics = None;
+        let mut target = None;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "LaneOffsetActionDynamics" => dynamics = Some(c),
+                "LaneOffsetTarget" => target = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let d = dynamics.ok_or_else(|| ImportError::at(file, node, "<LaneOffsetActionDynamics> is missing"))?;
+        let t = target.ok_or_else(|| ImportError::at(file, node, "<LaneOffsetTarget> is missing"))?;
+        let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
+        let max_lateral_acc = p
+            .num_attr(d, "maxLateralAcc", file)?
+            .ok_or_else(|| ImportError::at(file, d, "maxLateralAcc is needed (flc times the offset change by it)"))?;
+        let mut it = xml::elements(t);
+        let (Some(x), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, t, "a <LaneOffsetTarget> holds one target"));
+        };
+        match x.tag_name().name() {
+            "AbsoluteTargetLaneOffset" => Ok(Action::LaneOffset { offset: p.req_num(x, "value", file)?, of: None, shape, max_lateral_acc }),
+            "RelativeTargetLaneOffset" => {
+                let of = self.entity(file, x, "entityRef")?;
+                let offset = self.ctx.params.req_num(x, "value", file)?;
+                Ok(Action::LaneOffset { offset, of: Some(of), shape, max_lateral_acc })
+            }
+            _ => Err(ImportError::unsupported(file, x)),
+        }
+    }
+
+    /// The story variable of an OpenSCENARIO parameter (registered with its value).
+    fn param_var(&mut self, file: &str, node: Node<'_, '_>, name: &str) -> Result<(String, VarValue), ImportError> {
+        let name = name.trim().trim_start_matches('$');
+        let v = self.ctx.params.value(name).ok_or_else(|| ImportError::at(file, node, format!("no parameter `{name}`")))?;
+        let v = var_value(v);
+        let key = format!("{PARAM_PREFIX}{name}");
+        let init = self.param_vars.entry(key.clone()).or_insert(v).clone();
+        Ok((key, init))
+    }
+
+    /// The variable named by `node`'s `variableRef` (a `VariableAction`/`VariableCondition`) or
+    /// `parameterRef` (`ParameterAction`/`ParameterCondition`) and its (initial) value.
+    fn variable_of(&mut self, file: &str, node: Node<'_, '_>) -> Result<(String, VarValue), ImportError> {
+        if node.attribute("parameterRef").is_some() {
+            let name = self.ctx.params.req_str(node, "parameterRef", file)?;
+            return self.param_var(file, node, &name);
+        }
+        let name = self.ctx.params.req_str(node, "variableRef", file)?;
+        let v = self.variables.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone());
+        v.map(|v| (name.clone(), v)).ok_or_else(|| ImportError::at(file, node, format!("no variable `{name}` (VariableDeclarations)")))
+    }
+
+    /// `VariableAction` (1.2) / `ParameterAction` (1.0-1.1): `SetAction` (`VariableSetAction`)
+    /// or `ModifyAction` (`VariableModifyAction`) with `Rule/AddValue` or `Rule/MultiplyByValue`.
+    fn variable_action(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let (variable, like) = self.variable_of(file, node)?;
+        let mut it = xml::elements(node);
+        let (Some(x), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, node, format!("a <{}> holds one action", node.tag_name().name())));
+        };
+        match x.tag_name().name() {
+            "SetAction" | "VariableSetAction" | "ParameterSetAction" => {
+                let text = self.ctx.params.req_str(x, "value", file)?;
+                let value = typed(&like, &text).map_err(|m| ImportError::at(file, x, format!("`{variable}`: {m}")))?;
+                Ok(Action::VariableSet { variable, value })
+            }
+            "ModifyAction" | "VariableModifyAction" | "ParameterModifyAction" => {
+                if !matches!(like, VarValue::Num(_)) {
+                    return Err(ImportError::at(file, x, format!("`{variable}` is not a number: it cannot be modified")));
+                }
+                let rule = xml::child(x, "Rule").ok_or_else(|| ImportError::at(file, x, "<Rule> is missing"))?;
+                let mut it = xml::elements(rule);
+                let (Some(r), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, rule, "a <Rule> holds AddValue or MultiplyByValue"));
+                };
+                let v = self.ctx.params.req_num(r, "value", file)?;
+                match r.tag_name().name() {
+                    "AddValue" => Ok(Action::VariableModify { variable, add: Some(v), multiply: None }),
+                    "MultiplyByValue" => Ok(Action::VariableModify { variable, add: None, multiply: Some(v) }),
+                    _ => Err(ImportError::unsupported(file, r)),
+                }
+            }
+            _ => Err(ImportError::unsupported(file, x)),
+        }
+    }
+
+    // ---- triggers ----
+
+    /// A `StartTrigger` / `StopTrigger`: groups ORed, conditions ANDed; `None` without groups.
+    pub fn trigger(&mut self, file: &str, node: Node<'_, '_>) -> Result<Option<Trigger>, ImportError> {
+        let n = node.descendants().filter(|d| d.is_element() && d.tag_name().name() == "Condition").count();
+        if n > MAX_CONDITIONS {
+            return Err(ImportError::at(file, node, format!("{n} conditions, more than the limit of {MAX_CONDITIONS} per trigger")));
+        }
+        let mut groups: Vec<Vec<Condition>> = Vec::new();
+        for g in xml::elements(node) {
+            if g.tag_name().name() != "ConditionGroup" {
+                return Err(ImportError::unsupported(file, g));
+            }
+            let mut alts: Vec<Vec<Condition>> = vec![Vec::new()];
+            let mut any = false;
+            for c in xml::elements(g) {
+                if c.tag_name().name() != "Condition" {
+                    return Err(ImportError::unsupported(file, c));
+                }
+                any = true;
+                let options = self.condition(file, c)?;
+                let total = alts.len().saturating_mul(options.len());
+                if total.saturating_add(groups.len()) > MAX_GROUPS {
+                    return Err(ImportError::at(file, c, format!("the trigger expands to more than {MAX_GROUPS} condition groups")));
+                }
+                let mut next = Vec::with_capacity(total);
+                for a in &alts {
+                    for o in &options {
+                        let mut x = a.clone();
+                        x.extend(o.iter().cloned());
+                        next.push(x);
+                    }
+                }
+                alts = next;
+            }
+            if !any {
+                return Err(ImportError::at(file, g, "an empty ConditionGroup"));
+            }
+            groups.extend(alts);
+        }
+        Ok(match groups.len() {
+            0 => None,
+            1 if groups.first().is_some_and(|g| g.len() == 1) => groups.pop().and_then(|mut g| g.pop()).map(Trigger::when),
+            _ => Some(Trigger::any_of(groups)),
+        })
+    }
+
+    /// A `Condition`: its alternatives (ORed), each a list of conditions (ANDed).
+    fn condition(&mut self, file: &str, node: Node<'_, '_>) -> Result<Vec<Vec<Condition>>, ImportError> {
+        let p = &self.ctx.params;
+        let delay = p.num_attr(node, "delay", file)?.unwrap_or(0.0);
+        if delay < 0.0 {
+            return Err(ImportError::at(file, node, format!("delay = {delay} s: must not be negative")));
+        }
+        let edge = match p.enum_attr(node, "conditionEdge", file, &["rising", "falling", "risingOrFalling", "none"])?.as_deref() {
+            Some("rising") => Edge::Rising,
+            Some("falling") => Edge::Falling,
+            Some("risingOrFalling") => Edge::RisingOrFalling,
+            _ => Edge::None,
+        };
+        let mut it = xml::elements(node);
+        let (Some(c), None) = (it.next(), it.next()) else {
+            return Err(ImportError::at(file, node, "a <Condition> holds ByValueCondition or ByEntityCondition"));
+        };
+        let wrap = |k: ConditionKind| Condition::new(k).delayed(delay).on(edge);
+        match c.tag_name().name() {
+            "ByValueCondition" => {
+                let mut it = xml::elements(c);
+                let (Some(v), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, c, "a <ByValueCondition> holds one condition"));
+                };
+                Ok(vec![vec![wrap(self.value_condition(file, v)?)]])
+            }
+            "ByEntityCondition" => {
+                let te = xml::child(c, "TriggeringEntities").ok_or_else(|| ImportError::at(file, c, "<TriggeringEntities> is missing"))?;
+                let ec = xml::child(c, "EntityCondition").ok_or_else(|| ImportError::at(file, c, "<EntityCondition> is missing"))?;
+                for x in xml::elements(c) {
+                    if !matches!(x.tag_name().name(), "TriggeringEntities" | "EntityCondition") {
+                        return Err(ImportError::unsupported(file, x));
+                    }
+                }
+                let all = self.ctx.params.req_enum(te, "triggeringEntitiesRule", file, &["any", "all"])? == "all";
+                let mut who = Vec::new();
+                for e in xml::elements(te) {
+                    if e.tag_name().name() != "EntityRef" {
+                        return Err(ImportError::unsupported(file, e));
+                    }
+                    who.push(self.entity(file, e, "entityRef")?);
+                }
+                if who.is_empty() {
+                    return Err(ImportError::at(file, te, "no triggering entity"));
+                }
+                if !all && who.len() > MAX_GROUPS {
+                    return Err(ImportError::at(file, te, format!("more than {MAX_GROUPS} triggering entities with rule `any`")));
+                }
+                let mut it = xml::elements(ec);
+                let (Some(x), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, ec, "an <EntityCondition> holds one condition"));
+                };
+                let mut conds = Vec::with_capacity(who.len());
+                for w in &who {
+                    conds.push(wrap(self.entity_condition(file, x, w)?));
+                }
+                Ok(if all { vec![conds] } else { conds.into_iter().map(|c| vec![c]).collect() })
+            }
+            _ => Err(ImportError::unsupported(file, c)),
+        }
+    }
+
+    fn rule(&self, file: &str, node: Node<'_, '_>) -> Result<Rule, ImportError> {
+        Ok(rule_of(&self.ctx.params.req_enum(node, "rule", file, &RULES)?))
+    }
+
+    fn value_condition(&mut self, file: &str, node: Node<'_, '_>) -> Result<ConditionKind, ImportError> {
+        match node.tag_name().name() {
+            "SimulationTimeCondition" => {
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::SimulationTime { value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "StoryboardElementStateCondition" => {
+                let p = &self.ctx.params;
+                p.req_enum(node, "storyboardElementType", file, &["story", "act", "maneuver", "maneuverGroup", "event", "action"])?;
+                let raw = p.req_str(node, "storyboardElementRef", file)?;
+                let element = raw.rsplit("::").next().unwrap_or(&raw).to_string();
+                let state = match p
+                    .req_enum(
+                        node,
+                        "state",
+                        file,
+                        &["startTransition", "endTransition", "stopTransition", "skipTransition", "completeState", "runningState", "standbyState"],
+                    )?
+                    .as_str()
+                {
+                    "startTransition" => ElementEvent::StartTransition,
+                    "endTransition" => ElementEvent::EndTransition,
+                    "stopTransition" => ElementEvent::StopTransition,
+                    "skipTransition" => ElementEvent::SkipTransition,
+                    "completeState" => ElementEvent::CompleteState,
+                    "runningState" => ElementEvent::RunningState,
+                    _ => ElementEvent::StandbyState,
+                };
+                Ok(ConditionKind::ElementState { element, state })
+            }
+            "ParameterCondition" | "VariableCondition" => {
+                let (variable, like) = self.variable_of(file, node)?;
+                let text = self.ctx.params.req_str(node, "value", file)?;
+                let value = typed(&like, &text).map_err(|m| ImportError::at(file, node, format!("`{variable}`: {m}")))?;
+                let rule = self.rule(file, node)?;
+                if !matches!(value, VarValue::Num(_)) && !matches!(rule, Rule::EqualTo | Rule::NotEqualTo) {
+                    return Err(ImportError::at(file, node, "booleans and text compare only with equalTo / notEqualTo"));
+                }
+                Ok(ConditionKind::Variable { variable, value, rule })
+            }
+            _ => Err(ImportError::unsupported(file, node)),
+        }
+    }
+
+    /// `direction` of a speed or acceleration condition (1.2): longitudinal only.
+    fn longitudinal_only(&self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+        match self.ctx.params.enum_attr(node, "direction", file, &["longitudinal", "lateral", "vertical"])?.as_deref() {
+            None | Some("longitudinal") => Ok(()),
+            Some(d) => Err(ImportError::at(file, node, format!("direction=\"{d}\" is not supported (longitudinal)"))),
+        }
+    }
+
+    fn distance_type(&self, file: &str, node: Node<'_, '_>, default: Option<DistanceType>) -> Result<DistanceType, ImportError> {
+        let v = self.ctx.params.enum_attr(node, "relativeDistanceType", file, &["longitudinal", "lateral", "cartesianDistance", "euclidianDistance"])?;
+        match v.as_deref() {
+            Some("longitudinal") => Ok(DistanceType::Longitudinal),
+            Some("lateral") => Ok(DistanceType::Lateral),
+            Some(_) => Ok(DistanceType::Euclidean),
+            None => default.ok_or_else(|| ImportError::at(file, node, "relativeDistanceType is missing")),
+        }
+    }
+
+    /// `alongRoute` (1.0, deprecated): ignored with a warning.
+    fn along_route(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+        if self.ctx.params.bool_attr(node, "alongRoute", file)?.is_some() {
+            let key = format!("{}@alongRoute", node.tag_name().name());
+            self.ctx.warn.note(&key, file, node, "ignored: distances are measured along the track".into());
+        }
+        Ok(())
+    }
+
+    /// A warning when reference points and box centres differ between `a` and `b` along the
+    /// measured direction (flc measures `freespace = false` distances between box centres).
+    fn centre_note(&mut self, file: &str, node: Node<'_, '_>, a: &str, b: &str) {
+        let (fa, fb) = (self.facts(a), self.facts(b));
+        if (fa.center[0] - fb.center[0]).abs() > 1e-9 || (fa.center[1] - fb.center[1]).abs() > 1e-9 {
+            let key = format!("{}@freespace", node.tag_name().name());
+            self.ctx.warn.note(
+                &key,
+                file,
+                node,
+                format!("freespace=\"false\" between `{a}` and `{b}` is measured between box centres (their reference points sit differently in their boxes)"),
+            );
+        }
+    }
+
+    /// The track position `(s, lateral)` of an absolute `Position` (a relative one is an error:
+    /// its reference moves).
+    fn track_position(&mut self, file: &str, position: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+        if position::reference(&self.ctx.params, file, position)?.is_some() {
+            let inner = position::inner(file, position)?;
+            return Err(ImportError::at(file, inner, "a position relative to an entity is not supported in a condition (it moves with the entity)"));
+        }
+        let pose = position::resolve(&self.ctx.params, self.geo, file, position, &|_| None)?;
+        let pr = self.track.project(pose.x, pose.y);
+        Ok((pr.s, pr.lateral_offset))
+    }
+
+    fn entity_condition(&mut self, file: &str, node: Node<'_, '_>, entity: &str) -> Result<ConditionKind, ImportError> {
+        let entity = entity.to_string();
+        let position = |sb: &mut Self| -> Result<(f64, f64), ImportError> {
+            let pos = xml::child(node, "Position").ok_or_else(|| ImportError::at(file, node, "<Position> is missing"))?;
+            for c in xml::elements(node) {
+                if c.tag_name().name() != "Position" {
+                    return Err(ImportError::unsupported(file, c));
+                }
+            }
+            sb.track_position(file, pos)
+        };
+        match node.tag_name().name() {
+            "SpeedCondition" => {
+                self.longitudinal_only(file, node)?;
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::Speed { entity, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "AccelerationCondition" => {
+                self.longitudinal_only(file, node)?;
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::Acceleration { entity, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "RelativeSpeedCondition" => {
+                self.longitudinal_only(file, node)?;
+                let of = self.entity(file, node, "entityRef")?;
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::RelativeSpeed { entity, of, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "StandStillCondition" => Ok(ConditionKind::StandStill { entity, duration: self.ctx.params.req_num(node, "duration", file)? }),
+            "TraveledDistanceCondition" => Ok(ConditionKind::TraveledDistance { entity, value: self.ctx.params.req_num(node, "value", file)? }),
+            "RelativeDistanceCondition" => {
+                let of = self.entity(file, node, "entityRef")?;
+                let distance = self.distance_type(file, node, None)?;
+                self.coordinate_system(file, node, false)?;
+                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
+                if !freespace {
+                    self.centre_note(file, node, &entity, &of);
+                }
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::RelativeDistance { entity, of, distance, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "TimeHeadwayCondition" => {
+                let of = self.entity(file, node, "entityRef")?;
+                self.along_route(file, node)?;
+                self.coordinate_system(file, node, true)?;
+                if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
+                    return Err(ImportError::at(file, node, "a time headway measured other than longitudinally is not supported"));
+                }
+                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
+                if !freespace {
+                    self.centre_note(file, node, &entity, &of);
+                }
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "TimeToCollisionCondition" => {
+                let target = xml::child(node, "TimeToCollisionConditionTarget").ok_or_else(|| ImportError::at(file, node, "<TimeToCollisionConditionTarget> is missing"))?;
+                let mut it = xml::elements(target);
+                let (Some(x), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, target, "a <TimeToCollisionConditionTarget> holds one target"));
+                };
+                if x.tag_name().name() != "EntityRef" {
+                    return Err(ImportError::unsupported(file, x));
+                }
+                let of = self.entity(file, x, "entityRef")?;
+                self.along_route(file, node)?;
+                self.coordinate_system(file, node, true)?;
+                if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
+                    return Err(ImportError::at(file, node, "a time to collision measured other than longitudinally is not supported"));
+                }
+                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
+                if !freespace {
+                    self.centre_note(file, node, &entity, &of);
+                }
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                Ok(ConditionKind::Ttc { entity, of, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+            }
+            "ReachPositionCondition" => {
+                let tolerance = self.ctx.params.req_num(node, "tolerance", file)?;
+                let (s, lateral) = position(self)?;
+                // The condition is on the reference point; flc measures the box centre.
+                let c = self.facts(&entity).center;
+                Ok(ConditionKind::ReachPosition { entity, s: s + c[0], lateral: Some(lateral + c[1]), tolerance })
+            }
+            "DistanceCondition" => {
+                self.along_route(file, node)?;
+                self.coordinate_system(file, node, false)?;
+                let distance = self.distance_type(file, node, Some(DistanceType::Euclidean))?;
+                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
+                let value = self.ctx.params.req_num(node, "value", file)?;
+                let rule = self.rule(file, node)?;
+                let (mut s, mut lateral) = position(self)?;
+                if !freespace {
+                    let c = self.facts(&entity).center;
+                    s += c[0];
+                    lateral += c[1];
+                }
+                Ok(ConditionKind::Distance { entity, s, lateral, distance, freespace, value, rule, tolerance: None })
+            }
+            "CollisionCondition" => {
+                let mut it = xml::elements(node);
+                let (Some(x), None) = (it.next(), it.next()) else {
+                    return Err(ImportError::at(file, node, "a <CollisionCondition> holds EntityRef or ByType"));
+                };
+                match x.tag_name().name() {
+                    "EntityRef" => Ok(ConditionKind::Collision { entity, with: Some(self.entity(file, x, "entityRef")?) }),
+                    "ByType" => {
+                        let key = "ByType".to_string();
+                        self.ctx.warn.note(&key, file, x, "a collision with an object of a type: with anything".into());
+                        Ok(ConditionKind::Collision { entity, with: None })
+                    }
+                    _ => Err(ImportError::unsupported(file, x)),
+                }
+            }
+            _ => Err(ImportError::unsupported(file, node)),
+        }
+    }
+}
