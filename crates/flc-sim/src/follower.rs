@@ -24,6 +24,13 @@ pub struct FollowerSpec {
     /// default: half its length + 1 m, just after the track's start).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub start_s: Option<f64>,
+    /// Initial lateral offset of the (last) follower's centre from the centreline, m (+ left).
+    /// Default 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub start_offset: f64,
+    /// Initial heading of the (last) follower relative to the road, rad (+ left). Default 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub start_heading: f64,
     /// Vehicle model.
     pub vehicle: VehicleParams,
     /// Low-level speed controller (turns the pipeline's speed command into drive / brake).
@@ -42,6 +49,10 @@ pub struct FollowerSpec {
     /// source model, `docs/baselines.md`); never used for the paper's or the envelope's results,
     /// and reported in the JSON (`perception`) and the table (`[ideal]`) when on.
     pub perception: Perception,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// What the follower's controllers see ([`FollowerSpec::perception`]).
@@ -71,6 +82,8 @@ impl Default for FollowerSpec {
             initial_speed: 0.0,
             initial_gap: 7.0,
             start_s: None,
+            start_offset: 0.0,
+            start_heading: 0.0,
             vehicle: VehicleParams::default(),
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,

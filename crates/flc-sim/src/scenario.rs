@@ -245,6 +245,8 @@ impl Scenario {
         if let Some(fs) = self.follower.start_s {
             check_range("follower.start_s", fs, -1.0e6, 1.0e6, "m")?;
         }
+        check_range("follower.start_offset", self.follower.start_offset, -50.0, 50.0, "m")?;
+        check_range("follower.start_heading", self.follower.start_heading, -3.2, 3.2, "rad")?;
         if let Some(story) = &self.story {
             self.validate_story(story, &table)?;
         }

@@ -510,17 +510,9 @@ fn translate(
     };
     s.follower.vehicle = ed.vehicle;
     s.follower.start_s = Some(ep.s);
+    s.follower.start_offset = ep.lateral;
+    s.follower.start_heading = ep.heading;
     s.follower.initial_speed = speed_of(ego);
-    // (A box centre ahead of a reference point on a curve sits a few mm off the lane centre.)
-    if ep.lateral.abs() > 0.01 || ep.heading.abs() > 0.01 {
-        let at = init_states.get(ego).and_then(|st| st.position).unwrap_or(entities);
-        ctx.warn.note(
-            "ego position",
-            file,
-            at,
-            format!("the ego starts {:.3} m from its lane centre, heading {:.4} rad: flc starts it on the lane centre, along the lane", ep.lateral, ep.heading),
-        );
-    }
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if i == ego {
             continue;
@@ -579,7 +571,9 @@ fn translate(
     if sb.skipped_used {
         variables.push(Variable { name: storyboard::SKIPPED_VAR.into(), value: VarValue::Num(0.0) });
     }
-    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, acts };
+    // Every entity's reference point: its actions move that point, as in OpenSCENARIO.
+    let references = defs.iter().zip(&names).filter(|(d, _)| d.center != [0.0, 0.0]).map(|(d, n)| (n.clone(), d.center)).collect();
+    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, acts };
 
     // The controller and its set speed.
     let kind = opts.controller.or(init_controller).or(ed.controller).unwrap_or_default();

@@ -30,7 +30,7 @@ use flc_core::PurePursuit;
 use self::follower::Follower;
 use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
-use self::story::{StoryRun, pose_of};
+use self::story::{StepInput, StoryRun, pose_of};
 use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
@@ -152,9 +152,12 @@ impl Simulation {
         if let (Some(ls), 1) = (s.lead.s, n) {
             s_pos[0] = ls;
         }
-        let state_at = |sp: f64, speed: f64| {
-            let (x, y, yaw) = track.pose_at(sp);
-            VehicleState { x, y, yaw, speed, ..VehicleState::default() }
+        // The last follower may start off the centreline (`start_offset`, `start_heading`).
+        let last_pose = configs.last().map_or((0.0, 0.0), |c| (c.follower.start_offset, c.follower.start_heading));
+        let state_at = |k: usize, speed: f64| {
+            let (off, head) = if k == n { last_pose } else { (0.0, 0.0) };
+            let (x, y, yaw) = track.place(s_pos[k], off);
+            VehicleState { x, y, yaw: yaw + head, speed, ..VehicleState::default() }
         };
         let lead_state = {
             let (x, y, yaw) = track.place(s_pos[0], s.lead.offset);
@@ -164,7 +167,7 @@ impl Simulation {
         let mut bodies = Vec::with_capacity(n);
         let mut lead_body = None;
         for (k, c) in configs.iter().enumerate() {
-            bodies.push(world.add_vehicle(&c.follower.vehicle, &state_at(s_pos[k + 1], c.follower.initial_speed)));
+            bodies.push(world.add_vehicle(&c.follower.vehicle, &state_at(k + 1, c.follower.initial_speed)));
             if k == 0 {
                 lead_body = Some(world.add_vehicle(ll, &lead_state));
             }
@@ -172,7 +175,7 @@ impl Simulation {
         let lead_body = lead_body.ok_or_else(|| ConfigError::new("platoon.followers", "at least one follower"))?;
         let mut followers = Vec::with_capacity(n);
         for (k, (c, body)) in configs.into_iter().zip(bodies).enumerate() {
-            let state = state_at(s_pos[k + 1], c.follower.initial_speed);
+            let state = state_at(k + 1, c.follower.initial_speed);
             let lead_link = platoon.v2v_source == V2vSource::Both && k >= 1;
             followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
         }
@@ -184,10 +187,15 @@ impl Simulation {
         let any = s.stop.trigger.is_some()
             || s.lead.phases.iter().chain(s.vehicles.iter().flat_map(|v| v.phases.iter())).any(|p| p.start.is_some());
         let story = s.story.as_ref().map(|story| {
-            let mut initial = vec![(lead_state, ll.length)];
-            initial.extend(traffic.iter().map(|t| (*t.vehicle.state(), t.params.length)));
+            let body = |name: &str, state: VehicleState, length: f64| self::story::Body {
+                state,
+                length,
+                reference: story.references.get(name).copied().unwrap_or_default(),
+            };
+            let mut initial = vec![body("lead", lead_state, ll.length)];
+            initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), t.params.length)));
             if let Some(f) = followers.first() {
-                initial.push((*f.vehicle.state(), f.cfg.follower.vehicle.length));
+                initial.push(body(crate::scenario::EGO, *f.vehicle.state(), f.cfg.follower.vehicle.length));
             }
             StoryRun::new(story, &track, &initial)
         });
@@ -592,10 +600,14 @@ impl<O: Observer> Simulation<O> {
                 _ => names.iter().position(|x| *x == name).map(|i| i + 1),
             }
         };
-        let ego = st.followers.first().map(|f| (*f.vehicle.state(), f.cfg.follower.vehicle.length)).unwrap_or_default();
+        let ego = self::story::Body {
+            state: st.followers.first().map(|f| *f.vehicle.state()).unwrap_or_default(),
+            length: st.followers.first().map_or(0.0, |f| f.cfg.follower.vehicle.length),
+            reference: story.references.get(crate::scenario::EGO).copied().unwrap_or_default(),
+        };
         {
             let truth = truth!(st);
-            run.step(story, &truth, &slot, &st.track, (&ego.0, ego.1), t, dt);
+            run.step(&StepInput { story, world: &truth, slot: &slot, track: &st.track, ego }, t, dt);
         }
         st.story = Some(run);
     }

@@ -22,26 +22,52 @@ pub(super) struct StoryRun {
     stopped: Vec<usize>,
 }
 
-/// The motion of a vehicle at `state` on `track`, `length` m long.
-pub(super) fn motion_of(track: &Track, state: &VehicleState, length: f64) -> Motion {
-    let p = track.project(state.x, state.y);
-    let mut m = Motion::new(p.s, p.lateral_offset, state.speed, track.lane_width).with_length(length);
-    m.heading = crate::track::wrap(state.yaw - p.heading);
+/// An entity as the story moves it: its state, length and reference point (the box centre's
+/// position from it, in the entity's frame).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Body {
+    pub(super) state: VehicleState,
+    pub(super) length: f64,
+    pub(super) reference: [f64; 2],
+}
+
+/// The motion of the reference point of `b` on `track`.
+pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
+    let st = &b.state;
+    let (c, s) = (st.yaw.cos(), st.yaw.sin());
+    let [rx, ry] = b.reference;
+    let p = track.project(st.x - c * rx + s * ry, st.y - s * rx - c * ry);
+    let mut m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width).with_length(b.length).with_reference(b.reference);
+    m.heading = crate::track::wrap(st.yaw - p.heading);
     m
 }
 
-/// The pose a motion puts its vehicle in.
+/// The pose a motion puts its vehicle's box centre in.
 pub(super) fn pose_of(track: &Track, m: &Motion, steer: f64) -> VehicleState {
     let (x, y, h) = track.place(m.s, m.offset);
-    VehicleState { x, y, yaw: h + m.heading, speed: m.speed, accel: m.accel, steer }
+    let yaw = h + m.heading;
+    let [rx, ry] = m.reference();
+    let (c, s) = (yaw.cos(), yaw.sin());
+    VehicleState { x: x + c * rx - s * ry, y: y + s * rx + c * ry, yaw, speed: m.speed, accel: m.accel, steer }
+}
+
+/// What [`StoryRun::step`] reads of the loop: the story, the ground truth at the start of the
+/// step, the entity slots by name, the track and the ego (from which its motion restarts when
+/// the story takes it over).
+pub(super) struct StepInput<'a> {
+    pub(super) story: &'a Story,
+    pub(super) world: &'a dyn WorldView,
+    pub(super) slot: &'a dyn Fn(&str) -> Option<usize>,
+    pub(super) track: &'a Track,
+    pub(super) ego: Body,
 }
 
 impl StoryRun {
-    /// The runtime of `story` for entities at `initial` (lead, traffic..., ego: state and length).
-    pub(super) fn new(story: &Story, track: &Track, initial: &[(VehicleState, f64)]) -> Self {
+    /// The runtime of `story` for entities `initial` (lead, traffic..., ego).
+    pub(super) fn new(story: &Story, track: &Track, initial: &[Body]) -> Self {
         Self {
             state: StoryState::new(story),
-            motions: initial.iter().map(|(st, len)| motion_of(track, st, *len)).collect(),
+            motions: initial.iter().map(|b| motion_of(track, b)).collect(),
             ego_scripted: story.ego == EgoMode::Scripted,
             dynamics: story.dynamics,
             started: Vec::new(),
@@ -54,20 +80,9 @@ impl StoryRun {
         self.motions.len().saturating_sub(1)
     }
 
-    /// One evaluation at `t`: starts / stops actions (`slot` maps an entity name to its slot;
-    /// `world` is the ground truth at the start of the step, `ego_now` the ego's state, from
-    /// which its motion restarts when the story takes it over), then advances every motion to
-    /// `t + dt` along `track`.
-    pub(super) fn step(
-        &mut self,
-        story: &Story,
-        world: &dyn WorldView,
-        slot: &dyn Fn(&str) -> Option<usize>,
-        track: &Track,
-        ego_now: (&VehicleState, f64),
-        t: f64,
-        dt: f64,
-    ) {
+    /// One evaluation at `t`: starts / stops actions, then advances every motion to `t + dt`.
+    pub(super) fn step(&mut self, input: &StepInput<'_>, t: f64, dt: f64) {
+        let StepInput { story, world, slot, track, ego: ego_now } = *input;
         self.started.clear();
         self.stopped.clear();
         self.state.step(story, world, t, &mut self.started, &mut self.stopped);
@@ -84,7 +99,7 @@ impl StoryRun {
                 if actors.iter().any(|a| slot(a) == Some(ego)) {
                     let scripted = !*longitudinal;
                     if scripted && !self.ego_scripted {
-                        self.motions[ego] = motion_of(track, ego_now.0, ego_now.1);
+                        self.motions[ego] = motion_of(track, &ego_now);
                     }
                     self.ego_scripted = scripted;
                 }

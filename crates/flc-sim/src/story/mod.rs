@@ -420,6 +420,12 @@ pub struct Story {
     /// Variables and their initial values.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub variables: Vec<Variable>,
+    /// Each entity's reference point (OpenSCENARIO's: the position its actions and placements
+    /// move, a vehicle's rear axle), as the position of its bounding-box centre in the entity's
+    /// frame from that point, m (`lead = [1.4, 0.0]`: the centre is 1.4 m ahead of it). Entities
+    /// not named move their box centre.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub references: std::collections::BTreeMap<String, [f64; 2]>,
     /// The acts.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub acts: Vec<Act>,
@@ -518,6 +524,13 @@ impl Story {
             }
         }
         let known = |name: &str| entities.contains(&name);
+        for (name, r) in &self.references {
+            if !known(name) {
+                return Err(ConfigError::new(format!("story.references.{name}"), format!("no entity `{name}`")));
+            }
+            check_range(&format!("story.references.{name}[0]"), r[0], -50.0, 50.0, "m")?;
+            check_range(&format!("story.references.{name}[1]"), r[1], -50.0, 50.0, "m")?;
+        }
         for (i, a) in self.acts.iter().enumerate() {
             let ak = format!("story.acts[{i}]");
             for (j, g) in a.groups.iter().enumerate() {

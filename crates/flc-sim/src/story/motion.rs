@@ -75,6 +75,8 @@ pub struct Motion {
     lane_width: f64,
     /// The entity's own length (freespace placements), m.
     own_len: Option<f64>,
+    /// Its box centre from the reference point (`s`, `offset`), entity frame, m.
+    reference: [f64; 2],
     long: Option<Long>,
     lat: Option<Lat>,
 }
@@ -83,13 +85,25 @@ impl Motion {
     /// An entity at rest in its motion (no action running) at `s`, `offset`, `speed`, on a track
     /// of lanes `lane_width` wide.
     pub fn new(s: f64, offset: f64, speed: f64, lane_width: f64) -> Self {
-        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, still_for: 0.0, lane_width, own_len: None, long: None, lat: None }
+        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, still_for: 0.0, lane_width, own_len: None, reference: [0.0, 0.0], long: None, lat: None }
     }
 
     /// This motion for an entity `length` m long (freespace placements).
     pub fn with_length(mut self, length: f64) -> Self {
         self.own_len = Some(length);
         self
+    }
+
+    /// This motion for an entity whose box centre is at `reference` from the point it moves
+    /// (entity frame, m).
+    pub fn with_reference(mut self, reference: [f64; 2]) -> Self {
+        self.reference = reference;
+        self
+    }
+
+    /// The box centre's position from the moved point, entity frame, m.
+    pub fn reference(&self) -> [f64; 2] {
+        self.reference
     }
 
     /// The running longitudinal and lateral actions.
@@ -174,23 +188,19 @@ impl Motion {
             Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
                 if let Some(r) = world.entity(of) {
+                    // Distances between box centres (reference points are taken to sit alike in
+                    // both entities), between boxes with `freespace`.
                     let mut d = distance.unwrap_or_else(|| time_gap.unwrap_or(0.0) * self.speed);
                     if *freespace {
-                        // The actor's length is not known here: the caller's world gives it.
-                        d += 0.5 * r.length + 0.5 * self.own_length(world, r.length);
+                        d += 0.5 * r.length + 0.5 * self.own_len.unwrap_or(r.length);
                     }
-                    self.s = if *ahead { r.s + d } else { r.s - d };
+                    let centre = if *ahead { r.s + d } else { r.s - d };
+                    self.s = centre - self.reference[0];
                 }
                 (replaced, true)
             }
             _ => (None, true),
         }
-    }
-
-    /// The actor's own length for freespace placements: not part of the motion; the world
-    /// answers for the reference only, so the reference's is used when unknown.
-    fn own_length(&self, _world: &dyn WorldView, fallback: f64) -> f64 {
-        self.own_len.unwrap_or(fallback)
     }
 
     fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool) {
