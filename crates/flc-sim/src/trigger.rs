@@ -351,7 +351,8 @@ pub enum ConditionKind {
         tolerance: Option<f64>,
     },
     /// `ByEntityCondition/StandStillCondition`: `entity` has been at standstill (speed below
-    /// 1e-3 m/s) for at least `duration` s.
+    /// 1e-3 m/s) for more than `duration` s, counted from the first evaluation that saw it
+    /// standing.
     StandStill {
         /// Triggering entity.
         entity: String,
@@ -634,8 +635,11 @@ impl ConditionKind {
             | ConditionKind::Distance { value, rule, tolerance, .. } => {
                 self.measure(world, t).is_some_and(|x| rule.holds(x, *value, *tolerance))
             }
+            // Counted from the first evaluation that sees the entity standing, and held once
+            // that time *exceeds* `duration` (as esmini 3.6.0 does: a 1 s standstill seen first
+            // at t0 holds at t0 + 1.01 s with 10 ms steps).
             ConditionKind::StandStill { duration, .. } => {
-                self.measure(world, t).is_some_and(|d| Rule::GreaterOrEqual.holds(d, *duration, None))
+                self.measure(world, t).is_some_and(|d| Rule::GreaterThan.holds(d, *duration, None))
             }
             ConditionKind::Collision { entity, with } => world.collided(entity, with.as_deref()),
             ConditionKind::Variable { variable, value, rule } => world.variable(variable).is_some_and(|v| compare_values(&v, value, *rule)),

@@ -130,6 +130,9 @@ fn compare(run: &Imported, reference: &Path, events: &Path) -> (f64, f64, f64, u
         let theirs = want.get(name).cloned().unwrap_or_default();
         assert_eq!(mine.len(), theirs.len(), "{}: event {name} starts at {mine:?} in flc, {theirs:?} in esmini", events.display());
         for (a, b) in mine.iter().zip(&theirs) {
+            if ((a - b) / dt).abs() > 1.0 + 1e-6 {
+                eprintln!("{}: event {name} starts at {a:.2} s in flc, {b:.2} s in esmini", events.display());
+            }
             de = de.max(((a - b) / dt).abs());
             n += 1;
         }

@@ -107,7 +107,7 @@ struct State {
     /// `[story]`: its runtime and the motions of the entities it drives.
     story: Option<StoryRun>,
     /// How long each vehicle has stood still (0 = the lead, then the traffic, then the
-    /// followers), s.
+    /// followers), s; negative while it moves.
     still: Vec<f64>,
     source: V2vSource,
     lead_weight: f64,
@@ -199,7 +199,8 @@ impl Simulation {
             }
             StoryRun::new(story, &track, &initial)
         });
-        let still = vec![0.0; 1 + traffic.len() + followers.len()];
+        let speeds0 = std::iter::once(lead_state.speed).chain(traffic.iter().map(|t| t.vehicle.state().speed)).chain(followers.iter().map(|f| f.vehicle.state().speed));
+        let still = speeds0.map(|v| if v < 1.0e-3 { 0.0 } else { -1.0 }).collect();
         let state = State {
             scenario: s.clone(),
             lead_x0: s_pos[0],
@@ -471,8 +472,16 @@ impl<O: Observer> Simulation<O> {
             let speeds = std::iter::once(st.lead.state().speed)
                 .chain(st.traffic.iter().map(|t| t.vehicle.state().speed))
                 .chain(st.followers.iter().map(|f| f.vehicle.state().speed));
+            // Negative while moving; 0 at the first step at standstill (esmini counts from the
+            // first evaluation that sees it standing).
             for (still, v) in st.still.iter_mut().zip(speeds) {
-                *still = if v < 1.0e-3 { *still + dt } else { 0.0 };
+                *still = if v >= 1.0e-3 {
+                    -1.0
+                } else if *still < 0.0 {
+                    0.0
+                } else {
+                    *still + dt
+                };
             }
         }
         let contacts = self.state.world.step(dt);

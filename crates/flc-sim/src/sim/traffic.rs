@@ -140,7 +140,7 @@ fn follower_index(name: &str) -> Option<usize> {
 
 impl WorldView for Truth<'_> {
     fn entity(&self, name: &str) -> Option<EntityState> {
-        let still = |i: usize| self.still.get(i).copied().unwrap_or(0.0);
+        let still = |i: usize| self.still.get(i).copied().unwrap_or(0.0).max(0.0);
         if name == "lead" {
             return Some(entity_state(self.track, self.lead.0, self.lead.1, still(0)));
         }

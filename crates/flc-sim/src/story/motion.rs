@@ -4,9 +4,6 @@
 use super::{Action, Dimension, Shape, Transition};
 use crate::trigger::WorldView;
 
-/// Speed below which an entity counts as standing, m/s.
-const STILL: f64 = 1.0e-3;
-
 /// A running longitudinal action.
 #[derive(Debug, Clone, PartialEq)]
 struct Long {
@@ -70,8 +67,6 @@ pub struct Motion {
     pub heading: f64,
     /// Distance travelled, m.
     pub traveled: f64,
-    /// Time at standstill without interruption, s.
-    pub still_for: f64,
     lane_width: f64,
     /// The entity's own length (freespace placements), m.
     own_len: Option<f64>,
@@ -85,7 +80,7 @@ impl Motion {
     /// An entity at rest in its motion (no action running) at `s`, `offset`, `speed`, on a track
     /// of lanes `lane_width` wide.
     pub fn new(s: f64, offset: f64, speed: f64, lane_width: f64) -> Self {
-        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, still_for: 0.0, lane_width, own_len: None, reference: [0.0, 0.0], long: None, lat: None }
+        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, lane_width, own_len: None, reference: [0.0, 0.0], long: None, lat: None }
     }
 
     /// This motion for an entity `length` m long (freespace placements).
@@ -274,7 +269,6 @@ impl Motion {
         self.s += ds;
         self.traveled += along;
         self.heading = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
-        self.still_for = if self.speed < STILL { self.still_for + dt } else { 0.0 };
         out
     }
 }
