@@ -1324,7 +1324,7 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
     }
     let ego_index = lane_ids.iter().position(|&l| l == ego_lane).and_then(|i| u32::try_from(i).ok()).unwrap_or(0);
     let nlanes = u32::try_from(lane_ids.len()).unwrap_or(u32::MAX);
-    let track = Track::new(name, pts, lane_width, Vec::new()).with_lanes(nlanes, ego_index);
+    let track = Track::new(name, without_collinear(pts), lane_width, Vec::new()).with_lanes(nlanes, ego_index);
     track.validate().map_err(|e| err(format!("road \"{rid}\", lane {ego_lane}: the track is not valid: {e}")))?;
     let map = LaneMap {
         road_id: road.id.clone(),
@@ -1342,6 +1342,27 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
 }
 
 /// The median of `v` (0 if empty).
+/// `pts` without the points that lie within 1 µm of the chord between their kept neighbours
+/// (straight stretches become one segment; on any real curve the sagitta of two samples is far
+/// larger, so curves keep every sample). The track's lengths are unchanged.
+fn without_collinear(pts: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    const TOL: f64 = 1e-6;
+    let mut out: Vec<[f64; 2]> = Vec::with_capacity(pts.len());
+    for (i, &p) in pts.iter().enumerate() {
+        if let (Some(&a), Some(&c)) = (out.last(), pts.get(i + 1)) {
+            let (dx, dy) = (c[0] - a[0], c[1] - a[1]);
+            let len = dx.hypot(dy);
+            let along = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len.max(1e-12);
+            let off = ((p[0] - a[0]) * dy - (p[1] - a[1]) * dx).abs() / len.max(1e-12);
+            if len > 0.0 && off < TOL && along > 0.0 && along < len {
+                continue;
+            }
+        }
+        out.push(p);
+    }
+    out
+}
+
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     match v.len() {

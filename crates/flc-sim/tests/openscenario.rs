@@ -1,0 +1,222 @@
+//! The OpenSCENARIO importer end to end: closed-form checks through imported files, the TOML
+//! twin (`scenario convert`) giving bit-identical series, distributions, and every unsupported
+//! element and hostile input class rejected with exit 2 and one line naming file, line and
+//! element (`docs/openscenario.md`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use flc_sim::openscenario::{self, ImportOptions};
+use flc_sim::story::EgoMode;
+use flc_sim::trigger::ElementEvent;
+use flc_sim::{Scenario, Simulation};
+
+fn data() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/openscenario")
+}
+
+fn scripted() -> ImportOptions {
+    ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() }
+}
+
+/// Runs `s` to its end; the transitions of its story.
+fn transitions(s: &Scenario) -> Vec<(f64, bool, String, ElementEvent)> {
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+    while sim.step().unwrap_or_else(|e| panic!("{e}")) {}
+    sim.story_transitions()
+}
+
+fn when(tr: &[(f64, bool, String, ElementEvent)], name: &str, what: ElementEvent) -> f64 {
+    tr.iter().find(|(_, _, n, w)| n == name && *w == what).map(|(t, ..)| *t).unwrap_or_else(|| panic!("{name} {what:?} never happened"))
+}
+
+#[test]
+fn linear_speed_by_rate_from_50_to_2_kmh_ends_2_22_s_after_it_starts() {
+    let import = openscenario::import(&data().join("speed_linear_rate.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let tr = transitions(&import.runs[0].scenario);
+    let (t0, t1) = (when(&tr, "BrakeAction", ElementEvent::StartTransition), when(&tr, "BrakeAction", ElementEvent::EndTransition));
+    // (50 - 2) / 3.6 / 6 = 2.2222 s: the action ends in the step that reaches 2 km/h.
+    assert!((t1 - t0 - 48.0 / 3.6 / 6.0).abs() <= 0.01, "{t0} -> {t1}");
+    assert!((t0 - 1.01).abs() < 1e-9, "starts at the first evaluation with t > 1 s: {t0}");
+}
+
+/// A two-car file: Ego at `v_ego` 50 m (freespace) behind Target at `v_target`, Target brakes
+/// when the freespace gap falls below 20 m.
+fn closing(v_ego: f64, v_target: f64) -> String {
+    let car = |name: &str| {
+        format!(
+            r#"<ScenarioObject name="{name}"><Vehicle name="{name}" vehicleCategory="car"><BoundingBox><Center x="1.4" y="0" z="0.75"/><Dimensions width="1.8" length="4.5" height="1.5"/></BoundingBox><Performance maxSpeed="70" maxAcceleration="10" maxDeceleration="10"/><Axles><FrontAxle maxSteering="0.5" wheelDiameter="0.6" trackWidth="1.6" positionX="2.8" positionZ="0.3"/><RearAxle maxSteering="0" wheelDiameter="0.6" trackWidth="1.6" positionX="0" positionZ="0.3"/></Axles></Vehicle></ScenarioObject>"#
+        )
+    };
+    let init = |name: &str, s: f64, v: f64| {
+        format!(
+            r#"<Private entityRef="{name}"><PrivateAction><TeleportAction><Position><LanePosition roadId="1" laneId="-2" offset="0" s="{s}"/></Position></TeleportAction></PrivateAction><PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape="step" dynamicsDimension="time" value="0"/><SpeedActionTarget><AbsoluteTargetSpeed value="{v}"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Private>"#
+        )
+    };
+    format!(
+        r#"<?xml version="1.0"?>
+<OpenSCENARIO><FileHeader revMajor="1" revMinor="2" date="2026-01-01T00:00:00" author="flc" description="closing"/>
+<RoadNetwork><LogicFile filepath="{road}"/></RoadNetwork>
+<Entities>{ego}{target}</Entities>
+<Storyboard><Init><Actions>{i1}{i2}</Actions></Init>
+<Story name="S"><Act name="A"><ManeuverGroup name="G" maximumExecutionCount="1"><Actors selectTriggeringEntities="false"><EntityRef entityRef="Target"/></Actors>
+<Maneuver name="M"><Event name="Brake" priority="override" maximumExecutionCount="1"><Action name="BrakeAction"><PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape="linear" dynamicsDimension="rate" value="6"/><SpeedActionTarget><AbsoluteTargetSpeed value="0"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Action>
+<StartTrigger><ConditionGroup><Condition name="Gap" delay="0" conditionEdge="none"><ByEntityCondition><TriggeringEntities triggeringEntitiesRule="any"><EntityRef entityRef="Ego"/></TriggeringEntities><EntityCondition><RelativeDistanceCondition entityRef="Target" relativeDistanceType="longitudinal" freespace="true" rule="lessThan" value="20"/></EntityCondition></ByEntityCondition></Condition></ConditionGroup></StartTrigger></Event></Maneuver></ManeuverGroup>
+<StartTrigger><ConditionGroup><Condition name="Go" delay="0" conditionEdge="none"><ByValueCondition><SimulationTimeCondition value="0" rule="greaterOrEqual"/></ByValueCondition></Condition></ConditionGroup></StartTrigger></Act></Story>
+<StopTrigger><ConditionGroup><Condition name="End" delay="0" conditionEdge="none"><ByValueCondition><SimulationTimeCondition value="6" rule="greaterThan"/></ByValueCondition></Condition></ConditionGroup></StopTrigger></Storyboard></OpenSCENARIO>"#,
+        road = data().join("roads/straight.xodr").display(),
+        ego = car("Ego"),
+        target = car("Target"),
+        i1 = init("Ego", 50.0, v_ego),
+        i2 = init("Target", 50.0 + 4.5 + 50.0, v_target),
+    )
+}
+
+#[test]
+fn relative_distance_fires_at_the_step_where_the_freespace_gap_crosses() {
+    let dir = tempdir("closing");
+    for (v_ego, v_target) in [(20.0, 10.0), (25.0, 5.0), (13.0, 7.0)] {
+        let file = dir.join("closing.xosc");
+        std::fs::write(&file, closing(v_ego, v_target)).unwrap_or_else(|e| panic!("{e}"));
+        let import = openscenario::import(&file, &scripted()).unwrap_or_else(|e| panic!("{e}"));
+        let t = when(&transitions(&import.runs[0].scenario), "Brake", ElementEvent::StartTransition);
+        // The gap 50 - (v_ego - v_target) t falls below 20 m after t* = 30 / (v_ego - v_target);
+        // the first evaluation at a step start t_k with gap < 20 is the first t_k > t*.
+        let crossing = 30.0 / (v_ego - v_target);
+        assert!(t > crossing - 1e-9 && t <= crossing + 0.01 + 1e-9, "{v_ego}/{v_target}: fired at {t}, crossing at {crossing}");
+    }
+}
+
+#[test]
+fn a_2x2_distribution_gives_4_runs_with_their_parameters_in_esminis_order() {
+    let import = openscenario::import(&data().join("distribution_2x2.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(import.runs.len(), 4);
+    let values: Vec<(f64, f64)> = import
+        .runs
+        .iter()
+        .map(|r| {
+            let get = |k: &str| r.params.iter().find(|(n, _)| n == k).and_then(|(_, v)| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+            (get("EgoSpeed_kmh"), get("TargetSpeed_kmh"))
+        })
+        .collect();
+    assert_eq!(values, vec![(40.0, 10.0), (40.0, 20.0), (60.0, 10.0), (60.0, 20.0)]);
+    // Each run's scenario carries its parameters: the ego's speed is EgoSpeed_kmh / 3.6.
+    for (r, (ego, _)) in import.runs.iter().zip(&values) {
+        assert!((r.scenario.follower.initial_speed - ego / 3.6).abs() < 1e-9, "{}", r.scenario.follower.initial_speed);
+        assert!(r.scenario.variant.is_some());
+    }
+}
+
+/// Bit-identical series of two runs.
+fn same_series(a: &Scenario, b: &Scenario) -> bool {
+    let ra = flc_sim::run(a).unwrap_or_else(|e| panic!("{e}"));
+    let rb = flc_sim::run(b).unwrap_or_else(|e| panic!("{e}"));
+    let (ca, cb) = (ra.series.columns(), rb.series.columns());
+    ca.len() == cb.len()
+        && ca.iter().zip(&cb).all(|((na, va), (nb, vb))| na == nb && va.len() == vb.len() && va.iter().zip(vb).all(|(x, y)| x.to_bits() == y.to_bits()))
+}
+
+#[test]
+fn every_fixture_and_its_toml_twin_give_bit_identical_series() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(data()).unwrap_or_else(|e| panic!("{e}")) {
+        let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+        if path.extension().is_none_or(|x| x != "xosc") {
+            continue;
+        }
+        for opts in [ImportOptions::default(), scripted()] {
+            let import = openscenario::import(&path, &opts).unwrap_or_else(|e| panic!("{e}"));
+            for run in import.runs.iter().take(2) {
+                let toml = run.scenario.to_toml().unwrap_or_else(|e| panic!("{e}"));
+                let twin = Scenario::from_toml_str(&toml, "twin.toml").unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                assert_eq!(twin, run.scenario, "{}: the twin reads back as the same scenario", path.display());
+                let short = Scenario { duration: run.scenario.duration.min(20.0), ..run.scenario.clone() };
+                let short_twin = Scenario { duration: short.duration, ..twin };
+                assert!(same_series(&short, &short_twin), "{}: series differ", path.display());
+                n += 1;
+            }
+        }
+    }
+    assert!(n >= 30, "{n} runs compared");
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("flc-osc-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("{e}"));
+    d
+}
+
+/// `scenario --config FILE` on `text` written as `dir/name`: (exit code, stderr).
+fn cli(dir: &Path, name: &str, text: &str, extra: &[&str]) -> (i32, String) {
+    let file = dir.join(name);
+    std::fs::write(&file, text).unwrap_or_else(|e| panic!("{e}"));
+    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).arg("--config").arg(&file).args(extra).output().unwrap_or_else(|e| panic!("{e}"));
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// The fixture `ccrb.xosc` with `from` replaced by `to`.
+fn ccrb_with(from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(data().join("ccrb.xosc")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(text.contains(from), "fixture lacks {from}");
+    text.replacen(from, to, 1).replace("roads/straight.xodr", &data().join("roads/straight.xodr").display().to_string())
+}
+
+/// `ccrb.xosc` with the target's `<Vehicle>` element replaced by `with`.
+fn target_replaced_by(with: &str) -> String {
+    let text = ccrb_with("x", "x");
+    let a = text.find("<Vehicle name=\"target\"").unwrap_or_else(|| panic!("no target vehicle"));
+    let b = a + text[a..].find("</Vehicle>").unwrap_or_else(|| panic!("no end")) + "</Vehicle>".len();
+    format!("{}{with}{}", &text[..a], &text[b..])
+}
+
+#[test]
+fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element() {
+    let dir = tempdir("bad");
+    let speed = r#"<AbsoluteTargetSpeed value="0.0"/>"#;
+    let ccrb = std::fs::read_to_string(data().join("ccrb.xosc")).unwrap_or_default();
+    assert!(ccrb.contains("<Init>"));
+    let routing = r#"<Init><Actions><Private entityRef="Ego"><PrivateAction><RoutingAction><AssignRouteAction><Route name="r" closed="false"/></AssignRouteAction></RoutingAction></PrivateAction></Private>"#;
+    let cases: Vec<(&str, String, &str)> = vec![
+        // Unsupported elements that would change motion.
+        ("routing.xosc", ccrb_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
+        ("pedestrian.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "<Pedestrian>"),
+        ("stochastic.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"ccrb.xosc\"/><Stochastic numberOfTestRuns=\"3\"/></ParameterValueDistribution></OpenSCENARIO>".into(), "<Stochastic>"),
+        // Hostile inputs.
+        ("dtd.xosc", "<?xml version=\"1.0\"?>\n<!DOCTYPE x [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;\">]>\n<OpenSCENARIO>&b;</OpenSCENARIO>".into(), "DTD"),
+        ("external.xosc", "<?xml version=\"1.0\"?>\n<!DOCTYPE x [<!ENTITY e SYSTEM \"file:///etc/passwd\">]>\n<OpenSCENARIO>&e;</OpenSCENARIO>".into(), "DTD"),
+        ("deep.xosc", format!("<?xml version=\"1.0\"?>\n{}{}", "<a>".repeat(200), "</a>".repeat(200)), "nested deeper"),
+        ("broken.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO>\n<FileHeader>\n</OpenSCENARIO>".into(), "not well-formed"),
+        ("nan.xosc", ccrb_with(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#).replace(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#), "NaN"),
+        ("negative.xosc", ccrb_with(r#"dynamicsDimension="rate" value="$Decel""#, r#"dynamicsDimension="time" value="-2""#), "value"),
+        ("selfref.xosc", ccrb_with(r#"name="Gap" parameterType="double" value="12.0""#, r#"name="Gap" parameterType="double" value="${$Gap + 1}""#), "Gap"),
+        ("unknownparam.xosc", ccrb_with(r#"value="$Decel""#, r#"value="$Nope""#), "Nope"),
+        ("million.xosc", format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"{}\"/><Deterministic>{}</Deterministic></ParameterValueDistribution></OpenSCENARIO>", data().join("ccrb.xosc").display(), ["Gap", "Decel", "BrakeTime"].map(|p| format!("<DeterministicSingleParameterDistribution parameterName=\"{p}\"><DistributionRange stepWidth=\"0.001\"><Range lowerLimit=\"1\" upperLimit=\"100\"/></DistributionRange></DeterministicSingleParameterDistribution>")).join("")), "combinations"),
+        ("noroad.xosc", ccrb_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
+    ];
+    for (name, text, needle) in &cases {
+        let (code, err) = cli(&dir, name, text, &[]);
+        assert_eq!(code, 2, "{name}: exit {code}, stderr {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(lines.len(), 1, "{name}: one error line: {err}");
+        let line = lines[0];
+        assert!(line.contains(name) && line.contains(needle), "{name}: `{line}` should name the file and `{needle}`");
+        // FILE:LINE: <Element>: the line number follows the file name.
+        let after = line.split(name).nth(1).unwrap_or("");
+        assert!(after.starts_with(':') && after[1..].split(':').next().is_some_and(|n| n.parse::<u32>().is_ok()), "{name}: no line number in `{line}`");
+    }
+    // A missing road runs with --road straight; an unknown --param is an error.
+    let (code, err) = cli(&dir, "noroad.xosc", &ccrb_with("roads/straight.xodr", "roads/missing.xodr"), &["--road", "straight"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, err) = cli(&dir, "ccrb.xosc", &ccrb_with("x", "x"), &["--param", "Nope=1"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("Nope"), "{err}");
+    // Catalog cycles.
+    let cat = dir.join("cat");
+    std::fs::create_dir_all(&cat).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(cat.join("C.xosc"), "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<Catalog name=\"Cat\">\n<Vehicle name=\"loop\"><CatalogReference catalogName=\"Cat\" entryName=\"loop\"/></Vehicle></Catalog></OpenSCENARIO>").unwrap_or_else(|e| panic!("{e}"));
+    let cyclic = target_replaced_by("<CatalogReference catalogName=\"Cat\" entryName=\"loop\"/>")
+        .replacen("<CatalogLocations/>", &format!("<CatalogLocations><VehicleCatalog><Directory path=\"{}\"/></VehicleCatalog></CatalogLocations>", cat.display()), 1);
+    let (code, err) = cli(&dir, "cycle.xosc", &cyclic, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.lines().filter(|l| l.starts_with("error:")).count() == 1, "{err}");
+}
