@@ -46,6 +46,9 @@ fn load_scenario(path: PathBuf) -> PyResult<String> {
     to_json(&Scenario::from_file(&path).map_err(scenario_err)?)
 }
 
+/// One imported run as Python gets it: the scenario's JSON and its parameter values.
+type ImportedRun = (String, Vec<(String, String)>);
+
 /// Imports an OpenSCENARIO file (`flc_sim::openscenario::import`): one `(scenario JSON,
 /// parameter values)` per run (a `ParameterValueDistribution` has one per combination). Bad
 /// files and options raise `ScenarioError` naming the file, line and element, or the option.
@@ -59,7 +62,7 @@ fn import_openscenario(
     road: &str,
     traffic_dynamics: &str,
     controller: Option<&str>,
-) -> PyResult<Vec<(String, Vec<(String, String)>)>> {
+) -> PyResult<Vec<ImportedRun>> {
     let opts = flc_sim::openscenario::ImportOptions::from_words(params, ego, ego_mode, road, traffic_dynamics, controller)
         .map_err(|e| ScenarioError::new_err(e.to_string()))?;
     let import = flc_sim::openscenario::import(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;

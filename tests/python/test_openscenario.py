@@ -1,0 +1,62 @@
+"""OpenSCENARIO files from Python: ``flc.Scenario.load("FILE.xosc", params=...)`` and ``load_all``
+(docs/openscenario.md)."""
+
+import pathlib
+
+import pytest
+
+import flc
+
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "openscenario"
+
+
+def test_load_xosc_with_params_and_run_it():
+    s = flc.Scenario.load(DATA / "ccrb.xosc", params={"Decel": 2.0}, controller="flc-robust")
+    assert s.controller == "flc-robust"
+    # The lead's brake action carries the parameter: 2 m/s² instead of the file's 6.
+    actions = [
+        a
+        for act in s.to_dict()["story"]["acts"]
+        for g in act["groups"]
+        for m in g["maneuvers"]
+        for e in m["events"]
+        for a in e["actions"]
+        if a["kind"] == "speed" and a.get("dimension") == "rate"
+    ]
+    assert [a["value"] for a in actions] == [2.0]
+    r = flc.run(s)
+    assert not r.metrics["collision"]
+    assert r.metrics["max_decel"] < 6.0
+
+
+def test_scripted_ego_follows_its_storyboard():
+    s = flc.Scenario.load(DATA / "speed_linear_rate.xosc", ego_mode="scripted")
+    r = flc.run(s)
+    # The ego holds 50 km/h (its storyboard has no action on it), whatever the controller says.
+    assert abs(r.follower_speed.min() - 50 / 3.6) < 1e-9
+    assert abs(r.follower_speed.max() - 50 / 3.6) < 1e-9
+
+
+def test_distribution_runs_carry_their_parameters():
+    runs = flc.Scenario.load_all(DATA / "distribution_2x2.xosc", ego_mode="scripted")
+    assert [(float(r.params["EgoSpeed_kmh"]), float(r.params["TargetSpeed_kmh"])) for r in runs] == [
+        (40, 10),
+        (40, 20),
+        (60, 10),
+        (60, 20),
+    ]
+    with pytest.raises(flc.ScenarioError, match="load_all"):
+        flc.Scenario.load(DATA / "distribution_2x2.xosc")
+
+
+def test_bad_files_and_options_name_the_problem(tmp_path):
+    bad = tmp_path / "bad.xosc"
+    bad.write_text('<?xml version="1.0"?>\n<OpenSCENARIO>\n  <FileHeader>\n</OpenSCENARIO>\n')
+    with pytest.raises(flc.ScenarioError, match=r"bad\.xosc:\d+"):
+        flc.Scenario.load(bad)
+    with pytest.raises(flc.ScenarioError, match="ego_mode"):
+        flc.Scenario.load(DATA / "ccrb.xosc", ego_mode="autopilot")
+    with pytest.raises(flc.ScenarioError, match="Nope"):
+        flc.Scenario.load(DATA / "ccrb.xosc", params={"Nope": 1})
+    with pytest.raises(flc.ScenarioError, match="params"):
+        flc.Scenario.load(pathlib.Path(__file__).resolve().parents[2] / "scenarios" / "cut-in.toml", params={"a": 1})
