@@ -150,13 +150,21 @@ impl Ctx<'_, '_> {
         Ok(())
     }
 
-    /// A `Vehicle` element (parameters already in scope).
-    fn vehicle(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
+    /// The box centre and the vehicle parameters a `Vehicle` or `MiscObject` gets from its
+    /// `BoundingBox` and `mass` (wheelbase 0.6 length until `Axles` say otherwise).
+    fn boxed(&mut self, file: &str, node: Node<'_, '_>) -> Result<([f64; 2], VehicleParams), ImportError> {
         let bb = xml::child(node, "BoundingBox").ok_or_else(|| ImportError::at(file, node, "<BoundingBox> is missing"))?;
         let (center, length, width) = self.bounding_box(file, bb)?;
         let mut v = VehicleParams { length, width, ..VehicleParams::default() };
         v.wheelbase = (0.6 * length).clamp(0.5, length);
         self.mass(file, node, &mut v)?;
+        Ok((center, v))
+    }
+
+    /// A `Vehicle` element (parameters already in scope).
+    fn vehicle(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
+        let (center, mut v) = self.boxed(file, node)?;
+        let length = v.length;
         for c in xml::elements(node) {
             match c.tag_name().name() {
                 "ParameterDeclarations" | "BoundingBox" => {}
@@ -210,11 +218,7 @@ impl Ctx<'_, '_> {
 
     /// A `MiscObject` element (parameters already in scope): a standing object.
     fn misc_object(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
-        let bb = xml::child(node, "BoundingBox").ok_or_else(|| ImportError::at(file, node, "<BoundingBox> is missing"))?;
-        let (center, length, width) = self.bounding_box(file, bb)?;
-        let mut v = VehicleParams { length, width, ..VehicleParams::default() };
-        v.wheelbase = (0.6 * length).clamp(0.5, length);
-        self.mass(file, node, &mut v)?;
+        let (center, v) = self.boxed(file, node)?;
         for c in xml::elements(node) {
             match c.tag_name().name() {
                 "ParameterDeclarations" | "BoundingBox" => {}

@@ -636,22 +636,31 @@ impl Sb<'_, '_, '_> {
         Ok(Action::Controller { longitudinal })
     }
 
-    fn speed(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+    /// The `(dynamics, target)` children of a speed or lane change action, the transition the
+    /// dynamics give (`rate` only where `rate_ok`), and the target's one child.
+    fn dynamics_and_target<'a, 'i>(
+        &self,
+        file: &str,
+        node: Node<'a, 'i>,
+        (dyn_tag, target_tag): (&str, &str),
+        rate_ok: bool,
+    ) -> Result<(Transition, Node<'a, 'i>), ImportError> {
         let p = &self.ctx.params;
         let mut dynamics = None;
         let mut target = None;
         for c in xml::elements(node) {
             match c.tag_name().name() {
-                "SpeedActionDynamics" => dynamics = Some(c),
-                "SpeedActionTarget" => target = Some(c),
+                n if n == dyn_tag => dynamics = Some(c),
+                n if n == target_tag => target = Some(c),
                 _ => return Err(ImportError::unsupported(file, c)),
             }
         }
-        let d = dynamics.ok_or_else(|| ImportError::at(file, node, "<SpeedActionDynamics> is missing"))?;
-        let t = target.ok_or_else(|| ImportError::at(file, node, "<SpeedActionTarget> is missing"))?;
+        let d = dynamics.ok_or_else(|| ImportError::at(file, node, format!("<{dyn_tag}> is missing")))?;
+        let t = target.ok_or_else(|| ImportError::at(file, node, format!("<{target_tag}> is missing")))?;
         let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
         let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
-            "rate" => Dimension::Rate,
+            "rate" if rate_ok => Dimension::Rate,
+            "rate" => return Err(ImportError::at(file, d, "a lane change by rate is not supported (time or distance)")),
             "distance" => Dimension::Distance,
             _ => Dimension::Time,
         };
@@ -659,11 +668,16 @@ impl Sb<'_, '_, '_> {
         if value < 0.0 || (shape != Shape::Step && value <= 0.0) {
             return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
         }
-        let transition = Transition { shape, dimension, value };
         let mut it = xml::elements(t);
         let (Some(x), None) = (it.next(), it.next()) else {
-            return Err(ImportError::at(file, t, "a <SpeedActionTarget> holds one target"));
+            return Err(ImportError::at(file, t, format!("a <{target_tag}> holds one target")));
         };
+        Ok((Transition { shape, dimension, value }, x))
+    }
+
+    fn speed(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let (transition, x) = self.dynamics_and_target(file, node, ("SpeedActionDynamics", "SpeedActionTarget"), true)?;
+        let p = &self.ctx.params;
         match x.tag_name().name() {
             "AbsoluteTargetSpeed" => {
                 Ok(Action::Speed { speed: Some(p.req_num(x, "value", file)?), of: None, delta: None, factor: None, continuous: false, transition })
@@ -727,34 +741,8 @@ impl Sb<'_, '_, '_> {
     }
 
     fn lane_change(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
-        let p = &self.ctx.params;
-        let lane_offset = p.num_attr(node, "targetLaneOffset", file)?.unwrap_or(0.0);
-        let mut dynamics = None;
-        let mut target = None;
-        for c in xml::elements(node) {
-            match c.tag_name().name() {
-                "LaneChangeActionDynamics" => dynamics = Some(c),
-                "LaneChangeTarget" => target = Some(c),
-                _ => return Err(ImportError::unsupported(file, c)),
-            }
-        }
-        let d = dynamics.ok_or_else(|| ImportError::at(file, node, "<LaneChangeActionDynamics> is missing"))?;
-        let t = target.ok_or_else(|| ImportError::at(file, node, "<LaneChangeTarget> is missing"))?;
-        let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
-        let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
-            "distance" => Dimension::Distance,
-            "rate" => return Err(ImportError::at(file, d, "a lane change by rate is not supported (time or distance)")),
-            _ => Dimension::Time,
-        };
-        let value = p.req_num(d, "value", file)?;
-        if value < 0.0 || (shape != Shape::Step && value <= 0.0) {
-            return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
-        }
-        let transition = Transition { shape, dimension, value };
-        let mut it = xml::elements(t);
-        let (Some(x), None) = (it.next(), it.next()) else {
-            return Err(ImportError::at(file, t, "a <LaneChangeTarget> holds one target"));
-        };
+        let lane_offset = self.ctx.params.num_attr(node, "targetLaneOffset", file)?.unwrap_or(0.0);
+        let (transition, x) = self.dynamics_and_target(file, node, ("LaneChangeActionDynamics", "LaneChangeTarget"), false)?;
         match x.tag_name().name() {
             "AbsoluteTargetLane" => {
                 let lane = position::lane_id(&self.ctx.params, file, x, "value")?;
