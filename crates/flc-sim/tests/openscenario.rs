@@ -88,6 +88,20 @@ fn relative_distance_fires_at_the_step_where_the_freespace_gap_crosses() {
 }
 
 #[test]
+fn a_controller_the_file_names_drives_the_ego_unless_the_command_line_says_otherwise() {
+    // catalogs.xosc: the ego's ObjectController is the catalog entry `flc-robust`.
+    let file = data().join("catalogs.xosc");
+    let own = openscenario::import(&file, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(own.runs[0].scenario.controller, flc_sim::ControllerKind::FlcRobust);
+    let opts = ImportOptions { controller: Some(flc_sim::ControllerKind::Idm), ..ImportOptions::default() };
+    let idm = openscenario::import(&file, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(idm.runs[0].scenario.controller, flc_sim::ControllerKind::Idm);
+    // Without a controller in the file: flc.
+    let plain = openscenario::import(&data().join("ccrb.xosc"), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(plain.runs[0].scenario.controller, flc_sim::ControllerKind::Flc);
+}
+
+#[test]
 fn a_2x2_distribution_gives_4_runs_with_their_parameters_in_esminis_order() {
     let import = openscenario::import(&data().join("distribution_2x2.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(import.runs.len(), 4);
