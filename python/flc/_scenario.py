@@ -138,6 +138,9 @@ class Scenario:
         if not p.lower().endswith(".xosc"):
             if params:
                 raise ScenarioError("`params`: only OpenSCENARIO (.xosc) files take parameters")
+            if controller is not None:
+                # For TOML files `controller` is the scenario key, overridden like any other.
+                overrides = {"controller": controller, **overrides}
             return [cls._patched(_flc.load_scenario(p), overrides)]
         pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
         out = []
