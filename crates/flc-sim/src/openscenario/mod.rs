@@ -283,7 +283,9 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<Import, ImportError> 
                 }
             }
             let mut imp = import_doc(&sdoc, &dist.scenario_file, &params, opts, &mut warn, &mut roads)?;
-            imp.scenario.variant = Some(format!("p{i}"));
+            // The run's name says its parameters (table, JSON `variant`, file names).
+            let values: Vec<String> = run.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            imp.scenario.variant = Some(format!("p{i} {}", values.join(" ")));
             imp.params = params;
             runs.push(imp);
         }
@@ -1246,7 +1248,7 @@ mod tests {
         assert_eq!(imp.runs.len(), 4);
         for (i, run) in imp.runs.iter().enumerate() {
             assert_eq!(run.scenario.name, "base");
-            assert_eq!(run.scenario.variant.as_deref(), Some(format!("p{i}").as_str()));
+            assert!(run.scenario.variant.as_deref().is_some_and(|v| v.starts_with(&format!("p{i} V="))), "{:?}", run.scenario.variant);
             let v: f64 = run.params.iter().find(|(n, _)| n == "V").map_or(f64::NAN, |(_, v)| v.parse().unwrap_or(f64::NAN));
             let dd: f64 = run.params.iter().find(|(n, _)| n == "D").map_or(f64::NAN, |(_, v)| v.parse().unwrap_or(f64::NAN));
             let st = run.scenario.story.as_ref().expect("story");
