@@ -179,6 +179,8 @@ fn outcome(m: &Metrics, hit: Option<&CollisionInfo>, follower: usize) -> String 
 /// The results table: one row per run with the outcome next to the paper's.
 pub fn table(records: &[RunRecord]) -> String {
     let mut out = String::new();
+    // The scenario column fits the longest label (34 characters at least).
+    let w = records.iter().map(|r| r.label().chars().count()).max().unwrap_or(0).max(34);
     let mut last_preset: Option<Option<String>> = None;
     for r in records {
         if last_preset.as_ref() != Some(&r.preset) {
@@ -188,7 +190,7 @@ pub fn table(records: &[RunRecord]) -> String {
             };
             out.push_str(&format!("\n{title}\n"));
             out.push_str(&format!(
-                "{:<34} {:<14} {:>6}  {:<24} {:<18} {:>8} {:>9} {:>9} {:>10}\n",
+                "{:<w$} {:<14} {:>6}  {:<24} {:<18} {:>8} {:>9} {:>9} {:>10}\n",
                 "scenario", "ctrl", "km/h", "outcome (clearance)", "paper", "min gap", "min TTC", "max dec", "max jerk"
             ));
             last_preset = Some(r.preset.clone());
@@ -201,7 +203,7 @@ pub fn table(records: &[RunRecord]) -> String {
         };
         let ttc = m.min_ttc.map_or("-".to_string(), |t| format!("{t:.2} s"));
         out.push_str(&format!(
-            "{:<34} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
+            "{:<w$} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
             r.label(),
             r.controller,
             r.speed_kmh.map_or("-".to_string(), |s| format!("{s:.0}")),

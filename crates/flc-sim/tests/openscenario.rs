@@ -218,6 +218,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         let after = line.split(name).nth(1).unwrap_or("");
         assert!(after.starts_with(':') && after[1..].split(':').next().is_some_and(|n| n.parse::<u32>().is_ok()), "{name}: no line number in `{line}`");
     }
+    // A file over the size limit is refused before it is parsed.
+    let huge = format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO>{}</OpenSCENARIO>", " ".repeat(33 * 1024 * 1024));
+    let (code, err) = cli(&dir, "huge.xosc", &huge, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("huge.xosc") && err.contains("limit"), "{err}");
     // A missing road runs with --road straight; an unknown --param is an error.
     let (code, err) = cli(&dir, "noroad.xosc", &ccrb_with("roads/straight.xodr", "roads/missing.xodr"), &["--road", "straight"]);
     assert_eq!(code, 0, "{err}");
