@@ -178,7 +178,7 @@ fn ccrb_with(from: &str, to: &str) -> String {
 /// `ccrb.xosc` with the target's `<Vehicle>` element replaced by `with`.
 fn target_replaced_by(with: &str) -> String {
     let text = ccrb_with("x", "x");
-    let a = text.find("<Vehicle name=\"target\"").unwrap_or_else(|| panic!("no target vehicle"));
+    let a = text.find("<Vehicle name=\"gvt\"").unwrap_or_else(|| panic!("no GVT vehicle"));
     let b = a + text[a..].find("</Vehicle>").unwrap_or_else(|| panic!("no end")) + "</Vehicle>".len();
     format!("{}{with}{}", &text[..a], &text[b..])
 }
@@ -189,7 +189,7 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     let speed = r#"<AbsoluteTargetSpeed value="0.0"/>"#;
     let ccrb = std::fs::read_to_string(data().join("ccrb.xosc")).unwrap_or_default();
     assert!(ccrb.contains("<Init>"));
-    let routing = r#"<Init><Actions><Private entityRef="Ego"><PrivateAction><RoutingAction><AssignRouteAction><Route name="r" closed="false"/></AssignRouteAction></RoutingAction></PrivateAction></Private>"#;
+    let routing = r#"<Init><Actions><Private entityRef="VUT"><PrivateAction><RoutingAction><AssignRouteAction><Route name="r" closed="false"/></AssignRouteAction></RoutingAction></PrivateAction></Private>"#;
     let cases: Vec<(&str, String, &str)> = vec![
         // Unsupported elements that would change motion.
         ("routing.xosc", ccrb_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
