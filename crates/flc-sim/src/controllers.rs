@@ -134,6 +134,11 @@ macro_rules! with_controller_sections {
                 $crate::controllers::ControllerSections { $( $field: self.$field.clone(), )* }
             }
 
+            /// Replaces the controllers' parameter sections.
+            pub fn set_sections(&mut self, sections: $crate::controllers::ControllerSections) {
+                $( self.$field = sections.$field; )*
+            }
+
             /// Checks every controller section; the error names `section.field` (`idm.delta`).
             pub fn check_sections(&self) -> Result<(), $crate::error::ConfigError> {
                 $( self.$field.validate().map_err(|e| $crate::error::ConfigError::new(format!("{}.{}", stringify!($field), e.field), e.problem))?; )*

@@ -130,10 +130,14 @@ fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, Strin
         Some(list) => list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>().map_err(|e| format!("`--controllers`: {e}"))?,
     };
     let mut out = Vec::new();
-    for c in controllers {
+    for (k, c) in controllers.into_iter().enumerate() {
+        // One import per controller (the importer owns what a controller implies: V2V, set
+        // speeds); its warnings are the same every time: printed once.
         let import = openscenario::import(path, &ImportOptions { controller: c, ..opts.clone() }).map_err(|e| e.to_string())?;
-        for w in &import.warnings {
-            eprintln!("warning: {w}");
+        if k == 0 {
+            for w in &import.warnings {
+                eprintln!("warning: {w}");
+            }
         }
         out.extend(import.runs);
     }

@@ -608,10 +608,7 @@ fn translate(
         .zip(&names)
         .map(|(d, n)| EntityInfo { osc_name: d.osc_name.clone(), flc_name: n.clone(), ref_offset: d.center, length: d.vehicle.length, width: d.vehicle.width })
         .collect();
-    Ok(Imported { scenario: s, params: Vec::new(), entities: infos }).map(|mut imp| {
-        imp.params = opts.params.clone();
-        imp
-    })
+    Ok(Imported { scenario: s, params: opts.params.clone(), entities: infos })
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
@@ -621,11 +618,7 @@ fn set_cruise_speed(s: &mut Scenario, v: f64) {
     for k in ControllerKind::ALL {
         k.set_cruise_speed(&mut sec, v);
     }
-    s.idm = sec.idm;
-    s.acc = sec.acc;
-    s.rss = sec.rss;
-    s.carla_behavior = sec.carla_behavior;
-    s.gipps = sec.gipps;
+    s.set_sections(sec);
 }
 
 /// The flc controller an `AssignControllerAction` in Init names for the ego, if any.

@@ -1038,6 +1038,23 @@ impl Sb<'_, '_, '_> {
         Ok(())
     }
 
+    /// The common part of `TimeHeadwayCondition` and `TimeToCollisionCondition` (`what` names it
+    /// in errors): longitudinal only, `alongRoute` and the coordinate system checked, then
+    /// `(freespace, value, rule)`.
+    fn longitudinal_time(&mut self, file: &str, node: Node<'_, '_>, (entity, of): (&str, &str), what: &str) -> Result<(bool, f64, Rule), ImportError> {
+        self.along_route(file, node)?;
+        self.coordinate_system(file, node, true)?;
+        if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
+            return Err(ImportError::at(file, node, format!("{what} measured other than longitudinally is not supported")));
+        }
+        let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
+        if !freespace {
+            self.centre_note(file, node, entity, of);
+        }
+        let value = self.ctx.params.req_num(node, "value", file)?;
+        Ok((freespace, value, self.rule(file, node)?))
+    }
+
     /// A warning when reference points and box centres differ between `a` and `b` along the
     /// measured direction (flc measures `freespace = false` distances between box centres).
     fn centre_note(&mut self, file: &str, node: Node<'_, '_>, a: &str, b: &str) {
@@ -1108,17 +1125,8 @@ impl Sb<'_, '_, '_> {
             }
             "TimeHeadwayCondition" => {
                 let of = self.entity(file, node, "entityRef")?;
-                self.along_route(file, node)?;
-                self.coordinate_system(file, node, true)?;
-                if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
-                    return Err(ImportError::at(file, node, "a time headway measured other than longitudinally is not supported"));
-                }
-                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
-                if !freespace {
-                    self.centre_note(file, node, &entity, &of);
-                }
-                let value = self.ctx.params.req_num(node, "value", file)?;
-                Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+                let (freespace, value, rule) = self.longitudinal_time(file, node, (&entity, &of), "a time headway")?;
+                Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule, tolerance: None })
             }
             "TimeToCollisionCondition" => {
                 let target = xml::child(node, "TimeToCollisionConditionTarget").ok_or_else(|| ImportError::at(file, node, "<TimeToCollisionConditionTarget> is missing"))?;
@@ -1130,17 +1138,8 @@ impl Sb<'_, '_, '_> {
                     return Err(ImportError::unsupported(file, x));
                 }
                 let of = self.entity(file, x, "entityRef")?;
-                self.along_route(file, node)?;
-                self.coordinate_system(file, node, true)?;
-                if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
-                    return Err(ImportError::at(file, node, "a time to collision measured other than longitudinally is not supported"));
-                }
-                let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
-                if !freespace {
-                    self.centre_note(file, node, &entity, &of);
-                }
-                let value = self.ctx.params.req_num(node, "value", file)?;
-                Ok(ConditionKind::Ttc { entity, of, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+                let (freespace, value, rule) = self.longitudinal_time(file, node, (&entity, &of), "a time to collision")?;
+                Ok(ConditionKind::Ttc { entity, of, freespace, value, rule, tolerance: None })
             }
             "ReachPositionCondition" => {
                 let tolerance = self.ctx.params.req_num(node, "tolerance", file)?;

@@ -600,13 +600,12 @@ impl<O: Observer> Simulation<O> {
         let st = &mut self.state;
         let Some(story) = st.scenario.story.as_ref() else { return };
         let Some(mut run) = st.story.take() else { return };
-        let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
-        let n = names.len();
+        let traffic = &st.traffic;
         let slot = |name: &str| -> Option<usize> {
             match name {
                 "lead" => Some(0),
-                crate::scenario::EGO => Some(n + 1),
-                _ => names.iter().position(|x| *x == name).map(|i| i + 1),
+                crate::scenario::EGO => Some(traffic.len() + 1),
+                _ => traffic.iter().position(|t| t.name == name).map(|i| i + 1),
             }
         };
         let ego = self::story::Body {

@@ -27,7 +27,7 @@ mod engine;
 mod motion;
 
 pub use engine::{Started, StoryState, Transition as StoryTransition};
-pub use motion::{Motion, MotionStep, lateral_shape, speed_duration};
+pub use motion::{Motion, MotionStep};
 
 use serde::{Deserialize, Serialize};
 

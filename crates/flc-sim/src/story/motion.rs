@@ -44,12 +44,6 @@ pub struct MotionStep {
     pub lat_done: Option<usize>,
 }
 
-/// The lateral position of a lane change or lane offset of shape `shape` at progress `p`
-/// between `from` and `to` (m).
-pub fn lateral_shape(shape: Shape, from: f64, to: f64, p: f64) -> f64 {
-    from + (to - from) * shape.at(p)
-}
-
 /// An entity moved by its story actions: at `s` (m along the centreline, its centre) and
 /// `offset` (m from the centreline, + left) with `speed` (m/s); `heading` relative to the road
 /// (rad, + left) follows the lateral motion.
@@ -101,11 +95,6 @@ impl Motion {
         self.reference
     }
 
-    /// The running longitudinal and lateral actions.
-    pub fn running(&self) -> (Option<usize>, Option<usize>) {
-        (self.long.as_ref().map(|l| l.action), self.lat.as_ref().map(|l| l.action))
-    }
-
     /// Stops action `i` if it runs here (`true` if it did).
     pub fn stop(&mut self, i: usize) -> bool {
         let mut hit = false;
@@ -144,7 +133,6 @@ impl Motion {
                 };
                 let duration = speed_duration(transition, self.speed, target);
                 self.long = Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track });
-                let _ = t;
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
@@ -157,7 +145,7 @@ impl Motion {
                     }
                     _ => self.offset,
                 };
-                self.start_lateral(i, to, transition, true);
+                self.start_lateral(i, to, transition, true, t);
                 (replaced, false)
             }
             Action::LaneOffset { offset, of, shape, max_lateral_acc } => {
@@ -177,7 +165,7 @@ impl Motion {
                 };
                 let duration = if *shape == Shape::Step || change == 0.0 { 0.0 } else { (k * change / max_lateral_acc).sqrt() };
                 let tr = Transition { shape: *shape, dimension: Dimension::Time, value: duration };
-                self.start_lateral(i, to, &tr, false);
+                self.start_lateral(i, to, &tr, false, t);
                 (replaced, false)
             }
             Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead } => {
@@ -198,12 +186,12 @@ impl Motion {
         }
     }
 
-    fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool) {
+    fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool, t0: f64) {
         let (by_distance, extent) = match tr.dimension {
             Dimension::Distance => (true, tr.value),
             _ => (false, tr.value),
         };
-        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0: f64::NAN, x0: self.traveled, along_heading });
+        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
     }
 
     /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)
@@ -212,10 +200,7 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
-        if let Some(l) = &mut self.long {
-            if l.t0.is_nan() {
-                l.t0 = t;
-            }
+        if let Some(l) = &self.long {
             let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
             let mut v = l.v0 + (l.v1 - l.v0) * l.shape.at(p);
             if p >= 1.0 - 1e-12 {
@@ -238,10 +223,7 @@ impl Motion {
         let step_len = self.speed * dt;
         let offset_prev = self.offset;
         let mut along = step_len;
-        if let Some(l) = &mut self.lat {
-            if l.t0.is_nan() {
-                l.t0 = t;
-            }
+        if let Some(l) = &self.lat {
             let p = if l.extent <= 0.0 || l.shape == Shape::Step {
                 1.0
             } else if l.by_distance {
@@ -249,7 +231,7 @@ impl Motion {
             } else {
                 (t1 - l.t0) / l.extent
             };
-            self.offset = lateral_shape(l.shape, l.from, l.to, p);
+            self.offset = l.from + (l.to - l.from) * l.shape.at(p);
             if p >= 1.0 - 1e-12 {
                 self.offset = l.to;
                 out.lat_done = Some(l.action);
@@ -276,7 +258,7 @@ impl Motion {
 /// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
 /// rate`, `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
 /// (every shape is symmetric); 0 for a step.
-pub fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
+fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
     if tr.shape == Shape::Step {
         return 0.0;
     }
