@@ -19,8 +19,8 @@
 //!    pipeline driven by another simulator ([`ExternalFollower`], `flc.sumo`);
 //! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]);
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
-//! 7. **experiments**: [`sweep`], the frequency response ([`frequency_response`]) and the
-//!    `scenario` binary.
+//! 7. **experiments**: [`sweep`], the standard test suites ([`suite`]), the frequency response
+//!    ([`frequency_response`]) and the `scenario` binary.
 mod controllers;
 mod error;
 mod external;
@@ -42,6 +42,7 @@ mod scenario;
 mod series;
 pub mod story;
 mod sim;
+pub mod suite;
 pub mod string_stability;
 pub mod sweep;
 mod track;

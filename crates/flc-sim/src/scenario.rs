@@ -448,6 +448,13 @@ impl Scenario {
         (0..self.variants.len()).map(|i| self.expand_variant(i)).collect()
     }
 
+    /// Lets `kind` drive the follower, with what the controller implies: V2V on for the laws that
+    /// listen to it (the PID, the pipeline), off for the others.
+    pub fn set_controller(&mut self, kind: ControllerKind) {
+        self.controller = kind;
+        self.v2v.enabled = kind.uses_v2v();
+    }
+
     /// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
     /// `[A-Za-z0-9._-]` replaced by `_`.
     pub fn run_file_stem(&self) -> String {

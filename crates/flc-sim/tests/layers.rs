@@ -177,7 +177,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["sim", "external"],
     &["record", "report"],
     &["runner"],
-    &["sweep", "frequency_response"],
+    &["sweep", "suite", "frequency_response"],
 ];
 
 #[test]

@@ -107,6 +107,17 @@ enum Command {
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
     },
+    /// Run a standard test suite (docs/standard-suites.md): `ncap-ccr` (Euro NCAP AEB
+    /// Car-to-Car Rear), `r157` (UN R157 ALKS), `all`, or a folder with a `suite.toml`. Every
+    /// case runs for every controller (default: all; `--controllers` picks) next to the R157
+    /// careful driver; prints the summary.
+    Suite {
+        /// The suite.
+        name: String,
+        /// Write `<suite>.md`, `<suite>.json` and `<suite>.svg` (the overview figure) into DIR.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+    },
 }
 
 /// The import options the command line gives.
@@ -230,6 +241,58 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
     }
 }
 
+/// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
+/// reports into `--out`.
+fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
+    use flc_sim::suite::{Suite, default_root, markdown, summary_table, svg};
+    let controllers = match &cli.controllers {
+        None => ControllerKind::ALL.to_vec(),
+        Some(list) => match list.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>() {
+            Ok(k) => k,
+            Err(e) => return bad_input(format!("`--controllers`: {e}")),
+        },
+    };
+    let suites = match Suite::find(&default_root(), name) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    if let Some(dir) = out {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return bad_input(format!("`--out` {}: {e}", dir.display()));
+        }
+    }
+    let mut reports = Vec::with_capacity(suites.len());
+    for s in &suites {
+        match s.run(&controllers) {
+            Ok(r) => reports.push(r),
+            Err(SimError::Input(e)) => return bad_input(e),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    print!("{}", summary_table(&reports));
+    if let Some(dir) = out {
+        let command = |n: &str| {
+            let picked = cli.controllers.as_ref().map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
+            format!("cargo run --release --bin scenario -- suite {n}{picked} --out {}", dir.display())
+        };
+        for r in &reports {
+            let files = [("md", markdown(r, &command(&r.name))), ("json", r.to_json() + "\n"), ("svg", svg(r))];
+            for (ext, text) in files {
+                let path = dir.join(format!("{}.{ext}", r.name));
+                if let Err(e) = std::fs::write(&path, text) {
+                    eprintln!("error: writing {}: {e}", path.display());
+                    return ExitCode::FAILURE;
+                }
+                eprintln!("{}", path.display());
+            }
+        }
+    }
+    ExitCode::SUCCESS
+}
+
 fn bad_input(msg: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {msg}");
     ExitCode::from(2)
@@ -322,6 +385,7 @@ fn main() -> ExitCode {
             return sweep(file, out.as_deref());
         }
         Some(Command::Convert { file, out }) => return convert(&cli, file, out.as_deref()),
+        Some(Command::Suite { name, out }) => return suite(&cli, name, out.as_deref()),
         None => {}
     }
     let list = match scenarios(&cli) {

@@ -579,8 +579,7 @@ fn translate(
 
     // The controller and its set speed.
     let kind = opts.controller.or(init_controller).or(ed.controller).unwrap_or_default();
-    s.controller = kind;
-    s.v2v.enabled = kind.uses_v2v();
+    s.set_controller(kind);
     let mut top = (0..defs.len()).map(speed_of).fold(0.0_f64, f64::max);
     for a in &story.acts {
         for g in &a.groups {

@@ -1,0 +1,163 @@
+//! The suite report: Markdown (summary, outcome matrix, metrics), and one SVG overview figure
+//! per suite (the outcome matrix in colour).
+
+use std::fmt::Write;
+
+use super::{CaseResult, Outcome, REFERENCE, SuiteReport};
+use crate::metrics::Metrics;
+
+/// The metric columns of the report, by their `Metrics` field names (`docs/v2v-and-metrics.md`),
+/// with headers.
+const COLUMNS: &[(&str, &str)] = &[
+    ("impact_speed", "impact m/s"),
+    ("min_gap", "min gap m"),
+    ("min_ttc", "min TTC s"),
+    ("tet", "TET s"),
+    ("tit", "TIT s²"),
+    ("max_drac", "max DRAC m/s²"),
+    ("max_decel", "max decel m/s²"),
+    ("max_jerk", "max jerk m/s³"),
+];
+
+/// A metric by field name (`None` when absent or `null`).
+fn metric(m: &Metrics, name: &str) -> Option<f64> {
+    serde_json::to_value(m).ok()?.get(name)?.as_f64()
+}
+
+fn num(v: Option<f64>) -> String {
+    match v {
+        Some(x) if x.is_finite() => format!("{x:.2}"),
+        _ => "-".into(),
+    }
+}
+
+/// The run label without the distribution index: `TestSpeed_kmh=10`.
+fn short_run(run: &str) -> &str {
+    match run.split_once(' ') {
+        Some((p, rest)) if p.starts_with('p') && p[1..].chars().all(|c| c.is_ascii_digit()) => rest,
+        _ => run,
+    }
+}
+
+/// One cell of the outcome matrix.
+fn cell(r: &CaseResult) -> String {
+    let mark = if r.below_reference { " !" } else { "" };
+    match r.outcome {
+        Outcome::Pass => format!("✓{mark}"),
+        Outcome::Uncomfortable => format!("~ {:.1}{mark}", r.metrics.max_decel),
+        Outcome::Collision => format!("✗ {:.1}{mark}", r.metrics.impact_speed),
+    }
+}
+
+/// The summary table (one line per controller), as Markdown.
+pub fn summary_table(reports: &[SuiteReport]) -> String {
+    let mut out = String::from("| suite | controller | passed | collisions | below the careful driver | NCAP score |\n|---|---|---|---|---|---|\n");
+    for rep in reports {
+        for s in &rep.summary {
+            let score = s.ncap_score.map_or("-".to_string(), |x| format!("{:.1} %", 100.0 * x));
+            let below = if s.controller == REFERENCE { "(reference)".to_string() } else { s.below_reference.to_string() };
+            let _ = writeln!(out, "| {} | {} | {} / {} | {} | {} | {} |", rep.name, s.controller, s.passed, s.runs, s.collisions, below, score);
+        }
+    }
+    out
+}
+
+/// The report of one suite as Markdown; `command` is the command line that made it.
+pub fn markdown(rep: &SuiteReport, command: &str) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "# {} (`{}`)\n", rep.title, rep.name);
+    let _ = writeln!(out, "Source: {}. Written by `{command}`; the cases are this project's own files (`scenarios/suites/{}/`).\n", rep.source, rep.name);
+    let _ = writeln!(out, "## Summary\n\n{}", summary_table(std::slice::from_ref(rep)));
+    let _ = writeln!(
+        out,
+        "A run passes without a collision (and, where the case sets one, without braking beyond its comfort limit). \
+         *Below the careful driver*: runs the reference `{REFERENCE}` passes and the controller does not. \
+         NCAP score: the mean over the NCAP runs of 1 (avoided) or `1 - impact speed / test speed`.\n"
+    );
+    let _ = writeln!(out, "![{}]({}.svg)\n", rep.title, rep.name);
+    out.push_str("## Cases\n\n| case | protocol section | criterion | comfort limit |\n|---|---|---|---|\n");
+    for c in &rep.cases {
+        let crit = match c.criterion {
+            super::Criterion::Ncap => "avoid (NCAP partial credit by speed reduction)",
+            super::Criterion::NoCollision => "no collision",
+        };
+        let _ = writeln!(out, "| {} | {} | {crit} | {} |", c.id, c.section, c.max_decel.map_or("-".to_string(), |m| format!("max decel {m} m/s²")));
+    }
+    out.push_str("\n## Outcomes\n\n✓ pass, ✗ collision (relative impact speed, m/s), ~ beyond the comfort limit (max decel, m/s²), ! below the careful driver.\n\n");
+    let _ = writeln!(out, "| case | run | {} |", rep.controllers.join(" | "));
+    let _ = writeln!(out, "|---|---|{}", "---|".repeat(rep.controllers.len()));
+    for chunk in rep.results.chunks(rep.controllers.len().max(1)) {
+        let Some(first) = chunk.first() else { continue };
+        let cells: Vec<String> = chunk.iter().map(cell).collect();
+        let _ = writeln!(out, "| {} | {} | {} |", first.case, short_run(&first.run), cells.join(" | "));
+    }
+    out.push_str("\n## Metrics\n\n");
+    let heads: Vec<&str> = COLUMNS.iter().map(|(_, h)| *h).collect();
+    let _ = writeln!(out, "| case | run | controller | outcome | {} |", heads.join(" | "));
+    let _ = writeln!(out, "|---|---|---|---|{}", "---|".repeat(COLUMNS.len()));
+    for r in &rep.results {
+        let vals: Vec<String> = COLUMNS.iter().map(|(k, _)| num(metric(&r.metrics, k))).collect();
+        let outcome = match r.outcome {
+            Outcome::Pass => "pass",
+            Outcome::Uncomfortable => "uncomfortable",
+            Outcome::Collision => "collision",
+        };
+        let _ = writeln!(out, "| {} | {} | {} | {outcome} | {} |", r.case, short_run(&r.run), r.controller, vals.join(" | "));
+    }
+    out
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// The overview figure of one suite: runs down, controllers across; green pass, amber beyond the
+/// comfort limit, red collision (darker the faster the impact, its speed written in the cell);
+/// a black frame marks a run the careful driver passes and the controller does not.
+pub fn svg(rep: &SuiteReport) -> String {
+    let (label_w, cell_w, cell_h, head_h) = (230.0, 78.0, 18.0, 70.0);
+    let cols = rep.controllers.len().max(1);
+    let rows = rep.results.len() / cols;
+    let (w, h) = (label_w + cell_w * cols as f64 + 10.0, head_h + cell_h * rows as f64 + 40.0);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="11">"#
+    );
+    let _ = writeln!(out, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let _ = writeln!(out, r#"<text x="8" y="18" font-size="14" font-weight="bold">{}</text>"#, esc(&rep.title));
+    for (j, c) in rep.controllers.iter().enumerate() {
+        let x = label_w + cell_w * (j as f64 + 0.5);
+        let _ = writeln!(out, r#"<text x="{x}" y="{}" text-anchor="middle">{}</text>"#, head_h - 8.0, esc(c));
+    }
+    for (i, chunk) in rep.results.chunks(cols).enumerate() {
+        let y = head_h + cell_h * i as f64;
+        if let Some(first) = chunk.first() {
+            let _ = writeln!(out, r#"<text x="8" y="{}">{} {}</text>"#, y + 13.0, esc(&first.case), esc(short_run(&first.run)));
+        }
+        for (j, r) in chunk.iter().enumerate() {
+            let x = label_w + cell_w * j as f64;
+            let (fill, text) = match r.outcome {
+                Outcome::Pass => ("#4caf50".to_string(), String::new()),
+                Outcome::Uncomfortable => ("#ffb300".to_string(), format!("{:.1}", r.metrics.max_decel)),
+                Outcome::Collision => {
+                    let f = (r.metrics.impact_speed / 15.0).clamp(0.0, 1.0);
+                    let g = (120.0 * (1.0 - f)) as u8;
+                    (format!("rgb(220,{g},{g})"), format!("{:.1}", r.metrics.impact_speed))
+                }
+            };
+            let stroke = if r.below_reference { r#" stroke="black" stroke-width="2""# } else { r#" stroke="white""# };
+            let _ = writeln!(out, r#"<rect x="{x}" y="{y}" width="{cell_w}" height="{cell_h}" fill="{fill}"{stroke}/>"#);
+            if !text.is_empty() {
+                let _ = writeln!(out, r#"<text x="{}" y="{}" text-anchor="middle" fill="white">{text}</text>"#, x + cell_w / 2.0, y + 13.0);
+            }
+        }
+    }
+    let _ = writeln!(
+        out,
+        r#"<text x="8" y="{}">green: pass · amber: beyond the comfort limit (max decel, m/s²) · red: collision (impact speed, m/s) · black frame: the careful driver passes, the controller does not</text>"#,
+        h - 14.0
+    );
+    out.push_str("</svg>\n");
+    out
+}
