@@ -71,7 +71,7 @@ struct Cli {
     /// baselines, ...; a wrong name lists them all): of the paper experiment (default
     /// flc,pid,pipeline), or driving the ego of `.xosc` files (default: the file's
     /// controller, else flc). Ignored for TOML files.
-    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    #[arg(long, value_name = "NAME", value_delimiter = ',', global = true)]
     controllers: Option<Vec<String>>,
     /// Which presets of the paper experiment to run: realistic, paper or both (ignored with --config).
     #[arg(long, value_name = "PRESET", default_value = "both")]
