@@ -276,7 +276,7 @@ fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
     if let Some(dir) = out {
         let command = |n: &str| {
             let picked = cli.controllers.as_ref().map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
-            format!("cargo run --release --bin scenario -- suite {n}{picked} --out {}", dir.display())
+            format!("cargo run --release --bin scenario -- suite {n}{picked} --out DIR")
         };
         for r in &reports {
             let files = [("md", markdown(r, &command(&r.name))), ("json", r.to_json() + "\n"), ("svg", svg(r))];

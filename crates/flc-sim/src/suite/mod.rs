@@ -37,7 +37,7 @@ use crate::patch::Patch;
 use crate::runner::RunOptions;
 use crate::scenario::{ControllerKind, Scenario};
 
-pub use report::{markdown, summary_table, svg};
+pub use report::{markdown, summary_line, summary_table, svg};
 
 /// The reference every controller is compared with: UN R157's careful and competent human driver.
 pub const REFERENCE: &str = "careful-driver";

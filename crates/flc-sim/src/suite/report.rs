@@ -62,6 +62,25 @@ pub fn summary_table(reports: &[SuiteReport]) -> String {
     out
 }
 
+/// One line for all suites: each controller's passed runs over all runs, the reference first
+/// (`careful-driver 51/51 · flc 48/51 · ...`).
+pub fn summary_line(reports: &[SuiteReport]) -> String {
+    let Some(first) = reports.first() else { return String::new() };
+    let parts: Vec<String> = first
+        .controllers
+        .iter()
+        .map(|c| {
+            let (mut passed, mut runs) = (0, 0);
+            for s in reports.iter().flat_map(|r| &r.summary).filter(|s| &s.controller == c) {
+                passed += s.passed;
+                runs += s.runs;
+            }
+            format!("{c} {passed}/{runs}")
+        })
+        .collect();
+    parts.join(" · ")
+}
+
 /// The report of one suite as Markdown; `command` is the command line that made it.
 pub fn markdown(rep: &SuiteReport, command: &str) -> String {
     let mut out = String::new();
