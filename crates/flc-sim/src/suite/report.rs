@@ -134,10 +134,13 @@ fn esc(s: &str) -> String {
 /// comfort limit, red collision (darker the faster the impact, its speed written in the cell);
 /// a black frame marks a run the careful driver passes and the controller does not.
 pub fn svg(rep: &SuiteReport) -> String {
-    let (label_w, cell_w, cell_h, head_h) = (230.0, 78.0, 18.0, 70.0);
     let cols = rep.controllers.len().max(1);
     let rows = rep.results.len() / cols;
-    let (w, h) = (label_w + cell_w * cols as f64 + 10.0, head_h + cell_h * rows as f64 + 40.0);
+    let label = |r: &CaseResult| format!("{} {}", r.case, short_run(&r.run));
+    // About 6.8 px per character of the 11 px sans-serif font.
+    let longest = rep.results.iter().map(|r| label(r).chars().count()).max().unwrap_or(0);
+    let (label_w, cell_w, cell_h, head_h) = (16.0 + 6.8 * longest as f64, 92.0, 18.0, 50.0);
+    let (w, h) = ((label_w + cell_w * cols as f64 + 10.0).max(560.0), head_h + cell_h * rows as f64 + 52.0);
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -152,7 +155,7 @@ pub fn svg(rep: &SuiteReport) -> String {
     for (i, chunk) in rep.results.chunks(cols).enumerate() {
         let y = head_h + cell_h * i as f64;
         if let Some(first) = chunk.first() {
-            let _ = writeln!(out, r#"<text x="8" y="{}">{} {}</text>"#, y + 13.0, esc(&first.case), esc(short_run(&first.run)));
+            let _ = writeln!(out, r#"<text x="8" y="{}">{}</text>"#, y + 13.0, esc(&label(first)));
         }
         for (j, r) in chunk.iter().enumerate() {
             let x = label_w + cell_w * j as f64;
@@ -172,11 +175,8 @@ pub fn svg(rep: &SuiteReport) -> String {
             }
         }
     }
-    let _ = writeln!(
-        out,
-        r#"<text x="8" y="{}">green: pass · amber: beyond the comfort limit (max decel, m/s²) · red: collision (impact speed, m/s) · black frame: the careful driver passes, the controller does not</text>"#,
-        h - 14.0
-    );
+    let _ = writeln!(out, r#"<text x="8" y="{}">green: pass · amber: beyond the comfort limit (max decel, m/s²) · red: collision (impact speed, m/s)</text>"#, h - 28.0);
+    let _ = writeln!(out, r#"<text x="8" y="{}">black frame: the careful driver passes, the controller does not</text>"#, h - 12.0);
     out.push_str("</svg>\n");
     out
 }
