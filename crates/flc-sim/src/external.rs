@@ -161,7 +161,8 @@ impl ExternalFollower {
             self.mailbox = msg;
         }
         // 2.-3. A measurement -> the law.
-        let ideal = self.cfg.follower.perception == Perception::Ideal;
+        // Ideal perception, or the R157 careful driver (always the host's true gap and speed).
+        let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let measured = self.sensor.tick(t, input.gap);
         self.out.control_tick = measured.is_some();
         if let Some(seen) = measured {

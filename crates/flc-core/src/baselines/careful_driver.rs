@@ -288,8 +288,8 @@ struct SeenLead {
 /// assert!((out.command.accel - 0.625309).abs() < 1e-6);
 /// assert_eq!(out.terms.get("mode"), Some(1.0));
 /// // Stopping distance from 80 km/h: 22.222 * 1.15 + (22.222 * 0.6 - 7.59294 * 0.36 / 6)
-/// // + (22.222 - 2.27788)² / (2 * 7.59294) = 25.5556 + 12.8778 + 26.1908 = 64.624 m.
-/// assert!((driver.params().stopping_distance(80.0 / 3.6) - 64.624).abs() < 1e-3);
+/// // + (22.222 - 2.27788)² / (2 * 7.59294) = 25.5556 + 12.8778 + 26.1939 = 64.627 m.
+/// assert!((driver.params().stopping_distance(80.0 / 3.6) - 64.627).abs() < 1e-3);
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
 #[derive(Debug, Clone)]
@@ -556,8 +556,8 @@ mod tests {
     fn stopping_distance_from_80_kmh_by_hand() {
         let v = 80.0 / 3.6;
         // 22.2222 * 1.15 = 25.5556; 22.2222 * 0.6 - 7.59294 * 0.36 / 6 = 13.3333 - 0.4556 = 12.8778;
-        // (22.2222 - 2.27788)² / (2 * 7.59294) = 397.781 / 15.1859 = 26.1942 -> 64.628 m.
-        assert!((by_hand(v) - 64.628).abs() < 1e-2, "{}", by_hand(v));
+        // (22.2222 - 2.27788)² / (2 * 7.59294) = 397.777 / 15.1859 = 26.1939 -> 64.627 m.
+        assert!((by_hand(v) - 64.627).abs() < 1e-3, "{}", by_hand(v));
         assert!((CarefulDriverParams::default().stopping_distance(v) - by_hand(v)).abs() < 1e-12);
         // The obstacle appears 70 m ahead: a_req = 22.2222² / (2 * 68) = 3.6311 > 3.5.
         let stop = against_obstacle(cruising(v), v, 70.0);
@@ -584,6 +584,22 @@ mod tests {
         assert!((stop.distance - by_hand(v)).abs() < 0.05, "{} vs {}", stop.distance, by_hand(v));
         assert!((stop.first_brake - 1.15).abs() <= DT + 1e-9, "{}", stop.first_brake);
         assert!(stop.held);
+    }
+
+    /// The table of `docs/careful-driver.md`: the hand formula at each speed (m, 3 decimals),
+    /// and the discrete run (20 Hz) within 0.05 m of it. The obstacle appears 10 m beyond the
+    /// stopping distance; a disturbance threshold of 0.5 m/s² makes it one at every speed.
+    #[test]
+    fn the_documented_table() {
+        let table = [(30.0, 16.542), (50.0, 32.728), (60.0, 42.345), (80.0, 64.627), (100.0, 90.975), (130.0, 138.117)];
+        for (kmh, metres) in table {
+            let v = kmh / 3.6;
+            assert!((by_hand(v) - metres).abs() < 5e-4, "{kmh}: {}", by_hand(v));
+            let p = CarefulDriverParams { risk_decel: 0.5, ..cruising(v) };
+            let stop = against_obstacle(p, v, metres + 10.0);
+            assert!((stop.distance - metres).abs() < 0.05, "{kmh}: {} vs {metres}", stop.distance);
+            assert!(stop.held && (stop.first_brake - 1.15).abs() <= DT + 1e-9);
+        }
     }
 
     #[test]
