@@ -59,8 +59,9 @@ use crate::params::{ParamError, check_positive, check_range};
 /// The gravitational acceleration used for "0.774 g", m/s² (standard `g` rounded as 9.81).
 pub const STANDARD_GRAVITY: f64 = 9.81;
 
-/// Own speed at or below which the driver counts as standing still (ends a braking), m/s.
-pub const STANDSTILL_SPEED: f64 = 0.1;
+/// Own speed at or below which the driver counts as standing still (ends a braking), m/s: 1 cm/s,
+/// so that a braking is not handed back to the normal mode while still rolling.
+pub const STANDSTILL_SPEED: f64 = 0.01;
 
 /// The timing comparisons (`time since onset >= 1.15 s`) allow this much rounding of the summed
 /// frame times, s: 23 frames of 0.05 s are 1.15 s even when their float sum is 1.1499999999999997.
@@ -548,6 +549,11 @@ mod tests {
             x += v * DT + 0.5 * a * DT * DT;
             v += a * DT;
             t += DT;
+            if a < 0.0 && v <= STANDSTILL_SPEED {
+                // At most 1 cm/s left: the driver counts as standing (the rest, v² / (2 A), is
+                // below 0.01 mm).
+                return Stop { distance: x, first_brake: first_brake.unwrap_or(f64::NAN), held };
+            }
         }
         panic!("no stop within 100 s");
     }
@@ -744,6 +750,8 @@ mod tests {
         }
         assert_eq!(c.mode(), CarefulMode::Braking);
         c.step_measured(Some(3.0), 0.05, DT, Some(0.0));
+        assert_eq!(c.mode(), CarefulMode::Braking);
+        c.step_measured(Some(3.0), 0.01, DT, Some(0.0));
         assert_eq!(c.mode(), CarefulMode::Normal);
     }
 
