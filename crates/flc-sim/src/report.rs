@@ -129,7 +129,8 @@ impl RunRecord {
             perception: if scenario.controller.perceives_truth() {
                 Some("truth".to_string())
             } else {
-                (scenario.follower.perception != crate::follower::Perception::Lidar).then(|| scenario.follower.perception.as_str().to_string())
+                (scenario.follower.perception != crate::follower::Perception::Lidar)
+                    .then(|| scenario.follower.perception.as_str().to_string())
             },
             platoon: None,
             other_contacts: Vec::new(),
