@@ -64,7 +64,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "--envelope-controllers",
         type=_controllers,
         default=None,
-        help="controllers of the envelope maps, comma separated (default flc,pid,idm,acc,rss,carla-behavior,flc-robust)",
+        help="controllers of the envelope maps, comma separated (default: every controller but pipeline, flc.envelope.CONTROLLERS)",
     )
     fig.add_argument("--threads", type=int, default=None, help="worker threads of the envelope sweeps (default: all cores)")
     fig.add_argument(

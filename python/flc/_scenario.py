@@ -69,7 +69,9 @@ class Scenario:
     def paper(cls, speed_kmh: float = 50.0, controller: str = "flc", preset: str = "realistic", **overrides: Any) -> "Scenario":
         """The paper's experiment at ``speed_kmh`` (km/h) with ``controller`` in
         :data:`CONTROLLERS` ("flc", "pid", "pipeline", a baseline under identical sensing:
-        "idm", "acc", "rss", "carla-behavior", or the robust FLC "flc-robust") and ``preset`` in {"realistic", "paper"}."""
+        "idm", "acc", "rss", "carla-behavior", "gipps", the robust FLC "flc-robust", or the UN R157
+        reference driver "careful-driver", which sees the ground truth) and ``preset`` in
+        {"realistic", "paper"}."""
         if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):
             raise ScenarioError(f"`speed_kmh`: expected a number, got {type(speed_kmh).__name__}")
         return cls._patched(_flc.paper_scenario(float(speed_kmh), controller, preset), overrides)

@@ -6,10 +6,11 @@
 //! gap) live with the law in `flc-core`.
 //!
 //! A row: `Kind = "name", section: ParamsType` (with `validate() -> Result<(), ParamError>`), build |cfg| expr, cruise |params, v| stmt, v2v,
-//! starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
+//! truth, starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
 //! parameters, how to build the law from a follower's configuration, how the paper experiment sets
-//! a cruise controller's set speed (`docs/baselines.md`), whether the law listens to V2V, and which
-//! law the `active` column shows before the first control frame.
+//! a cruise controller's set speed (`docs/baselines.md`), whether the law listens to V2V, whether it
+//! perceives the ground truth instead of the LiDAR (the R157 reference driver), and which law the
+//! `active` column shows before the first control frame.
 
 use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
 use flc_core::{ActiveController, FallbackController, LongitudinalController, PidController, RobustFallbackController, Supervisor};
@@ -26,25 +27,29 @@ macro_rules! for_each_controller {
     ($callback:ident! { $($prefix:tt)* }) => {
         $callback! { { $($prefix)* }
             /// The paper's FLC only (LiDAR distance + own speed; Sec. III-B, Eqs. (2)-(5)).
-            Flc = "flc", flc: flc_core::FlcParams, build |c| FallbackController::new(c.flc), cruise |_p, _v| {}, v2v false, starts Flc;
+            Flc = "flc", flc: flc_core::FlcParams, build |c| FallbackController::new(c.flc), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
             /// The V2V PID only (holds the last received lead speed when V2V is lost; Sec. III-A.3).
-            Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, starts Pid;
+            Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, truth false, starts Pid;
             /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC
             /// otherwise), from `[supervisor]`, `[flc]` and `[pid]`.
-            Pipeline = "pipeline", supervisor: $crate::controllers::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, starts Flc;
+            Pipeline = "pipeline", supervisor: $crate::controllers::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, truth false, starts Flc;
             /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
-            Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
-            Acc = "acc", acc: flc_core::baselines::AccParams, build |c| AccController::new(c.acc), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            Acc = "acc", acc: flc_core::baselines::AccParams, build |c| AccController::new(c.acc), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: RSS safe-distance controller (`[rss]`).
-            Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
-            CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, starts Flc;
+            CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, truth false, starts Flc;
             /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
             /// `[flc_robust]`, `docs/robust-flc.md`).
-            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, starts Flc;
+            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: Gipps (1981) safe-speed car following (`[gipps]`).
-            Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, starts Flc;
+            Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
+            /// Reference: the UN R157 careful and competent human driver (`[careful_driver]`,
+            /// `docs/careful-driver.md`); it sees the scene as a human does (ground truth of the
+            /// vehicle in front within its sight distance), not through the LiDAR.
+            CarefulDriver = "careful-driver", careful_driver: flc_core::baselines::CarefulDriverParams, build |c| flc_core::baselines::CarefulDriver::new(c.careful_driver), cruise |p, v| { p.normal.desired_speed = v }, v2v false, truth true, starts Flc;
         }
     };
 }
@@ -53,7 +58,7 @@ pub(crate) use for_each_controller;
 /// Generates [`ControllerKind`] and [`ControllerSections`] from the rows.
 macro_rules! define_registry {
     ({} $( $(#[doc = $doc:literal])* $kind:ident = $name:literal, $field:ident : $params:ty,
-        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, starts $active:ident; )*) => {
         /// Which longitudinal controller drives a follower (the registry's rows, in order).
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
         pub enum ControllerKind {
@@ -73,6 +78,14 @@ macro_rules! define_registry {
             /// see the lead only through the LiDAR detector.
             pub fn uses_v2v(self) -> bool {
                 match self { $( ControllerKind::$kind => $v2v, )* }
+            }
+
+            /// Whether this controller perceives the ground truth of the vehicle in front (its true
+            /// gap and speed, with lane keeping) instead of the LiDAR detector, whatever
+            /// `follower.perception` says: the reference driver of R157, a human looking at the
+            /// road (`docs/careful-driver.md`).
+            pub fn perceives_truth(self) -> bool {
+                match self { $( ControllerKind::$kind => $truth, )* }
             }
 
             /// The law shown in the `active` column before the first control frame.
@@ -114,7 +127,7 @@ for_each_controller!(define_registry! {});
 macro_rules! with_controller_sections {
     ({ $(#[$meta:meta])* pub struct $name:ident { $( $(#[$fmeta:meta])* pub $fname:ident : $fty:ty, )* } }
      $( $(#[doc = $doc:literal])* $kind:ident = $cname:literal, $field:ident : $params:ty,
-        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, starts $active:ident; )*) => {
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, starts $active:ident; )*) => {
         $(#[$meta])*
         pub struct $name {
             $( $(#[$fmeta])* pub $fname: $fty, )*

@@ -10,7 +10,8 @@
 //!    ([`V2vChannel`]: rate, latency, jitter, loss, bursts, outages) from the `[v2v]` section;
 //! 2. **sensing**: the [`GapSensor`] (the LiDAR's schedule, range, noise, drops and latency from
 //!    `[lidar]`); with `follower.perception = "ideal"` the controller gets the true gap and the
-//!    front vehicle's true speed at the sensor's rate instead (validation only);
+//!    front vehicle's true speed at the sensor's rate instead (validation only; always for the
+//!    R157 reference driver, [`crate::ControllerKind::perceives_truth`]);
 //! 3. **control**: the configured longitudinal law ([`crate::ControllerKind`], any of them: FLC,
 //!    robust FLC, PID, the supervisor pipeline, the baselines), fed the same [`Frame`] as in the
 //!    simulator at each measurement;
@@ -161,7 +162,8 @@ impl ExternalFollower {
             self.mailbox = msg;
         }
         // 2.-3. A measurement -> the law.
-        let ideal = self.cfg.follower.perception == Perception::Ideal;
+        // Ideal perception, or the R157 careful driver (always the host's true gap and speed).
+        let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let measured = self.sensor.tick(t, input.gap);
         self.out.control_tick = measured.is_some();
         if let Some(seen) = measured {

@@ -35,7 +35,8 @@ pub struct RunRecord {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub collision_info: Option<CollisionInfo>,
     /// `"ideal"` when the follower saw ground truth instead of the LiDAR (validation only,
-    /// `follower.perception`); absent with the LiDAR.
+    /// `follower.perception`); `"truth"` for a controller that always sees the ground truth
+    /// (the R157 careful driver, `ControllerKind::perceives_truth`); absent with the LiDAR.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub perception: Option<String>,
     /// The scenario file's variant (`[[variants]]`), absent otherwise.
@@ -125,8 +126,12 @@ impl RunRecord {
             metrics: metrics.clone(),
             collision_info: None,
             variant: scenario.variant.clone(),
-            perception: (scenario.follower.perception != crate::follower::Perception::Lidar)
-                .then(|| scenario.follower.perception.as_str().to_string()),
+            perception: if scenario.controller.perceives_truth() {
+                Some("truth".to_string())
+            } else {
+                (scenario.follower.perception != crate::follower::Perception::Lidar)
+                    .then(|| scenario.follower.perception.as_str().to_string())
+            },
             platoon: None,
             other_contacts: Vec::new(),
         }

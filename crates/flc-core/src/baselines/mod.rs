@@ -13,6 +13,7 @@
 //! | [`rss`] | [`RssController`] | Shalev-Shwartz, Shammah & Shashua, arXiv:1708.06374 (2017), Def. 1; cruise structure of Autoware's `obstacle_cruise_planner` |
 //! | [`carla_behavior`] | [`CarlaBehaviorController`] | CARLA `PythonAPI/carla/agents/navigation/behavior_agent.py` (`car_following_manager`, `emergency_stop`), `behavior_types.py` (`Normal`) |
 //! | [`gipps`] | [`GippsController`] | Gipps, *Transp. Res. B* 15(2), 105 (1981), Eq. (5); SUMO-compatible defaults (not in [`Baseline`] / [`BaselineKind`]) |
+//! | [`careful_driver`] | [`CarefulDriver`] | UN R157 (2021 original), Annex 3, Appendix 3: the careful and competent human driver (a reference, not a follower under identical sensing; not in [`Baseline`] / [`BaselineKind`]) |
 //!
 //! All four return the same [`LongitudinalCommand`] as the FLC and the PID, so the simulator can
 //! swap them in: `speed = clamp(own_speed + command_gain * accel, 0, max_speed)` with
@@ -43,6 +44,7 @@
 //! `docs/baselines.md`.
 
 pub mod acc;
+pub mod careful_driver;
 pub mod carla_behavior;
 pub mod estimator;
 pub mod follower;
@@ -51,6 +53,7 @@ pub mod idm;
 pub mod rss;
 
 pub use acc::{Acc, AccController, AccMode, AccParams, AccTerms};
+pub use careful_driver::{CarefulDriver, CarefulDriverParams, CarefulDriverTerms, CarefulMode};
 pub use carla_behavior::{CarlaBand, CarlaBehavior, CarlaBehaviorController, CarlaBehaviorParams, CarlaTerms};
 pub use estimator::{EstimatorParams, RangeEstimate, RangeRateEstimator};
 pub use follower::{CarFollowingLaw, Demand, EstimatingFollower, FollowerParams, FollowerSettings, LeadEstimate};

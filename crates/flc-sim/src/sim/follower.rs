@@ -116,9 +116,10 @@ impl Follower {
         truth: (f64, f64),
     ) {
         let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
-        let ideal = self.cfg.follower.perception == Perception::Ideal;
+        // Ideal perception (validation only), or a controller that sees the scene as a human does
+        // (the R157 careful driver): the true gap and speed of the vehicle in front.
+        let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let detection = det.detection;
-        // Ideal perception (validation only): the true gap and speed of the vehicle in front.
         let (distance, lead_speed) =
             if ideal { (Some(truth.0), Some(truth.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;
