@@ -9,6 +9,7 @@
 mod params;
 mod records;
 mod signal;
+mod ssm;
 
 use serde::{Deserialize, Serialize};
 
@@ -41,6 +42,19 @@ pub struct Metrics {
     /// Largest deceleration rate to avoid a crash, `DRAC = (v_follower - v_lead)² / (2 gap)`,
     /// over the closing samples with a positive gap, m/s² (0 if never closing).
     pub max_drac: f64,
+    /// Time Exposed TTC (Minderhoud & Bovy 2001): `Σ Δ_i` over the samples with
+    /// `TTC_i <= TTC*` (`ttc_threshold`, 3 s; a sample with `gap <= 0` has `TTC_i = 0`), s.
+    pub tet: f64,
+    /// Time Integrated TTC (Minderhoud & Bovy 2001): `Σ Δ_i (TTC* − TTC_i)` over the same samples,
+    /// s².
+    pub tit: f64,
+    /// Smallest time headway `max(gap, 0) / v_follower` (bumper to bumper, SUMO's TGAP) over the
+    /// samples with `v_follower > headway_min_speed` (0.5 m/s), s (`None` if never that fast).
+    pub min_time_headway: Option<f64>,
+    /// Smallest post-encroachment time of a cut-in, s: time from a vehicle entering the
+    /// follower's path in front of it until the follower's front bumper reaches the point where
+    /// that vehicle's rear was then (`None` without a cut-in, or if never reached).
+    pub pet: Option<f64>,
     /// Time the follower braked harder than 3.5 m/s² (the comfort limit), s.
     pub time_hard_braking: f64,
     /// Largest absolute jerk of the follower over a `jerk_window` (0.1 s), m/s³.
@@ -110,12 +124,17 @@ impl Metrics {
         let impact_speed = collision.map_or(0.0, |c| finite_or(c.impact_speed, 0.0).max(0.0));
         let collision_time = collision.map(|c| c.time).filter(|x| x.is_finite());
 
-        // Gap, TTC.
+        // Gap, TTC, time headway.
         let min_gap = s.gap[..n].iter().copied().filter(|g| g.is_finite()).fold(f64::NAN, f64::min);
         let mut min_ttc: Option<f64> = None;
-        let mut max_drac: f64 = 0.0;
+        let mut min_time_headway: Option<f64> = None;
+        let (mut max_drac, mut tet, mut tit): (f64, f64, f64) = (0.0, 0.0, 0.0);
         for i in 0..n {
-            let (gap, closing) = (s.gap[i], s.follower_speed[i] - s.lead_speed[i]);
+            let (gap, vf, closing) = (s.gap[i], s.follower_speed[i], s.follower_speed[i] - s.lead_speed[i]);
+            if gap.is_finite() && vf.is_finite() && vf > p.headway_min_speed {
+                let thw = gap.max(0.0) / vf;
+                min_time_headway = Some(min_time_headway.map_or(thw, |m| m.min(thw)));
+            }
             if !gap.is_finite() || !closing.is_finite() {
                 continue;
             }
@@ -130,7 +149,12 @@ impl Metrics {
                 continue;
             };
             min_ttc = Some(min_ttc.map_or(ttc, |m| m.min(ttc)));
+            if ttc <= p.ttc_threshold {
+                tet += dts[i];
+                tit += dts[i] * (p.ttc_threshold - ttc);
+            }
         }
+        let pet = ssm::min_cut_in_pet(t, &s.gap[..n], &s.lead_speed[..n], &s.follower_speed[..n], p.cut_in_gap_drop);
 
         // Final clearance.
         let final_clearance = match n.checked_sub(1) {
@@ -195,6 +219,10 @@ impl Metrics {
             min_ttc,
             max_decel,
             max_drac,
+            tet,
+            tit,
+            min_time_headway,
+            pet,
             time_hard_braking,
             max_jerk,
             gap_error_rms,
@@ -242,6 +270,10 @@ mod tests {
         // Declaration order, not alphabetical.
         let pos = |n: &str| names.iter().position(|x| x == n);
         assert!(pos("min_gap") < pos("final_clearance") && pos("final_clearance") < pos("max_decel"));
+        // The surrogate safety measures follow max_drac.
+        let drac = pos("max_drac").expect("max_drac");
+        let ssm: Vec<Option<usize>> = ["tet", "tit", "min_time_headway", "pet"].iter().map(|n| pos(n)).collect();
+        assert_eq!(ssm, (1..=4).map(|k| Some(drac + k)).collect::<Vec<_>>());
     }
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -250,9 +282,14 @@ mod tests {
 
     /// A series of `n` steps at `DT` (t = DT, 2 DT, ...) built by `f(t)` from a neutral record.
     fn series(n: usize, f: impl Fn(f64, &mut StepRecord)) -> Series {
+        series_dt(n, DT, f)
+    }
+
+    /// [`series`] with step `dt` (t = dt, 2 dt, ..., n dt).
+    fn series_dt(n: usize, dt: f64, f: impl Fn(f64, &mut StepRecord)) -> Series {
         let mut s = Series::default();
         for i in 1..=n {
-            let t = i as f64 * DT;
+            let t = i as f64 * dt;
             let mut r = StepRecord {
                 t,
                 lead_speed: 10.0,
@@ -276,6 +313,7 @@ mod tests {
         assert!(m.min_gap.is_nan());
         assert_eq!((m.min_ttc, m.final_clearance, m.gap_error_rms, m.rot_error_deg, m.trans_error_m), (None, None, None, None, None));
         assert_eq!((m.max_decel, m.max_jerk, m.time_pid, m.time_flc, m.duration, m.switches), (0.0, 0.0, 0.0, 0.0, 0.0, 0));
+        assert_eq!((m.tet, m.tit, m.min_time_headway, m.pet), (0.0, 0.0, None, None));
         // JSON: NaN and None become null.
         let j = serde_json::to_value(&m).unwrap();
         assert!(j["min_gap"].is_null() && j["min_ttc"].is_null());
@@ -323,6 +361,143 @@ mod tests {
         let m = Metrics::compute(&s, None);
         assert!(close(m.max_drac, 2.5, 1e-9), "{}", m.max_drac);
         assert!(close(m.time_hard_braking, 3.0, 0.011), "{}", m.time_hard_braking);
+    }
+
+    #[test]
+    fn tet_and_tit_of_a_linear_approach_to_contact() {
+        // Follower 20 m/s, lead 10 m/s, gap 40 - 10 t: contact at t = 4 s, TTC = gap / 10 = 4 - t,
+        // at or below TTC* = 3 s for t in [1, 4]: TET = 3 s, TIT = ∫_1^4 (3 - (4 - t)) dt = 4.5 s².
+        // Samples t = k dt cover (t - dt, t]: the rectangle sums are TET = 3 + dt and
+        // TIT = dt² N (N + 1) / 2 with N = 3 / dt, i.e. 4.5 + 1.5 dt.
+        let dt = 1e-3;
+        let s = series_dt(4000, dt, |t, r| {
+            r.follower_speed = 20.0;
+            r.gap = 40.0 - 10.0 * t;
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.tet, 3.0 + dt, 1e-9), "{}", m.tet);
+        assert!(close(m.tit, 4.5 + 1.5 * dt, 1e-6), "{}", m.tit);
+        assert!(close(m.min_ttc.unwrap(), 0.0, 1e-9));
+        // Past contact (gap <= 0 is TTC 0): one more second adds 1 s to TET and 3 s² to TIT.
+        let s = series_dt(5000, dt, |t, r| {
+            r.follower_speed = 20.0;
+            r.gap = 40.0 - 10.0 * t;
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.tet, 4.0 + dt, 1e-9), "{}", m.tet);
+        assert!(close(m.tit, 7.5 + 1.5 * dt, 1e-6), "{}", m.tit);
+        // A lower threshold: TTC* = 1 s exposes t in [3, 4]: TET 1 s, TIT ∫_3^4 (t - 3) dt = 0.5 s².
+        let p = MetricsParams { ttc_threshold: 1.0, ..MetricsParams::default() };
+        let s = series_dt(4000, dt, |t, r| {
+            r.follower_speed = 20.0;
+            r.gap = 40.0 - 10.0 * t;
+        });
+        let m = Metrics::compute_with(&s, None, &p);
+        assert!(close(m.tet, 1.0 + dt, 1e-9), "{}", m.tet);
+        assert!(close(m.tit, 0.5 + 0.5 * dt, 1e-6), "{}", m.tit);
+    }
+
+    #[test]
+    fn tet_and_tit_are_zero_when_never_below_the_threshold() {
+        // Never closing (equal speeds, then opening).
+        let s = series(1000, |t, r| {
+            r.follower_speed = if t < 5.0 { 10.0 } else { 8.0 };
+            r.gap = 20.0;
+        });
+        let m = Metrics::compute(&s, None);
+        assert_eq!((m.tet, m.tit, m.min_ttc), (0.0, 0.0, None));
+        // Closing, but TTC = (50 - 5 t) / 5 >= 4 s over t <= 6 s: never exposed.
+        let s = series(600, |t, r| {
+            r.follower_speed = 15.0;
+            r.gap = 50.0 - 5.0 * t;
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.min_ttc.unwrap(), 4.0, 1e-9));
+        assert_eq!((m.tet, m.tit), (0.0, 0.0));
+    }
+
+    #[test]
+    fn min_time_headway_only_while_moving() {
+        // 0-4 s: 25 m/s at 30 m (1.2 s); 4-8 s: 10 m/s at 8 m (0.8 s); 8-10 s: creeping at
+        // 0.3 m/s (below headway_min_speed 0.5) 0.1 m behind (0.33 s, not counted).
+        let s = series(1000, |t, r| {
+            (r.follower_speed, r.gap) = if t <= 4.0 {
+                (25.0, 30.0)
+            } else if t <= 8.0 {
+                (10.0, 8.0)
+            } else {
+                (0.3, 0.1)
+            };
+            r.lead_speed = r.follower_speed;
+        });
+        let m = Metrics::compute(&s, None);
+        assert!(close(m.min_time_headway.unwrap(), 0.8, 1e-12), "{:?}", m.min_time_headway);
+        // With the threshold below the creeping speed, 0.1 / 0.3 counts.
+        let p = MetricsParams { headway_min_speed: 0.2, ..MetricsParams::default() };
+        assert!(close(Metrics::compute_with(&s, None, &p).min_time_headway.unwrap(), 0.1 / 0.3, 1e-12));
+        // Overlapping (gap < 0) reads 0, not a negative headway.
+        let s = series(100, |t, r| r.gap = if t > 0.5 { -0.2 } else { 5.0 });
+        assert_eq!(Metrics::compute(&s, None).min_time_headway, Some(0.0));
+        // Never moving: None.
+        let s = series(100, |_, r| {
+            r.follower_speed = 0.0;
+            r.lead_speed = 0.0;
+        });
+        assert_eq!(Metrics::compute(&s, None).min_time_headway, None);
+    }
+
+    #[test]
+    fn pet_of_a_cut_in() {
+        // Follower at 20 m/s 50 m behind a vehicle at 20 m/s; at t = 2 s a vehicle at 15 m/s
+        // enters its path 10 m ahead: its rear is at P, 10 m ahead of the follower's front
+        // bumper, which reaches P after 10 / 20 = 0.5 s.
+        let cut_in = |t: f64, r: &mut StepRecord| {
+            r.follower_speed = 20.0;
+            (r.lead_speed, r.gap) = if t < 2.0 - 1e-9 { (20.0, 50.0) } else { (15.0, 10.0 - 5.0 * (t - 2.0)) };
+        };
+        let m = Metrics::compute(&series(400, cut_in), None);
+        assert!(close(m.pet.unwrap(), 0.5, 1e-9), "{:?}", m.pet);
+        // Braking at 2 m/s² from the cut-in: 20 τ - τ² = 10, τ = 10 - sqrt(90) = 0.513 s.
+        let braking = |t: f64, r: &mut StepRecord| {
+            cut_in(t, r);
+            r.follower_speed = if t < 2.0 { 20.0 } else { 20.0 - 2.0 * (t - 2.0) };
+            // The gap the new front vehicle keeps: 10 m + its 15 m/s minus what the follower covers.
+            if t >= 2.0 - 1e-9 {
+                let tau = t - 2.0;
+                r.gap = 10.0 + 15.0 * tau - (20.0 * tau - tau * tau);
+            }
+        };
+        let m = Metrics::compute(&series(400, braking), None);
+        assert!(close(m.pet.unwrap(), 10.0 - 90.0_f64.sqrt(), 1e-9), "{:?}", m.pet);
+        // Stopping (5 m/s, 5 m/s²: 2.5 m) before P: never reached.
+        let stops = |t: f64, r: &mut StepRecord| {
+            cut_in(t, r);
+            r.follower_speed = if t < 2.0 { 20.0 } else { (5.0 - 5.0 * (t - 2.0)).max(0.0) };
+        };
+        assert_eq!(Metrics::compute(&series(600, stops), None).pet, None);
+        // The series ends before the follower reaches P (0.3 s after the cut-in).
+        assert_eq!(Metrics::compute(&series(230, cut_in), None).pet, None);
+    }
+
+    #[test]
+    fn no_pet_without_a_cut_in() {
+        // Plain following, closing, braking lead, cut-out (the gap jumps up): no encroachment.
+        let closing = series(900, |t, r| {
+            r.follower_speed = 15.0;
+            r.gap = 50.0 - 5.0 * t;
+        });
+        let braking_lead = series(500, |t, r| {
+            r.lead_speed = (10.0 - 6.0 * t).max(0.0);
+            r.lead_accel = if 10.0 - 6.0 * t > 0.0 { -6.0 } else { 0.0 };
+            // Gap of a lead braking from 10 m/s at 6 m/s² in front of a follower at 10 m/s.
+            let tb = t.min(10.0 / 6.0);
+            r.gap = 30.0 + (10.0 * tb - 3.0 * tb * tb) - 10.0 * t;
+        });
+        let cut_out = series(400, |t, r| r.gap = if t < 2.0 { 10.0 } else { 60.0 });
+        for s in [closing, braking_lead, cut_out] {
+            assert_eq!(Metrics::compute(&s, None).pet, None);
+        }
+        assert_eq!(Metrics::compute(&Series::default(), None).pet, None);
     }
 
     #[test]
@@ -463,6 +638,8 @@ mod tests {
             let m = Metrics::compute(&s, None);
             proptest::prop_assert!(m.max_decel >= 0.0 && m.max_jerk >= 0.0 && m.duration >= 0.0);
             proptest::prop_assert!(m.time_pid + m.time_flc <= m.duration * (1.0 + 1e-9) + 1e-9);
+            proptest::prop_assert!(m.tet >= 0.0 && m.tit >= 0.0 && m.tet <= m.duration * (1.0 + 1e-9) + 1e-9);
+            proptest::prop_assert!(m.pet.is_none_or(|x| x >= 0.0) && m.min_time_headway.is_none_or(|x| x >= 0.0));
             let _ = serde_json::to_string(&m);
         }
     }

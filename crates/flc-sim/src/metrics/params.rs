@@ -24,6 +24,19 @@ pub struct MetricsParams {
     pub tracking_min_speed: f64,
     /// Closing speeds at or below this count as "not closing" for TTC, m/s. Default 1e-6.
     pub ttc_min_closing: f64,
+    /// TTC threshold `TTC*` of `tet` and `tit` (Minderhoud & Bovy 2001), s. Default 3, SUMO's
+    /// SSM device default for TTC (`device.ssm.thresholds`).
+    pub ttc_threshold: f64,
+    /// `min_time_headway` counts the samples where the follower moves faster than this, m/s
+    /// (`gap / v_follower` grows without bound towards standstill and means nothing there).
+    /// Default 0.5, as `tracking_min_speed`.
+    pub headway_min_speed: f64,
+    /// `pet`: a sample whose gap is this much below the gap predicted from the previous sample
+    /// (`g[i-1] + Δ_i (v_l[i-1] + v_l[i] - v_f[i-1] - v_f[i]) / 2`) starts a cut-in: a vehicle
+    /// entered the follower's path between it and the vehicle it followed, m. Default 1 (the same
+    /// vehicle is predicted to within a few cm per step; two vehicles in one path are a vehicle
+    /// length apart).
+    pub cut_in_gap_drop: f64,
 }
 
 impl Default for MetricsParams {
@@ -37,6 +50,9 @@ impl Default for MetricsParams {
             steady_min_speed: 1.0,
             tracking_min_speed: 0.5,
             ttc_min_closing: 1e-6,
+            ttc_threshold: 3.0,
+            headway_min_speed: 0.5,
+            cut_in_gap_drop: 1.0,
         }
     }
 }
