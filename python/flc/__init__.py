@@ -20,7 +20,7 @@ from ._controllers import (
 )
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
-from ._run import PlatoonResult, RunResult, frequency_response, run, sweep
+from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, sweep
 from ._scenario import Scenario
 
 __all__ = [
@@ -40,6 +40,7 @@ __all__ = [
     "Steering",
     "Supervisor",
     "frequency_response",
+    "metrics_from_series",
     "read_mcap",
     "run",
     "sweep",

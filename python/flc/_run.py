@@ -171,3 +171,18 @@ def frequency_response(scenario: Union[Scenario, Mapping[str, Any]], freqs_hz: O
     freqs = None if freqs_hz is None else [float(f) for f in freqs_hz]
     points: list[dict[str, Any]] = json.loads(_flc.frequency_response(sc.to_json(), freqs))
     return points
+
+
+def metrics_from_series(series: Mapping[str, Any], **params: float) -> dict[str, Any]:
+    """flc's metrics (the keys of :attr:`RunResult.metrics`) of a series given as columns, e.g. a
+    trajectory recorded by another simulator: ``series`` maps column names of
+    :attr:`RunResult.series` (``t``, ``gap``, ``lead_speed``, ``follower_speed``,
+    ``follower_accel``, ...) to equally long 1-D arrays (SI units). A column not given is NaN
+    (codes such as ``active``: no controller), so the metrics that need it are empty. ``params``
+    override the thresholds of ``flc_sim::MetricsParams`` (``ttc_threshold=1.5``,
+    ``headway_min_speed=...``; ``docs/v2v-and-metrics.md``). No collision is known: ``collision``
+    is ``False``. Unknown or unequal columns and unknown parameters raise
+    :class:`flc.ParameterError` naming them. The computation is the simulator's own (Rust)."""
+    columns = {str(k): np.asarray(v, dtype=float).ravel().tolist() for k, v in series.items()}
+    metrics: dict[str, Any] = json.loads(_flc.metrics_from_series(columns, json.dumps(params) if params else None))
+    return metrics

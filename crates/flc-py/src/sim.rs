@@ -223,6 +223,23 @@ fn bench_rust_run(py: Python<'_>, scenario_json: &str, repeats: usize) -> PyResu
     })
 }
 
+/// flc's metrics (JSON, the keys of `scenario --json`) of a series given as columns, e.g. one
+/// recorded by another simulator: `flc_sim::Series::from_columns` (known names, equal lengths;
+/// a column not given is NaN, a code column "no controller") and `flc_sim::Metrics::compute_with`
+/// with `params_json` (`flc_sim::MetricsParams`, defaults for keys not given). No collision is
+/// known, so `collision` is false. Bad columns or parameters raise `ParameterError`.
+#[pyfunction]
+#[pyo3(signature = (columns, params_json=None))]
+fn metrics_from_series(columns: std::collections::BTreeMap<String, Vec<f64>>, params_json: Option<&str>) -> PyResult<String> {
+    let params: flc_sim::MetricsParams = match params_json {
+        Some(j) => from_json(j, "metrics params")?,
+        None => flc_sim::MetricsParams::default(),
+    };
+    let cols: Vec<(&str, &[f64])> = columns.iter().map(|(k, v)| (k.as_str(), v.as_slice())).collect();
+    let series = Series::from_columns(&cols).map_err(|e| crate::ParameterError::new_err(format!("metrics_from_series: {e}")))?;
+    to_json(&flc_sim::Metrics::compute_with(&series, None, &params))
+}
+
 /// The seed `scenario sweep` gives run `run_id` of a sweep with seed `sweep_seed`.
 #[pyfunction]
 fn sweep_run_seed(sweep_seed: u64, run_id: usize) -> u64 {
@@ -281,6 +298,7 @@ impl ExternalFollower {
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ExternalFollower>()?;
     m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(metrics_from_series, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(import_openscenario, m)?)?;

@@ -65,7 +65,7 @@ pub use patch::Patch;
 pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilitySpec, V2vSource};
 pub use runner::{RunOptions, run};
 pub use scenario::{ControllerKind, EGO, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
-pub use series::{ACTIVE_FLC, ACTIVE_PID, Series, StepRecord};
+pub use series::{ACTIVE_FLC, ACTIVE_PID, MISSING_CODE, Series, StepRecord};
 pub use sim::{FollowerRun, Observer, PlatoonResult, RunResult, Simulation};
 pub use track::{Projection, RoadsideObject, Track};
 pub use units::KMH;

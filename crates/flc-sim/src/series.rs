@@ -52,6 +52,38 @@ macro_rules! series_columns {
                 Some(StepRecord { $( $name: *self.$name.get(i)?, )* })
             }
 
+            /// A series from named columns, the inverse of [`Series::columns`] (for series recorded
+            /// elsewhere, e.g. by another simulator). Every given column must have a known name,
+            /// appear once and have the same length; a column not given is NaN throughout (`f64`)
+            /// or [`MISSING_CODE`] (codes: no controller, so neither `time_pid` nor `time_flc`
+            /// counts it). Codes must be integers in `0..=255`. Errors name the column.
+            pub fn from_columns(cols: &[(&str, &[f64])]) -> Result<Self, String> {
+                let mut n: Option<(&str, usize)> = None;
+                for (k, (name, c)) in cols.iter().enumerate() {
+                    if !Self::COLUMNS.iter().any(|(known, _)| known == name) {
+                        let known: Vec<&str> = Self::COLUMNS.iter().map(|(c, _)| *c).collect();
+                        return Err(format!("unknown column `{name}` (known: {})", known.join(", ")));
+                    }
+                    if cols[..k].iter().any(|(other, _)| other == name) {
+                        return Err(format!("column `{name}` given twice"));
+                    }
+                    match n {
+                        Some((first, m)) if m != c.len() => return Err(format!("column `{name}` has {} samples, `{first}` {m}", c.len())),
+                        Some(_) => {}
+                        None => n = Some((name, c.len())),
+                    }
+                }
+                let n = n.map_or(0, |(_, m)| m);
+                let find = |name: &str| cols.iter().find(|(k, _)| *k == name).map(|(_, c)| *c);
+                Ok(Self { $( $name: match find(stringify!($name)) {
+                    None => vec![<$ty as ColumnValue>::MISSING; n],
+                    Some(c) => c
+                        .iter()
+                        .map(|&x| <$ty as ColumnValue>::from_f64(x).ok_or_else(|| format!("column `{}`: {x} is not a code (an integer in 0..=255)", stringify!($name))))
+                        .collect::<Result<Vec<$ty>, String>>()?,
+                }, )* })
+            }
+
             /// Every column as `f64` (codes converted), in [`Series::COLUMNS`] order, truncated to
             /// [`Series::len`].
             pub fn columns(&self) -> Vec<(&'static str, Vec<f64>)> {
@@ -107,6 +139,31 @@ series_columns! {
     heading_error: f64, "rad";
 }
 
+/// The value of a code column that [`Series::from_columns`] was not given (no controller, no
+/// switch reason).
+pub const MISSING_CODE: u8 = u8::MAX;
+
+/// The two column types: what a missing column holds and how an `f64` converts.
+trait ColumnValue: Sized + Copy {
+    const MISSING: Self;
+    fn from_f64(x: f64) -> Option<Self>;
+}
+
+impl ColumnValue for f64 {
+    const MISSING: f64 = f64::NAN;
+    fn from_f64(x: f64) -> Option<f64> {
+        Some(x)
+    }
+}
+
+impl ColumnValue for u8 {
+    const MISSING: u8 = MISSING_CODE;
+    fn from_f64(x: f64) -> Option<u8> {
+        // Exact integers in range only; the cast is then lossless.
+        (x.fract() == 0.0 && (0.0..=255.0).contains(&x)).then_some(x as u8)
+    }
+}
+
 /// Code of the FLC in the `active` column (`flc_core::ActiveController::Flc as u8` = 0).
 pub const ACTIVE_FLC: u8 = flc_core::ActiveController::Flc as u8;
 /// Code of the PID in the `active` column (`flc_core::ActiveController::Pid as u8` = 1).
@@ -141,5 +198,33 @@ mod tests {
         assert_eq!(s.len(), 1);
         assert!(s.get(1).is_none());
         assert_eq!(s.columns()[0].1, vec![0.5]);
+    }
+
+    #[test]
+    fn from_columns_inverts_columns_and_names_bad_columns() {
+        let mut s = Series::default();
+        for i in 0..3 {
+            let x = f64::from(i);
+            s.push(StepRecord { t: 0.1 * x, gap: 10.0 - x, lead_speed: 5.0, active: ACTIVE_PID, reason: 2, v2v_age: f64::NAN, ..StepRecord::default() });
+        }
+        let cols = s.columns();
+        let slices: Vec<(&str, &[f64])> = cols.iter().map(|(n, c)| (*n, c.as_slice())).collect();
+        let back = Series::from_columns(&slices).expect("round trip");
+        // NaN != NaN: compare the columns' bits.
+        let bits = |s: &Series| s.columns().into_iter().map(|(n, c)| (n, c.iter().map(|x| x.to_bits()).collect::<Vec<_>>())).collect::<Vec<_>>();
+        assert_eq!(bits(&back), bits(&s));
+        // Only some columns: the others are NaN, codes MISSING_CODE.
+        let t = [0.0, 0.1];
+        let part = Series::from_columns(&[("t", &t), ("gap", &[3.0, 2.0])]).expect("partial");
+        assert_eq!((part.len(), part.gap.clone(), part.active.clone()), (2, vec![3.0, 2.0], vec![MISSING_CODE; 2]));
+        assert!(part.lead_speed.iter().all(|x| x.is_nan()));
+        assert_eq!(Series::from_columns(&[]).map(|s| s.len()), Ok(0));
+        let err = |cols: &[(&str, &[f64])]| Series::from_columns(cols).err().unwrap_or_default();
+        assert!(err(&[("t", &t), ("gpa", &t)]).starts_with("unknown column `gpa` (known: t, lead_x,"));
+        assert_eq!(err(&[("t", &t), ("gap", &[1.0])]), "column `gap` has 1 samples, `t` 2");
+        assert_eq!(err(&[("t", &t), ("t", &t)]), "column `t` given twice");
+        assert_eq!(err(&[("active", &[0.0, 1.5])]), "column `active`: 1.5 is not a code (an integer in 0..=255)");
+        assert_eq!(err(&[("reason", &[256.0])]), "column `reason`: 256 is not a code (an integer in 0..=255)");
+        assert!(err(&[("active", &[f64::NAN])]).contains("NaN is not a code"));
     }
 }

@@ -167,6 +167,35 @@ fn a_cut_in_car_is_picked_up_by_the_ego_lidar_and_the_ego_reacts() {
 }
 
 #[test]
+fn the_cut_in_has_a_post_encroachment_time_and_plain_following_has_none() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/cut-in.toml");
+    let r = run(&Scenario::from_file(&path).expect("scenario")).expect("run");
+    let s = &r.series;
+    // The cut-in sample (as in the test above): the gap jumps from ~24 m to ~10 m.
+    let c = (1..s.len()).find(|&k| s.gap[k] < 15.0 && s.gap[k - 1] > 20.0).expect("the cut-in");
+    let (g, v) = (s.gap[c], s.follower_speed[c]);
+    // Independently: the first sample by which the ego has covered g at its recorded speeds
+    // (rectangle rule); PET is within a step of it.
+    let mut covered = 0.0;
+    let reached = (c + 1..s.len())
+        .find(|&k| {
+            covered += s.follower_speed[k] * (s.t[k] - s.t[k - 1]);
+            covered >= g
+        })
+        .expect("the ego reaches the encroachment point");
+    let pet = r.metrics.pet.expect("a cut-in has a PET");
+    assert!((pet - (s.t[reached] - s.t[c])).abs() <= 2.0 * DT, "pet {pet}, by the rectangle rule {}", s.t[reached] - s.t[c]);
+    // The ego slows after the cut-in, so PET is at least the time headway it was left with.
+    assert!(pet >= g / v - 1e-9 && pet < g / v + 0.2, "pet {pet}, g / v = {}", g / v);
+    // Following the lead alone (no traffic): no encroachment, no PET.
+    let mut plain = Scenario::from_file(&path).expect("scenario");
+    plain.vehicles.clear();
+    let p = run(&plain).expect("run");
+    assert_eq!(p.metrics.pet, None);
+    assert!(p.metrics.min_time_headway.is_some_and(|h| h > 1.0), "{:?}", p.metrics.min_time_headway);
+}
+
+#[test]
 fn a_cut_in_car_touching_the_lead_is_listed_as_another_contact() {
     // The cut-in car changes into the lead's lane right beside it (the lead stands with its centre
     // at 15.35 m, the ego's front bumper at 5.9 m).

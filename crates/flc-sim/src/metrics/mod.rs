@@ -129,7 +129,7 @@ impl Metrics {
         let mut min_ttc: Option<f64> = None;
         let mut min_time_headway: Option<f64> = None;
         let (mut max_drac, mut tet, mut tit): (f64, f64, f64) = (0.0, 0.0, 0.0);
-        for i in 0..n {
+        for (i, &dt) in dts.iter().enumerate() {
             let (gap, vf, closing) = (s.gap[i], s.follower_speed[i], s.follower_speed[i] - s.lead_speed[i]);
             if gap.is_finite() && vf.is_finite() && vf > p.headway_min_speed {
                 let thw = gap.max(0.0) / vf;
@@ -150,8 +150,8 @@ impl Metrics {
             };
             min_ttc = Some(min_ttc.map_or(ttc, |m| m.min(ttc)));
             if ttc <= p.ttc_threshold {
-                tet += dts[i];
-                tit += dts[i] * (p.ttc_threshold - ttc);
+                tet += dt;
+                tit += dt * (p.ttc_threshold - ttc);
             }
         }
         let pet = ssm::min_cut_in_pet(t, &s.gap[..n], &s.lead_speed[..n], &s.follower_speed[..n], p.cut_in_gap_drop);
