@@ -205,13 +205,22 @@ mod tests {
         let mut s = Series::default();
         for i in 0..3 {
             let x = f64::from(i);
-            s.push(StepRecord { t: 0.1 * x, gap: 10.0 - x, lead_speed: 5.0, active: ACTIVE_PID, reason: 2, v2v_age: f64::NAN, ..StepRecord::default() });
+            s.push(StepRecord {
+                t: 0.1 * x,
+                gap: 10.0 - x,
+                lead_speed: 5.0,
+                active: ACTIVE_PID,
+                reason: 2,
+                v2v_age: f64::NAN,
+                ..StepRecord::default()
+            });
         }
         let cols = s.columns();
         let slices: Vec<(&str, &[f64])> = cols.iter().map(|(n, c)| (*n, c.as_slice())).collect();
         let back = Series::from_columns(&slices).expect("round trip");
         // NaN != NaN: compare the columns' bits.
-        let bits = |s: &Series| s.columns().into_iter().map(|(n, c)| (n, c.iter().map(|x| x.to_bits()).collect::<Vec<_>>())).collect::<Vec<_>>();
+        let bits =
+            |s: &Series| s.columns().into_iter().map(|(n, c)| (n, c.iter().map(|x| x.to_bits()).collect::<Vec<_>>())).collect::<Vec<_>>();
         assert_eq!(bits(&back), bits(&s));
         // Only some columns: the others are NaN, codes MISSING_CODE.
         let t = [0.0, 0.1];
