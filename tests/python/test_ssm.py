@@ -4,7 +4,7 @@ docs/v2v-and-metrics.md, "Surrogate safety measures and SUMO").
 SUMO (``eclipse-sumo`` + ``libsumo`` 1.28, the ``flc[sumo]`` extra, installed by the ``test`` extra
 and in CI) moves a follower that closes in on a slower lead and brakes late (both scripted with
 ``setSpeed``, speed mode 0; SUMO's own models brake early and never get below TTC 3 s here); its
-SSM device logs TTC, DRAC, SGAP and TGAP every step. The recorded trajectory (gap from the lane
+SSM device logs TTC, DRAC, PET, SGAP and TGAP every step. The recorded trajectory (gap from the lane
 positions: the lead's rear bumper minus the follower's front bumper, i.e. bumper to bumper
 without SUMO's ``minGap``) goes through :func:`flc.metrics_from_series`, which is the
 simulator's own Rust metrics code.
@@ -68,8 +68,8 @@ def _sumo_trajectory(tmp_path: Path) -> tuple[dict[str, np.ndarray], ET.Element]
     traci.start(
         [fs.sumo_binary(), "-n", str(net), "-r", str(rou), "--step-length", str(STEP), "--step-method.ballistic", "true",
          "--no-step-log", "--no-warnings", "--precision", "6", "--collision.action", "warn",
-         "--device.ssm.probability", "1", "--device.ssm.measures", "TTC DRAC SGAP TGAP",
-         "--device.ssm.thresholds", "3.0 3.0 0.2 0.5", "--device.ssm.range", "100", "--device.ssm.trajectories", "true",
+         "--device.ssm.probability", "1", "--device.ssm.measures", "TTC DRAC PET SGAP TGAP",
+         "--device.ssm.thresholds", "3.0 3.0 2.0 0.2 0.5", "--device.ssm.range", "100", "--device.ssm.trajectories", "true",
          "--device.ssm.file", str(ssm)]
     )
     rows: dict[str, list[float]] = {k: [] for k in ("t", "gap", "lead_speed", "follower_speed", "follower_accel", "lead_accel")}
@@ -123,8 +123,10 @@ def test_min_ttc_max_drac_and_time_gap_agree_with_sumo(tmp_path):
     assert abs(m["max_drac"] - sumo_drac) <= TOL, (m["max_drac"], sumo_drac)
     assert abs(m["min_gap"] - sumo_sgap) <= TOL, (m["min_gap"], sumo_sgap)
     assert abs(m["min_time_headway"] - sumo_tgap) <= TOL, (m["min_time_headway"], sumo_tgap)
-    # Plain following: no cut-in, so no PET (SUMO computes PET only at junctions).
-    assert m["pet"] is None and ssm.find("conflict[@ego='foll']/minPET") is None
+    # Plain following: no cut-in, so no PET; SUMO (PET only for crossing and merging conflicts
+    # at junctions) writes its PET element with value NA.
+    pet = ssm.find("conflict[@ego='foll']/PET")
+    assert m["pet"] is None and pet is not None and pet.get("value") == "NA"
     # The minGap-reduced gap (getLeader's distance) would not agree.
     closing = cols["follower_speed"] - cols["lead_speed"]
     k = int(np.argmin(np.where(closing > 1e-6, cols["gap"] / np.where(closing > 1e-6, closing, 1.0), np.inf)))
@@ -185,7 +187,8 @@ def main() -> None:
     print("|---|---|---|---|")
     for k, v in sumo.items():
         print(f"| `{k}` | {m[k]:.6f} | {v:.6f} | {abs(m[k] - v):.1e} |")
-    print(f"| `pet` | {m['pet']} | no minPET | — |")
+    pet = ssm.find("conflict[@ego='foll']/PET")
+    print(f"| `pet` | {m['pet']} | {None if pet is None else pet.get('value')} | — |")
     closing = cols["follower_speed"] - cols["lead_speed"]
     ok = closing > 1e-6
     print(f"min TTC with getLeader's distance (the gap minus minGap 2.5 m): {float(np.min((cols['gap'][ok] - 2.5) / closing[ok])):.6f} s")
