@@ -2,10 +2,11 @@
 
 Usage (from the repository root, after ``FLC_BLESS=1 cargo test --release -p flc-sim --test golden``)::
 
-    python tools/golden_added_fields.py REV tet,tit,min_time_headway,pet
+    python tools/golden_added_fields.py REV tet,tit,min_time_headway,pet [FILE.json ...]
 
 ``REV`` is the git revision holding the old goldens (e.g. ``main``), the second argument the
-fields that may be new. For ``tests/golden/*.jsonl`` every JSON object of every line is compared
+fields that may be new, further arguments JSON documents checked like one line of a ``.jsonl``
+(e.g. the committed suite reports ``docs/standard-suites/*.json``). For ``tests/golden/*.jsonl`` every JSON object of every line is compared
 with the old one: each old key must be present with the identical value *text* (numbers are kept
 as the text the simulator wrote), and the keys the new object has beyond the old are exactly the
 given fields (nested objects, e.g. a platoon's ``per_follower`` records, are checked the same
@@ -56,10 +57,15 @@ def compare(old: Any, new: Any, added: set[str], where: str, seen: set[str]) -> 
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) != 2:
+    if len(argv) < 2:
         print(__doc__, file=sys.stderr)
         return 2
     rev, added = argv[0], set(argv[1].split(","))
+    for doc in argv[2:]:
+        path = Path(doc)
+        found: set[str] = set()
+        compare(load(old_text(rev, path)), load(path.read_text()), added, str(path), found)
+        print(f"{path}: every old value identical; added {sorted(found)}")
     for path in sorted(GOLDEN.glob("*.jsonl")):
         old_lines, new_lines = old_text(rev, path).splitlines(), path.read_text().splitlines()
         if len(old_lines) != len(new_lines):
@@ -76,8 +82,8 @@ def main(argv: list[str]) -> int:
         if set(extra) != added or [c for c in nh if c in oh] != oh or len(old_rows) != len(new_rows):
             raise SystemExit(f"{path}: header {oh} -> {nh}")
         idx = [nh.index(c) for c in oh]
-        for n, (a, b) in enumerate(zip(old_rows, new_rows), 1):
-            if [b[i] for i in idx] != a:
+        for n, (old_row, new_row) in enumerate(zip(old_rows, new_rows), 1):
+            if [new_row[i] for i in idx] != old_row:
                 raise SystemExit(f"{path}:{n}: an old column changed")
         print(f"{path}: {len(old_rows) - 1} rows, the {len(oh)} old columns byte-identical; added {extra}")
     return 0
