@@ -118,6 +118,31 @@ fn r157_cases_start_at_the_minimum_following_distance() {
     assert!(r.series.lead_speed.iter().rev().take(10).all(|&v| v == 0.0), "at the end the vehicle in front is the stationary one");
 }
 
+/// The R157 careful driver perceives a cut-in once the intruder has moved more than the lateral
+/// wandering zone (0.375 m) toward its lane, and a cut-out once the lead has moved more than that
+/// out of it (then it sees the stationary car the lead revealed).
+#[test]
+fn careful_driver_perceives_cut_in_and_cut_out_after_the_wandering_zone() {
+    let s = suite("r157");
+    let careful = ControllerKind::parse("careful-driver").expect("registry");
+    let r = run(&case_run(&s, "4.4_1", "IntruderSpeed_kmh=40 LaneChangeTime=3", careful)).expect("run");
+    let y0 = r.series.lead_y[0];
+    let seen = (0..r.series.len()).find(|&i| r.series.detected_distance[i].is_finite()).expect("perceived");
+    let moved = (r.series.lead_y[seen] - y0).abs();
+    // Perception runs at the LiDAR frame rate (20 Hz): at most one frame's lateral travel late.
+    assert!((0.375..0.375 + 0.12).contains(&moved), "cut-in perceived after {moved} m of lateral movement");
+    assert!(!r.metrics.collision);
+
+    let r = run(&case_run(&s, "4.5_1", "EgoSpeed_kmh=60 TimeGap=1.6 CutOutGap=50", careful)).expect("run");
+    let y0 = r.series.lead_y[0];
+    // The distance the driver perceives jumps from the lead's to the stationary car's.
+    let d = &r.series.detected_distance;
+    let switch = (1..r.series.len()).find(|&i| d[i].is_finite() && d[i - 1].is_finite() && d[i] > d[i - 1] + 5.0).expect("revealed");
+    let lead_moved = (r.series.lead_y[switch - 1] - y0).abs();
+    assert!((0.375..0.375 + 0.12).contains(&lead_moved), "cut-out perceived after {lead_moved} m of the lead's lateral movement");
+    assert!(!r.metrics.collision);
+}
+
 /// Every run of every case, imported and as its committed TOML twin, gives identical metrics and
 /// series for a LiDAR law and a V2V one; one run for every controller.
 #[test]

@@ -113,15 +113,16 @@ impl Follower {
         fs: &VehicleState,
         road: &Road<'_>,
         (source, lead_weight): (V2vSource, f64),
-        truth: (f64, f64),
+        truth: Option<(f64, f64)>,
     ) {
         let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, &mut self.grid_buf), self.path_curvature);
-        // Ideal perception (validation only), or a controller that sees the scene as a human does
-        // (the R157 careful driver): the true gap and speed of the vehicle in front.
+        // Ideal perception (validation only): the true gap and speed of the vehicle in front; a
+        // controller that sees the scene as a human does (the R157 careful driver): those of the
+        // vehicle in front as it sees it (`human_front`; `None` when there is none).
         let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let detection = det.detection;
         let (distance, lead_speed) =
-            if ideal { (Some(truth.0), Some(truth.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
+            if ideal { (truth.map(|x| x.0), truth.map(|x| x.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;
         if self.cfg.follower.lane_keeping || ideal {
             // Lane keeping (lead-change scenarios): steer along the lane centre like the lead's

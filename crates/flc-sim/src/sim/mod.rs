@@ -31,7 +31,7 @@ use self::follower::Follower;
 use self::geometry::{Road, bumper_gap, centreline_steer};
 use self::links::relay_tick;
 use self::story::{StepInput, StoryRun, pose_of};
-use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, nearest_ahead, truth};
+use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, human_front, nearest_ahead, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
@@ -102,6 +102,10 @@ struct State {
     traffic: Vec<Traffic>,
     /// With traffic: the vehicle in front of each follower and its length ([`Simulation::fill_fronts`]), reused.
     fronts: Vec<(VehicleState, f64)>,
+    /// For each follower whose controller sees the scene as a human does
+    /// ([`crate::ControllerKind::perceives_truth`]): the vehicle in front as it sees it
+    /// ([`traffic::human_front`]), reused.
+    human_fronts: Vec<Option<(VehicleState, f64)>>,
     /// Start and stop triggers.
     triggers: Triggers,
     /// `[story]`: its runtime and the motions of the entities it drives.
@@ -213,6 +217,7 @@ impl Simulation {
             followers,
             traffic,
             fronts: Vec::new(),
+            human_fronts: Vec::new(),
             triggers: Triggers { phases: phase_triggers, stop: crate::trigger::TriggerState::new(), any, fired: Vec::new() },
             story,
             still,
@@ -404,6 +409,7 @@ impl<O: Observer> Simulation<O> {
         // `front`: the vehicle in front of this follower (for ideal perception: its true gap and
         // speed); nothing moves during this loop.
         self.fill_fronts();
+        self.fill_human_fronts();
         let mut front = (ls, self.state.scenario.lead.vehicle.length);
         for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
@@ -413,7 +419,13 @@ impl<O: Observer> Simulation<O> {
                 (front_state, front_len) = *fr;
             }
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
-                let truth = (bumper_gap(&front_state, front_len, &fs, len), front_state.speed);
+                // The ground truth ideal perception gets; a human-like reference only what is in
+                // front of it (`None`: nothing).
+                let truth = match self.state.human_fronts.get(k) {
+                    Some(Some((hs, hl))) => Some((bumper_gap(hs, *hl, &fs, len), hs.speed)),
+                    Some(None) => None,
+                    None => Some((bumper_gap(&front_state, front_len, &fs, len), front_state.speed)),
+                };
                 f.control_tick(
                     t,
                     &scan.points,
@@ -587,6 +599,25 @@ impl<O: Observer> Simulation<O> {
             });
             let front = nearest_ahead(f.vehicle.state(), v.width, std::iter::once(lead).chain(traffic).chain(ahead)).unwrap_or(fallback);
             st.fronts.push(front);
+        }
+    }
+
+    /// `human_fronts`: for each follower whose controller perceives the scene as a human
+    /// ([`crate::ControllerKind::perceives_truth`]) the vehicle in front as it sees it; empty when no
+    /// follower does.
+    fn fill_human_fronts(&mut self) {
+        let st = &mut self.state;
+        st.human_fronts.clear();
+        if !st.followers.iter().any(|f| f.cfg.controller.perceives_truth()) {
+            return;
+        }
+        let lead = (*st.lead.state(), st.scenario.lead.vehicle.length);
+        for k in 0..st.followers.len() {
+            let f = &st.followers[k];
+            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length));
+            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length));
+            let seen = human_front(f.vehicle.state(), st.track.lane_width, std::iter::once(lead).chain(traffic).chain(ahead));
+            st.human_fronts.push(seen);
         }
     }
 

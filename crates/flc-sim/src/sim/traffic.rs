@@ -206,3 +206,28 @@ pub(super) fn nearest_ahead(ego: &VehicleState, ego_width: f64, candidates: impl
     }
     best.map(|(_, st, len)| (st, len))
 }
+
+/// The lateral wandering of a vehicle inside its lane that a careful driver does not read as a
+/// lane change, m (UN R157's performance model of a careful and competent human driver: the risk
+/// of a cut-in is perceived once the vehicle's lateral movement exceeds it;
+/// `docs/careful-driver.md`).
+pub(super) const WANDERING: f64 = 0.375;
+
+/// The vehicle in front of `ego` as a careful human driver sees it, and its length: the nearest
+/// vehicle ahead that has come within `lane_width - WANDERING` of the driver's line (a car in
+/// the next lane starting to cut in counts once it has moved more than the wandering zone) and is
+/// not leaving it (more than `WANDERING` off the line and heading away: a cut-out, past which
+/// the driver looks). `None`: nothing in front.
+pub(super) fn human_front(ego: &VehicleState, lane_width: f64, candidates: impl Iterator<Item = (VehicleState, f64)>) -> Option<(VehicleState, f64)> {
+    let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
+    let mut best: Option<(f64, VehicleState, f64)> = None;
+    for (st, len) in candidates {
+        let (dx, dy) = (st.x - ego.x, st.y - ego.y);
+        let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
+        let leaving = across.abs() > WANDERING && across * (st.yaw - ego.yaw).sin() > 0.0;
+        if along > 0.0 && across.abs() < lane_width - WANDERING && !leaving && best.is_none_or(|b| along < b.0) {
+            best = Some((along, st, len));
+        }
+    }
+    best.map(|(_, st, len)| (st, len))
+}
