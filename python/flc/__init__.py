@@ -20,7 +20,7 @@ from ._controllers import (
 )
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
-from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, sweep
+from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "Supervisor",
     "frequency_response",
     "metrics_from_series",
+    "run_suite",
     "read_mcap",
     "run",
     "sweep",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 from concurrent.futures import Executor
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
@@ -186,3 +187,18 @@ def metrics_from_series(series: Mapping[str, Any], **params: float) -> dict[str,
     columns = {str(k): np.asarray(v, dtype=float).ravel().tolist() for k, v in series.items()}
     metrics: dict[str, Any] = json.loads(_flc.metrics_from_series(columns, json.dumps(params) if params else None))
     return metrics
+
+
+def run_suite(name: str, controllers: Optional[Sequence[str]] = None, root: Optional[Union[str, os.PathLike[str]]] = None) -> list[dict[str, Any]]:
+    """Runs a standard test suite (``docs/standard-suites.md``): ``"ncap-ccr"`` (Euro NCAP AEB
+    Car-to-Car Rear), ``"r157"`` (UN R157 ALKS), ``"all"``, or a folder holding a ``suite.toml``;
+    every case for each of ``controllers`` (default: every controller) next to the R157 careful
+    driver, in parallel in Rust. Returns one report per suite, the JSON of
+    ``flc_sim::suite::SuiteReport`` as a dict: ``summary`` (one entry per controller: ``passed``,
+    ``runs``, ``collisions``, ``below_reference``, ``ncap_score``) and ``results`` (one per run:
+    ``case``, ``run``, ``controller``, ``outcome``, ``score``, ``below_reference``, ``metrics``).
+    ``pandas.json_normalize(report["results"])`` gives a table. ``root``: the folder of the named
+    suites (default: the source tree's ``scenarios/suites``). An unknown suite or controller
+    raises :class:`flc.ScenarioError`."""
+    texts = _flc.run_suite(name, None if controllers is None else list(controllers), None if root is None else str(root))
+    return [json.loads(t) for t in texts]

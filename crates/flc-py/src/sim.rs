@@ -69,6 +69,23 @@ fn import_openscenario(
     import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, r.params))).collect()
 }
 
+/// Runs standard test suites (`flc_sim::suite`, GIL released): `name` is `ncap-ccr`, `r157`,
+/// `all` or a folder with a `suite.toml`; `root` the folder of the named suites (default: the
+/// source tree's `scenarios/suites`). Returns one report per suite as JSON
+/// (`flc_sim::suite::SuiteReport`). An unknown suite or controller raises `ScenarioError`.
+#[pyfunction]
+#[pyo3(signature = (name, controllers=None, root=None))]
+fn run_suite(py: Python<'_>, name: &str, controllers: Option<Vec<String>>, root: Option<PathBuf>) -> PyResult<Vec<String>> {
+    let kinds = match controllers {
+        None => ControllerKind::ALL.to_vec(),
+        Some(list) => list.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>().map_err(|e| ScenarioError::new_err(e.to_string()))?,
+    };
+    let root = root.unwrap_or_else(flc_sim::suite::default_root);
+    let suites = flc_sim::suite::Suite::find(&root, name).map_err(scenario_err)?;
+    let reports = py.detach(|| suites.iter().map(|s| s.run(&kinds)).collect::<Result<Vec<_>, _>>()).map_err(scenario_err)?;
+    Ok(reports.iter().map(flc_sim::suite::SuiteReport::to_json).collect())
+}
+
 /// Validates scenario JSON (defaults filled in) and returns the normalised JSON.
 #[pyfunction]
 fn check_scenario(json: &str) -> PyResult<String> {
@@ -302,6 +319,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(import_openscenario, m)?)?;
+    m.add_function(wrap_pyfunction!(run_suite, m)?)?;
     m.add_function(wrap_pyfunction!(check_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
