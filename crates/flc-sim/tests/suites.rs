@@ -191,6 +191,7 @@ fn cli_suite_errors_exit_2_with_one_line() {
     for (args, want) in [
         (&["suite", "no-such-suite"][..], "suite `no-such-suite`: not found"),
         (&["suite", "r157", "--controllers", "frobnicate"][..], "`--controllers`"),
+        (&["suite", "r157", "--param", "EgoSpeed_kmh=50"][..], "`--param` does not apply to `suite`"),
     ] {
         let out = cli(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -245,6 +245,12 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
 /// reports into `--out`.
 fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
     use flc_sim::suite::{Suite, default_root, markdown, summary_table, svg};
+    // The cases fix their own parameters, ego and road: the per-file options do not apply.
+    for (given, flag) in [(cli.record.is_some(), "--record"), (!cli.param.is_empty(), "--param"), (cli.ego.is_some(), "--ego"), (cli.json, "--json")] {
+        if given {
+            return bad_input(format!("`{flag}` does not apply to `suite` (its cases fix their own; --out writes the reports)"));
+        }
+    }
     let controllers = match &cli.controllers {
         None => ControllerKind::ALL.to_vec(),
         Some(list) => match list.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>() {
