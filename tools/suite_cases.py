@@ -22,13 +22,13 @@ import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from osc_fixtures import X, after, by_entity, car, condition, document, event, params, place, speed, story, trigger  # noqa: E402
+from osc_writer import X, after, by_entity, car, condition, document, event, params, place, speed, story, storyboard, trigger  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "scenarios" / "suites"
 G = 9.81
 
-# The cars (osc_fixtures.car): 4.5 m long, reference point on the rear axle, box centre 1.4 m
+# The cars (osc_writer.car): 4.5 m long, reference point on the rear axle, box centre 1.4 m
 # ahead of it: front bumper 3.65 m ahead of the reference point, rear bumper 0.85 m behind.
 FRONT, REAR = 3.65, 0.85
 # Lane change of a 1.8 m wide car from the centre of a 3.5 m lane into the next one, sinusoidal
@@ -118,13 +118,9 @@ def stops(ego, target, timeout):
     return [[condition("Impact", hit)], [condition("EgoStopped", still)], [condition("TimeOut", after(timeout))]]
 
 
-def board(init, stories, stop_groups):
-    return X("Storyboard", X("Init", X("Actions", *init)), *stories, trigger("StopTrigger", *stop_groups))
-
-
 def scenario_doc(comment, description, decls, entities, init, stories, stop_groups):
     return document(comment, 2, description, params(*decls), X("CatalogLocations"), ROAD,
-                    X("Entities", *[car(n, n.lower()) for n in entities]), board(init, stories, stop_groups))
+                    X("Entities", *[car(n, n.lower()) for n in entities]), storyboard(init, stories, stop_groups))
 
 
 def distribution(comment, description, scenario, singles=None, sets=None):

@@ -19,7 +19,7 @@ fn openscenario(c: &mut Criterion) {
     let opts = ImportOptions::default();
     let mut g = c.benchmark_group("openscenario");
     g.sample_size(20);
-    for name in ["ccrb.xosc", "cutin.xosc", "conditions.xosc", "arc_road.xosc", "catalogs.xosc", "distribution_2x2.xosc"] {
+    for name in ["lead_brakes.xosc", "merge_in.xosc", "conditions.xosc", "arc_road.xosc", "catalog_refs.xosc", "distribution_2x2.xosc"] {
         let path = fixture(name);
         let t0 = Instant::now();
         let n = 10;
@@ -30,9 +30,9 @@ fn openscenario(c: &mut Criterion) {
         g.bench_function(format!("import_{name}"), |b| b.iter(|| import(std::hint::black_box(&path), &opts)));
     }
     // A run of the imported cut-in and of its TOML twin.
-    let imported = import(&fixture("cutin.xosc"), &opts).expect("import").runs.remove(0).scenario;
+    let imported = import(&fixture("merge_in.xosc"), &opts).expect("import").runs.remove(0).scenario;
     let twin = Scenario::from_toml_str(&imported.to_toml().expect("toml"), "twin.toml").expect("twin");
-    for (label, s) in [("run_imported_cutin", &imported), ("run_toml_twin_cutin", &twin)] {
+    for (label, s) in [("run_imported_merge_in", &imported), ("run_toml_twin_merge_in", &twin)] {
         let t0 = Instant::now();
         let r = run(s).expect("run");
         eprintln!("{label}: {:.2} s simulated in {:.1} ms", r.metrics.duration, t0.elapsed().as_secs_f64() * 1e3);
