@@ -212,22 +212,24 @@ impl Suite {
     /// The suites `name` means under `root`: `all` (every folder with a `suite.toml`, by name),
     /// a suite's name, or a folder holding a `suite.toml`.
     pub fn find(root: &Path, name: &str) -> Result<Vec<Suite>, SimError> {
-        if name == "all" {
+        // The folders under `root` holding a `suite.toml`, by name.
+        let suite_dirs = || -> Vec<PathBuf> {
             let mut dirs: Vec<PathBuf> = std::fs::read_dir(root)
-                .map_err(|e| file_err(root, e.to_string()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.join("suite.toml").is_file())
-                .collect();
+                .map(|rd| rd.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.join("suite.toml").is_file()).collect())
+                .unwrap_or_default();
             dirs.sort();
+            dirs
+        };
+        if name == "all" {
+            let dirs = suite_dirs();
+            if dirs.is_empty() {
+                return Err(SimError::Input(format!("no suite (a folder with a suite.toml) in {}", root.display())));
+            }
             return dirs.iter().map(|d| Suite::load(d)).collect();
         }
         let dir = if Path::new(name).join("suite.toml").is_file() { PathBuf::from(name) } else { root.join(name) };
         if !dir.join("suite.toml").is_file() {
-            let known: Vec<String> = std::fs::read_dir(root)
-                .map(|rd| rd.filter_map(|e| e.ok()).filter(|e| e.path().join("suite.toml").is_file()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
-                .unwrap_or_default();
-            let mut known = known;
-            known.sort();
+            let known: Vec<String> = suite_dirs().iter().filter_map(|d| d.file_name().map(|n| n.to_string_lossy().into_owned())).collect();
             return Err(SimError::Input(format!("suite `{name}`: not found in {} (known: all, {})", root.display(), known.join(", "))));
         }
         Ok(vec![Suite::load(&dir)?])

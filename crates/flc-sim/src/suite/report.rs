@@ -19,9 +19,10 @@ const COLUMNS: &[(&str, &str)] = &[
     ("max_jerk", "max jerk m/s³"),
 ];
 
-/// A metric by field name (`None` when absent or `null`).
-fn metric(m: &Metrics, name: &str) -> Option<f64> {
-    serde_json::to_value(m).ok()?.get(name)?.as_f64()
+/// The report's metric columns of one run (`-` when a metric is `null`).
+fn metric_cells(m: &Metrics) -> Vec<String> {
+    let json = serde_json::to_value(m).unwrap_or_default();
+    COLUMNS.iter().map(|(k, _)| num(json.get(*k).and_then(serde_json::Value::as_f64))).collect()
 }
 
 fn num(v: Option<f64>) -> String {
@@ -115,7 +116,7 @@ pub fn markdown(rep: &SuiteReport, command: &str) -> String {
     let _ = writeln!(out, "| case | run | controller | outcome | {} |", heads.join(" | "));
     let _ = writeln!(out, "|---|---|---|---|{}", "---|".repeat(COLUMNS.len()));
     for r in &rep.results {
-        let vals: Vec<String> = COLUMNS.iter().map(|(k, _)| num(metric(&r.metrics, k))).collect();
+        let vals = metric_cells(&r.metrics);
         let outcome = match r.outcome {
             Outcome::Pass => "pass",
             Outcome::Uncomfortable => "uncomfortable",
