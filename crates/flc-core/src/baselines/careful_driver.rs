@@ -51,7 +51,7 @@
 use super::FollowerParams;
 use super::estimator::RangeRateEstimator;
 use super::idm::IdmParams;
-use super::{MAX_DT, NoLeadPolicy, accel_command, lead_speed};
+use super::{Frame as Checked, NoLeadPolicy, accel_command, check_frame, lead_speed};
 use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
 use crate::longitudinal::{ActiveController, ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
@@ -360,16 +360,12 @@ impl CarefulDriver {
     ) -> LongitudinalCommand {
         let p = self.params;
         let s = p.normal.settings();
-        if !valid_speed(own_speed, s.max_speed) {
-            return self.fault(own_speed, Status::InvalidSpeed);
-        }
-        if !(dt.is_finite() && dt > 0.0 && dt <= MAX_DT) {
-            return self.fault(own_speed, Status::InvalidDt);
-        }
-        let in_sight = match distance {
-            None => None,
-            Some(d) if d.is_finite() && d >= 0.0 => (d <= p.sight_distance).then_some(d),
-            Some(_) => return self.fault(own_speed, Status::InvalidDistance),
+        // The baselines' input checks; any finite distance is valid (beyond `sight_distance` it
+        // is "nothing in sight", not a fault).
+        let in_sight = match check_frame(distance, own_speed, dt, s.max_speed, f64::MAX) {
+            Ok(Checked::Lead(d)) => (d <= p.sight_distance).then_some(d),
+            Ok(Checked::NoLead) => None,
+            Err(status) => return self.fault(own_speed, status),
         };
         let lead = match in_sight {
             Some(gap) => {
