@@ -14,7 +14,7 @@ use libfuzzer_sys::fuzz_target;
 use std::mem::MaybeUninit;
 use std::sync::Mutex;
 
-/// A point: anywhere (raw doubles), or on the grid (x in [-2, 75] m, y in [-7, 7] m).
+/// A point: anywhere (raw doubles), or on the grid (x in [-2, 205] m, y in [-7, 7] m).
 #[derive(Arbitrary, Debug, Clone, Copy)]
 enum Pt {
     Raw(f64, f64),
@@ -26,7 +26,10 @@ enum Pt {
 #[derive(Arbitrary, Debug)]
 struct Input {
     params: [Param; 6],
+    far: [Param; 3],
     dilation_radius: u8,
+    max_dilation_radius: u8,
+    bridge_beams: u8,
     min_cluster_points: u8,
     max_points: u16,
     cell_center: bool,
@@ -35,19 +38,25 @@ struct Input {
 }
 
 fn grid(x: u16, y: i16) -> [f64; 2] {
-    [-2.0 + 77.0 * (f64::from(x) / 65535.0), 7.0 * (f64::from(y) / 32768.0)]
+    [-2.0 + 207.0 * (f64::from(x) / 65535.0), 7.0 * (f64::from(y) / 32768.0)]
 }
 
-/// Detectors are large (37 KiB): keep one of each kind across runs.
+/// Detectors are large (46 KiB): keep one of each kind across runs.
 static DETECTORS: Mutex<Option<(Box<LeadDetector>, Box<MaybeUninit<FlcDetector>>)>> = Mutex::new(None);
 
 fuzz_target!(|inp: Input| {
     let d = DetectorParams::defaults();
     let [cell, x_min, min_w, max_w, max_depth, half] = inp.params;
+    let [far_start, far_cell, spacing] = inp.far;
     let p = DetectorParams {
         cell_size: cell.get(d.cell_size, 0.0, 1.0),
         x_min: x_min.get(d.x_min, -1.0, 20.0),
+        far_start: far_start.get(d.far_start, -1.0, 250.0),
+        far_cell_size: far_cell.get(d.far_cell_size, 0.0, 3.0),
         dilation_radius: inp.dilation_radius % 10,
+        max_dilation_radius: inp.max_dilation_radius % 10,
+        beam_spacing_deg: spacing.get(d.beam_spacing_deg, 0.0, 2.0),
+        bridge_beams: inp.bridge_beams % 120,
         min_cluster_points: usize::from(inp.min_cluster_points % 12),
         min_width: min_w.get(d.min_width, -0.5, 5.0),
         max_width: max_w.get(d.max_width, 0.0, 6.0),
@@ -70,7 +79,7 @@ fuzz_target!(|inp: Input| {
             }
         }
     }
-    let curvature = inp.curvature.get(-0.05, 0.05);
+    let curvature = inp.curvature.get(-0.25, 0.25);
 
     let mut guard = DETECTORS.lock().unwrap();
     let (det, cdet) =
@@ -91,14 +100,13 @@ fuzz_target!(|inp: Input| {
         assert!(c.x_min.is_finite() && c.x_max.is_finite() && c.y_min.is_finite() && c.y_max.is_finite());
     }
     if let Some(found) = out.detection {
-        let (x0, x1) = det.x_range();
-        let (y0, y1) = det.y_range();
+        let (x0, x1, y0, y1) = det.bounds(curvature);
         assert!(found.distance.is_finite() && found.position.y.is_finite());
         assert!(found.position.x >= x0 - 1e-9 && found.position.x <= x1 + 1e-9, "{found:?}");
         assert!(found.position.y >= y0 - 1e-9 && found.position.y <= y1 + 1e-9, "{found:?}");
         assert!(found.width >= p.min_width && found.width <= p.max_width);
         assert!(found.depth >= 0.0 && found.depth <= p.max_depth);
-        assert!(found.points >= p.min_cluster_points && found.points <= out.points_used);
+        assert!(found.points >= p.min_points_at(found.distance) && found.points <= out.points_used);
         assert!((0.0..=1.0).contains(&found.confidence));
     }
     let mut co = MaybeUninit::<FlcDetectorOutput>::uninit();

@@ -38,9 +38,9 @@
 #define FLC_PURSUIT_WORDS 5
 
 /**
- * Words (8 bytes each) of `FlcDetector::storage` (37.3 KiB).
+ * Words (8 bytes each) of `FlcDetector::storage` (46.3 KiB).
  */
-#define FLC_DETECTOR_WORDS 4777
+#define FLC_DETECTOR_WORDS 5931
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -797,7 +797,7 @@ typedef struct FlcSteeringCommand {
 } FlcSteeringCommand;
 
 /**
- * Mirror of the Rust `DetectorParams` (the C API uses the default 350 x 60 grid).
+ * Mirror of the Rust `DetectorParams` (the C API uses the default 520 x 60 grid).
  */
 typedef struct FlcDetectorParams {
     /**
@@ -808,6 +808,18 @@ typedef struct FlcDetectorParams {
      * Forward distance to the near edge of the grid, m.
      */
     double x_min;
+    /**
+     * Where the far cells begin, m.
+     */
+    double far_start;
+    /**
+     * Length of a far cell, m.
+     */
+    double far_cell_size;
+    /**
+     * Horizontal angle between neighbouring LiDAR beams, degrees.
+     */
+    double beam_spacing_deg;
     /**
      * Smallest lateral extent of a vehicle, m.
      */
@@ -833,9 +845,17 @@ typedef struct FlcDetectorParams {
      */
     uint32_t max_points;
     /**
-     * Radius of the square dilation element, cells.
+     * Longitudinal radius of the dilation rectangle (columns) and its smallest lateral radius.
      */
     uint8_t dilation_radius;
+    /**
+     * Largest lateral radius of the dilation rectangle, cells.
+     */
+    uint8_t max_dilation_radius;
+    /**
+     * Missing neighbouring beams the lateral dilation bridges.
+     */
+    uint8_t bridge_beams;
     /**
      * One of `FlcReprojection`.
      */
@@ -843,8 +863,8 @@ typedef struct FlcDetectorParams {
 } FlcDetectorParams;
 
 /**
- * Caller-owned storage of one lead detector (default 350 x 60 grid). Initialise with
- * `flc_detector_init`. About 37 KiB: prefer static storage on small stacks.
+ * Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
+ * `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
  */
 typedef struct FlcDetector {
     uint64_t magic;

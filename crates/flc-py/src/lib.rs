@@ -141,7 +141,7 @@ impl Supervisor {
     }
 }
 
-/// The LiDAR lead detector (default 350 x 60 grid).
+/// The LiDAR lead detector (default 520 x 60 grid).
 #[pyclass(module = "flc._flc")]
 struct LeadDetector {
     inner: Box<flc_core::LeadDetector>,

@@ -7,7 +7,7 @@ use core::ptr::addr_of_mut;
 use super::storage::{check_ptr, get_mut, init, param_error, storage, tri, write_out};
 use super::{FlcParamError, FlcResult};
 use crate::detector::{
-    CLUSTER_CAPACITY, ClusterInfo, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection, Run,
+    CLUSTER_CAPACITY, ClusterInfo, DetectorOutput, column_radii, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection, Run,
 };
 use crate::params::ParamError;
 
@@ -56,7 +56,7 @@ pub enum FlcReprojection {
     PointRefined = 1,
 }
 
-/// Mirror of the Rust `DetectorParams` (the C API uses the default 350 x 60 grid).
+/// Mirror of the Rust `DetectorParams` (the C API uses the default 520 x 60 grid).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlcDetectorParams {
@@ -64,6 +64,12 @@ pub struct FlcDetectorParams {
     pub cell_size: f64,
     /// Forward distance to the near edge of the grid, m.
     pub x_min: f64,
+    /// Where the far cells begin, m.
+    pub far_start: f64,
+    /// Length of a far cell, m.
+    pub far_cell_size: f64,
+    /// Horizontal angle between neighbouring LiDAR beams, degrees.
+    pub beam_spacing_deg: f64,
     /// Smallest lateral extent of a vehicle, m.
     pub min_width: f64,
     /// Largest lateral extent of a vehicle, m.
@@ -76,8 +82,12 @@ pub struct FlcDetectorParams {
     pub min_cluster_points: u32,
     /// Most points used per scan.
     pub max_points: u32,
-    /// Radius of the square dilation element, cells.
+    /// Longitudinal radius of the dilation rectangle (columns) and its smallest lateral radius.
     pub dilation_radius: u8,
+    /// Largest lateral radius of the dilation rectangle, cells.
+    pub max_dilation_radius: u8,
+    /// Missing neighbouring beams the lateral dilation bridges.
+    pub bridge_beams: u8,
     /// One of `FlcReprojection`.
     pub reprojection: u8,
 }
@@ -149,11 +159,11 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcDetector::storage` (37.3 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 4777;
+/// Words (8 bytes each) of `FlcDetector::storage` (46.3 KiB).
+pub const FLC_DETECTOR_WORDS: usize = 5931;
 
-/// Caller-owned storage of one lead detector (default 350 x 60 grid). Initialise with
-/// `flc_detector_init`. About 37 KiB: prefer static storage on small stacks.
+/// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
+/// `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
 #[repr(C)]
 pub struct FlcDetector {
     magic: u64,
@@ -175,6 +185,9 @@ impl From<DetectorParams> for FlcDetectorParams {
         Self {
             cell_size: p.cell_size,
             x_min: p.x_min,
+            far_start: p.far_start,
+            far_cell_size: p.far_cell_size,
+            beam_spacing_deg: p.beam_spacing_deg,
             min_width: p.min_width,
             max_width: p.max_width,
             max_depth: p.max_depth,
@@ -182,6 +195,8 @@ impl From<DetectorParams> for FlcDetectorParams {
             min_cluster_points: u32::try_from(p.min_cluster_points).unwrap_or(u32::MAX),
             max_points: u32::try_from(p.max_points).unwrap_or(u32::MAX),
             dilation_radius: p.dilation_radius,
+            max_dilation_radius: p.max_dilation_radius,
+            bridge_beams: p.bridge_beams,
             reprojection,
         }
     }
@@ -201,7 +216,12 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
         let params = DetectorParams {
             cell_size: p.cell_size,
             x_min: p.x_min,
+            far_start: p.far_start,
+            far_cell_size: p.far_cell_size,
             dilation_radius: p.dilation_radius,
+            max_dilation_radius: p.max_dilation_radius,
+            beam_spacing_deg: p.beam_spacing_deg,
+            bridge_beams: p.bridge_beams,
             min_cluster_points,
             min_width: p.min_width,
             max_width: p.max_width,
@@ -254,9 +274,11 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
     fn every_field_is_written(d: LeadDetector) {
         let LeadDetector {
             params: _,
+            curvature: _,
             occupied: _,
             edges: _,
             dilated: _,
+            radius: _,
             runs: _,
             parent: _,
             n_runs: _,
@@ -268,12 +290,16 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
     }
     // SAFETY: caller contract; each `addr_of_mut!` projects to a field of `*d` without creating a
     // reference to uninitialised memory, and each write covers the whole field with valid values
-    // (all-zero is a valid `[u64]`, `[u16]`, `[u8]`; runs and clusters get their EMPTY value).
+    // (all-zero is a valid `[u64]`, `[u16]`, `[u8]`; runs and clusters get their EMPTY value; the
+    // radius table is zeroed, so valid, before a reference to it is taken and it is filled).
     unsafe {
         addr_of_mut!((*d).params).write(params);
+        addr_of_mut!((*d).curvature).write(0.0);
         addr_of_mut!((*d).occupied).write_bytes(0, 1);
         addr_of_mut!((*d).edges).write_bytes(0, 1);
         addr_of_mut!((*d).dilated).write_bytes(0, 1);
+        addr_of_mut!((*d).radius).write_bytes(0, 1);
+        column_radii(&params, &mut *addr_of_mut!((*d).radius));
         let runs = addr_of_mut!((*d).runs).cast::<Run>();
         for i in 0..RUN_CAPACITY {
             runs.add(i).write(Run::EMPTY);

@@ -24,8 +24,8 @@ pub(super) fn centreline_steer(track: &Track, pp: &PurePursuit, state: &VehicleS
     pp.step(Some(local), state.speed).steer
 }
 
-/// The points of a scan the detector can use: those within 1 cm of its grid (plus any
-/// non-finite ones, which it counts). The detector ignores every other point (`cell_of` is
+/// The points of a scan the detector can use for a path of `curvature`: those within 1 cm of
+/// the box holding its (bent) grid (plus any non-finite ones, which it counts). The detector ignores every other point (`cell_of` is
 /// `None` for them), so its result is the same as on the whole scan, with less work: on a road
 /// with guard rails about half the returns lie outside the grid. Scans longer than
 /// `max_points` are passed whole (the detector truncates them).
@@ -33,12 +33,13 @@ pub(super) fn grid_points<'a>(
     det: &LeadDetector,
     params: &flc_core::DetectorParams,
     points: &'a [[f64; 2]],
+    curvature: f64,
     buf: &'a mut Vec<[f64; 2]>,
 ) -> &'a [[f64; 2]] {
     if points.len() > params.max_points {
         return points;
     }
-    let ((x0, x1), (y0, y1)) = (det.x_range(), det.y_range());
+    let (x0, x1, y0, y1) = det.bounds(curvature);
     let (x0, x1, y0, y1) = (x0 - 0.01, x1 + 0.01, y0 - 0.01, y1 + 0.01);
     buf.clear();
     buf.extend(points.iter().filter(|[x, y]| !(x.is_finite() && y.is_finite()) || (*x >= x0 && *x <= x1 && *y >= y0 && *y <= y1)));
@@ -69,18 +70,18 @@ mod tests {
         let params = flc_core::DetectorParams::default();
         let mut a = <LeadDetector>::new(params).unwrap();
         let mut b = <LeadDetector>::new(params).unwrap();
-        let ((x0, x1), (y0, y1)) = (a.x_range(), a.y_range());
+        let (x0, x1, y0, y1) = a.bounds(0.0);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let mut buf = Vec::new();
         for _ in 0..300 {
             let mut pts: Vec<[f64; 2]> = Vec::new();
             // A car somewhere ahead, rails, clutter, edge points.
-            let (cx, cy) = (rng.random_range(3.0..80.0), rng.random_range(-5.0..5.0));
+            let (cx, cy) = (rng.random_range(3.0..190.0), rng.random_range(-5.0..5.0));
             for i in 0..30 {
                 pts.push([cx + rng.random_range(-0.02..0.02), cy - 0.9 + 1.8 * f64::from(i) / 29.0]);
             }
             for _ in 0..300 {
-                let x: f64 = rng.random_range(-2.0..110.0);
+                let x: f64 = rng.random_range(-2.0..220.0);
                 pts.push([x, if rng.random_bool(0.5) { -3.15 } else { 6.65 } + rng.random_range(-0.03..0.03)]);
             }
             for _ in 0..40 {
@@ -92,9 +93,9 @@ mod tests {
                     _ => [rng.random_range(x0..x1), y1 + e],
                 });
             }
-            let kappa = rng.random_range(-0.01..0.01);
+            let kappa = if rng.random_bool(0.2) { 0.0 } else { rng.random_range(-0.01..0.01) };
             let full = a.detect(&pts, kappa);
-            let filtered = b.detect(grid_points(&b, &params, &pts, &mut buf), kappa);
+            let filtered = b.detect(grid_points(&b, &params, &pts, kappa, &mut buf), kappa);
             assert_eq!(full.detection, filtered.detection);
             assert_eq!(a.clusters(), b.clusters());
             assert!(buf.len() < pts.len());
