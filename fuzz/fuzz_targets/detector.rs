@@ -26,7 +26,8 @@ enum Pt {
 #[derive(Arbitrary, Debug)]
 struct Input {
     params: [Param; 6],
-    far: [Param; 3],
+    far: [Param; 5],
+    join_beams: u8,
     dilation_radius: u8,
     max_dilation_radius: u8,
     bridge_beams: u8,
@@ -47,7 +48,7 @@ static DETECTORS: Mutex<Option<(Box<LeadDetector>, Box<MaybeUninit<FlcDetector>>
 fuzz_target!(|inp: Input| {
     let d = DetectorParams::defaults();
     let [cell, x_min, min_w, max_w, max_depth, half] = inp.params;
-    let [far_start, far_cell, spacing] = inp.far;
+    let [far_start, far_cell, spacing, join_gap, join_depth] = inp.far;
     let p = DetectorParams {
         cell_size: cell.get(d.cell_size, 0.0, 1.0),
         x_min: x_min.get(d.x_min, -1.0, 20.0),
@@ -57,6 +58,9 @@ fuzz_target!(|inp: Input| {
         max_dilation_radius: inp.max_dilation_radius % 10,
         beam_spacing_deg: spacing.get(d.beam_spacing_deg, 0.0, 2.0),
         bridge_beams: inp.bridge_beams % 120,
+        join_gap: join_gap.get(d.join_gap, -0.5, 5.0),
+        join_beams: inp.join_beams,
+        join_depth: join_depth.get(d.join_depth, -0.5, 5.0),
         min_cluster_points: usize::from(inp.min_cluster_points % 12),
         min_width: min_w.get(d.min_width, -0.5, 5.0),
         max_width: max_w.get(d.max_width, 0.0, 6.0),
@@ -104,7 +108,7 @@ fuzz_target!(|inp: Input| {
         assert!(found.distance.is_finite() && found.position.y.is_finite());
         assert!(found.position.x >= x0 - 1e-9 && found.position.x <= x1 + 1e-9, "{found:?}");
         assert!(found.position.y >= y0 - 1e-9 && found.position.y <= y1 + 1e-9, "{found:?}");
-        assert!(found.width >= p.min_width && found.width <= p.max_width);
+        assert!(found.width + found.distance.max(0.0) * p.beam_spacing() >= p.min_width && found.width <= p.max_width);
         assert!(found.depth >= 0.0 && found.depth <= p.max_depth);
         assert!(found.points >= p.min_points_at(found.distance) && found.points <= out.points_used);
         assert!((0.0..=1.0).contains(&found.confidence));

@@ -86,6 +86,11 @@ fn detector(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("detect_car_and_rails", n), &pts, |b, pts| {
             b.iter(|| det.detect(black_box(pts), black_box(0.0)))
         });
+        // The same scan on a curved path (250 m radius): every point's offset from the arc costs a
+        // square root and a division.
+        group.bench_with_input(BenchmarkId::new("detect_car_and_rails_curved", n), &pts, |b, pts| {
+            b.iter(|| det.detect(black_box(pts), black_box(0.004)))
+        });
     }
     group.finish();
 }

@@ -38,9 +38,9 @@
 #define FLC_PURSUIT_WORDS 5
 
 /**
- * Words (8 bytes each) of `FlcDetector::storage` (46.3 KiB).
+ * Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
  */
-#define FLC_DETECTOR_WORDS 5931
+#define FLC_DETECTOR_WORDS 5933
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -821,6 +821,14 @@ typedef struct FlcDetectorParams {
      */
     double beam_spacing_deg;
     /**
+     * Largest lateral gap between joined fragments, m.
+     */
+    double join_gap;
+    /**
+     * Largest difference of joined fragments' rear-face x, m.
+     */
+    double join_depth;
+    /**
      * Smallest lateral extent of a vehicle, m.
      */
     double min_width;
@@ -856,6 +864,10 @@ typedef struct FlcDetectorParams {
      * Missing neighbouring beams the lateral dilation bridges.
      */
     uint8_t bridge_beams;
+    /**
+     * Most consecutive missing beams between joined fragments.
+     */
+    uint8_t join_beams;
     /**
      * One of `FlcReprojection`.
      */

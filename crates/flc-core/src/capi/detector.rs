@@ -70,6 +70,10 @@ pub struct FlcDetectorParams {
     pub far_cell_size: f64,
     /// Horizontal angle between neighbouring LiDAR beams, degrees.
     pub beam_spacing_deg: f64,
+    /// Largest lateral gap between joined fragments, m.
+    pub join_gap: f64,
+    /// Largest difference of joined fragments' rear-face x, m.
+    pub join_depth: f64,
     /// Smallest lateral extent of a vehicle, m.
     pub min_width: f64,
     /// Largest lateral extent of a vehicle, m.
@@ -88,6 +92,8 @@ pub struct FlcDetectorParams {
     pub max_dilation_radius: u8,
     /// Missing neighbouring beams the lateral dilation bridges.
     pub bridge_beams: u8,
+    /// Most consecutive missing beams between joined fragments.
+    pub join_beams: u8,
     /// One of `FlcReprojection`.
     pub reprojection: u8,
 }
@@ -159,8 +165,8 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcDetector::storage` (46.3 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 5931;
+/// Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
+pub const FLC_DETECTOR_WORDS: usize = 5933;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
@@ -188,6 +194,8 @@ impl From<DetectorParams> for FlcDetectorParams {
             far_start: p.far_start,
             far_cell_size: p.far_cell_size,
             beam_spacing_deg: p.beam_spacing_deg,
+            join_gap: p.join_gap,
+            join_depth: p.join_depth,
             min_width: p.min_width,
             max_width: p.max_width,
             max_depth: p.max_depth,
@@ -197,6 +205,7 @@ impl From<DetectorParams> for FlcDetectorParams {
             dilation_radius: p.dilation_radius,
             max_dilation_radius: p.max_dilation_radius,
             bridge_beams: p.bridge_beams,
+            join_beams: p.join_beams,
             reprojection,
         }
     }
@@ -222,6 +231,9 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             max_dilation_radius: p.max_dilation_radius,
             beam_spacing_deg: p.beam_spacing_deg,
             bridge_beams: p.bridge_beams,
+            join_gap: p.join_gap,
+            join_beams: p.join_beams,
+            join_depth: p.join_depth,
             min_cluster_points,
             min_width: p.min_width,
             max_width: p.max_width,
