@@ -43,6 +43,12 @@ pub struct FollowerSpec {
     /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
     /// and the detector's corridor follows the lane. Default `false`.
     pub lane_keeping: bool,
+    /// How the follower steers while its detector sees no lead (pursuit of the lead only; not
+    /// with `lane_keeping` or ideal perception, which always steer along the lane):
+    /// `"hold_lane"` (default) or `"straight"` (steering 0, the pipeline as first built). See
+    /// [`LostLeadSteering`] and `docs/sim-model.md`.
+    #[serde(skip_serializing_if = "is_hold_lane")]
+    pub lost_lead_steering: LostLeadSteering,
     /// What the controllers see: the LiDAR detector (`"lidar"`, default), or `"ideal"`: the true
     /// bumper gap to the vehicle in front and, for the laws that use it, its true speed, with
     /// lane keeping instead of pursuit. **For validation only** (checking a baseline against its
@@ -53,6 +59,36 @@ pub struct FollowerSpec {
 
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
+}
+
+fn is_hold_lane(v: &LostLeadSteering) -> bool {
+    *v == LostLeadSteering::HoldLane
+}
+
+/// How a lead-pursuing follower steers while no lead is detected
+/// ([`FollowerSpec::lost_lead_steering`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LostLeadSteering {
+    /// Hold the lane: steer along the centre of the lane the follower is in when the lead is lost
+    /// (the lane whose centre is nearest to its lateral offset, kept until a lead is detected
+    /// again), and keep the detector's corridor on that lane. The simulator's stand-in for a
+    /// camera lane keeper: it reads the track's geometry, no sensor model. Default.
+    #[default]
+    HoldLane,
+    /// Steering 0 (straight ahead) and a straight corridor: the pipeline as first built, which
+    /// leaves the road in a curve.
+    Straight,
+}
+
+impl LostLeadSteering {
+    /// `"hold_lane"` or `"straight"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LostLeadSteering::HoldLane => "hold_lane",
+            LostLeadSteering::Straight => "straight",
+        }
+    }
 }
 
 /// What the follower's controllers see ([`FollowerSpec::perception`]).
@@ -88,6 +124,7 @@ impl Default for FollowerSpec {
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,
             lane_keeping: false,
+            lost_lead_steering: LostLeadSteering::HoldLane,
             perception: Perception::Lidar,
         }
     }

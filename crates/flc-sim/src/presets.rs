@@ -22,8 +22,10 @@ pub fn brakedemo() -> Scenario {
         ..Scenario::default()
     };
     s.lead.initial_speed = v;
-    s.lead.phases =
-        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(20.0) }.into(), Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into()];
+    s.lead.phases = vec![
+        Phase::Hold { until_x: None, until_t: None, duration: Some(20.0) }.into(),
+        Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into(),
+    ];
     s.follower.initial_speed = v;
     s.v2v = V2vParams::default();
     s.platoon = Some(PlatoonSpec {

@@ -170,7 +170,9 @@ impl RunRecord {
 fn outcome(m: &Metrics, hit: Option<&CollisionInfo>, follower: usize) -> String {
     if m.collision {
         match hit.map(|c| c.object.clone()) {
-            Some(o) if o.name != HitObject::vehicle(follower.saturating_sub(1)).name => format!("collision {:5.2} m/s, {}", m.impact_speed, o.label()),
+            Some(o) if o.name != HitObject::vehicle(follower.saturating_sub(1)).name => {
+                format!("collision {:5.2} m/s, {}", m.impact_speed, o.label())
+            }
             _ => format!("collision {:5.2} m/s", m.impact_speed),
         }
     } else {

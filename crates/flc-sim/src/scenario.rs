@@ -260,7 +260,10 @@ impl Scenario {
             return Err(ConfigError::new("lead.phases", "with [story] the story moves the lead: give it no phases"));
         }
         if let Some(i) = self.vehicles.iter().position(|v| !v.phases.is_empty()) {
-            return Err(ConfigError::new(format!("vehicles[{i}].phases"), "with [story] the story moves the vehicles: give them no phases"));
+            return Err(ConfigError::new(
+                format!("vehicles[{i}].phases"),
+                "with [story] the story moves the vehicles: give them no phases",
+            ));
         }
         let names: Vec<&str> = table.iter().map(|(n, _)| *n).collect();
         story.validate(&names)?;
@@ -278,12 +281,18 @@ impl Scenario {
                 for (c, cond) in grp.iter().enumerate() {
                     if let crate::trigger::ConditionKind::ElementState { element, .. } = &cond.kind {
                         if !known(element) {
-                            return Err(ConfigError::new(format!("{}.element", trig.condition_key(&key, g, c)), format!("no storyboard element `{element}`")));
+                            return Err(ConfigError::new(
+                                format!("{}.element", trig.condition_key(&key, g, c)),
+                                format!("no storyboard element `{element}`"),
+                            ));
                         }
                     }
                     if let crate::trigger::ConditionKind::Variable { variable, .. } = &cond.kind {
                         if !story.variables.iter().any(|v| v.name == *variable) {
-                            return Err(ConfigError::new(format!("{}.variable", trig.condition_key(&key, g, c)), format!("no variable `{variable}` in story.variables")));
+                            return Err(ConfigError::new(
+                                format!("{}.variable", trig.condition_key(&key, g, c)),
+                                format!("no variable `{variable}` in story.variables"),
+                            ));
                         }
                     }
                 }

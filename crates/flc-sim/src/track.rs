@@ -151,7 +151,9 @@ impl Track {
         self.ego_lane = ego_lane;
         let offset = |l: u32| (f64::from(l) - f64::from(ego_lane)) * self.lane_width;
         for o in &mut self.objects {
-            if let RoadsideObject::Post { offset: off, lane: Some(l), .. } | RoadsideObject::ParkedCar { offset: off, lane: Some(l), .. } = o {
+            if let RoadsideObject::Post { offset: off, lane: Some(l), .. } | RoadsideObject::ParkedCar { offset: off, lane: Some(l), .. } =
+                o
+            {
                 *off = offset(*l);
             }
         }
@@ -579,7 +581,12 @@ mod tests {
     fn validation_names_the_key() {
         let t = Track::new("bad", vec![[0.0, 0.0], [0.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
-        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 3.5, vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0, lane: None }]);
+        let t = Track::new(
+            "bad",
+            vec![[0.0, 0.0], [10.0, 0.0]],
+            3.5,
+            vec![RoadsideObject::Post { s: 5.0, offset: 2.0, radius: 0.0, lane: None }],
+        );
         assert_eq!(t.validate().unwrap_err().key, "objects[0].radius");
         let t = Track::new("bad", vec![[0.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline");

@@ -530,11 +530,7 @@ pub trait WorldView {
 fn gaps(a: &EntityState, b: &EntityState, freespace: bool) -> (f64, f64) {
     let da = (b.s - a.s).abs();
     let dl = (b.lateral - a.lateral).abs();
-    if freespace {
-        ((da - 0.5 * (a.length + b.length)).max(0.0), (dl - 0.5 * (a.width + b.width)).max(0.0))
-    } else {
-        (da, dl)
-    }
+    if freespace { ((da - 0.5 * (a.length + b.length)).max(0.0), (dl - 0.5 * (a.width + b.width)).max(0.0)) } else { (da, dl) }
 }
 
 /// `a` compared with `b` by `rule`: numbers by value (`Rule::holds`), booleans and text equal or
@@ -1209,7 +1205,10 @@ mod tests {
 
     /// Ego at 20 m/s behind the lead at 15 m/s; bumper-to-bumper gap 40 - 5 t.
     fn closing(t: f64) -> Fake {
-        Fake { cars: vec![("ego", car(10.0 + 20.0 * t, 20.0, 20.0 * t)), ("lead", car(54.5 + 15.0 * t, 15.0, 15.0 * t))], ..Fake::default() }
+        Fake {
+            cars: vec![("ego", car(10.0 + 20.0 * t, 20.0, 20.0 * t)), ("lead", car(54.5 + 15.0 * t, 15.0, 15.0 * t))],
+            ..Fake::default()
+        }
     }
 
     /// Ego's speed 10 + 5 cos(pi t / 2): below 10 in (1, 3), above in (3, 5), ...
@@ -1247,7 +1246,8 @@ mod tests {
         assert!((t - expected).abs() <= DT + 1e-9, "fired at {t}, expected {expected} +- one step");
     }
 
-    const GAP: &str = r#"{ kind = "relative_distance", entity = "ego", of = "lead", distance = "longitudinal", freespace = true, value = 20.0"#;
+    const GAP: &str =
+        r#"{ kind = "relative_distance", entity = "ego", of = "lead", distance = "longitudinal", freespace = true, value = 20.0"#;
 
     #[test]
     fn freespace_gap_fires_at_the_analytic_time() {
@@ -1310,7 +1310,8 @@ mod tests {
         for bits in 0..8u8 {
             let (a, b, c) = (bits & 1 != 0, bits & 2 != 0, bits & 4 != 0);
             let v = |x: bool| if x { 1.0 } else { 0.0 };
-            let w = Fake { cars: vec![("a", car(0.0, v(a), 0.0)), ("b", car(0.0, v(b), 0.0)), ("c", car(0.0, v(c), 0.0))], ..Fake::default() };
+            let w =
+                Fake { cars: vec![("a", car(0.0, v(a), 0.0)), ("b", car(0.0, v(b), 0.0)), ("c", car(0.0, v(c), 0.0))], ..Fake::default() };
             let mut s = TriggerState::new();
             assert_eq!(s.update(&t, &w, 0.0), (a && b) || c, "a={a} b={b} c={c}");
             assert!(!s.update(&t, &w, DT), "fires once");
@@ -1334,7 +1335,8 @@ mod tests {
         near(fire_time(&ttc(r#"entity = "lead", of = "ego", freespace = true"#), closing, 10.0), 5.0);
         near(fire_time(&ttc(r#"entity = "ego", of = "lead", freespace = false"#), closing, 10.0), 5.9);
         // Opening gap: infinite.
-        let opening = |t: f64| Fake { cars: vec![("ego", car(0.0, 10.0, 0.0)), ("lead", car(20.0 + 5.0 * t, 15.0, 0.0))], ..Fake::default() };
+        let opening =
+            |t: f64| Fake { cars: vec![("ego", car(0.0, 10.0, 0.0)), ("lead", car(20.0 + 5.0 * t, 15.0, 0.0))], ..Fake::default() };
         assert!(fires(&ttc(r#"entity = "ego", of = "lead", freespace = true"#), opening, 5.0).is_empty());
         let standing = Fake { cars: vec![("ego", car(0.0, 0.0, 0.0)), ("lead", car(20.0, 0.0, 0.0))], ..Fake::default() };
         let c = hw(r#"entity = "ego", of = "lead", freespace = true"#);
@@ -1425,7 +1427,10 @@ mod tests {
         let e = err(r#"{ kind = "reach_position", entity = "ego", s = 5.0, tolerance = -1.0 }"#);
         assert_eq!(e.key, "vehicles[1].phases[2].start.tolerance");
         let e = err(r#"{ kind = "phase_state", entity = "lead", phase = 3, state = "ended" }"#);
-        assert_eq!((e.key.as_str(), e.problem.as_str()), ("vehicles[1].phases[2].start.phase", r#"entity "lead" has 3 phases (indices 0-2), got 3"#));
+        assert_eq!(
+            (e.key.as_str(), e.problem.as_str()),
+            ("vehicles[1].phases[2].start.phase", r#"entity "lead" has 3 phases (indices 0-2), got 3"#)
+        );
         let e = err(r#"{ kind = "phase_state", entity = "cutin", phase = 1, state = "ended" }"#);
         assert_eq!(e.problem, r#"entity "cutin" has 1 phase (index 0), got 1"#);
         let e = err(r#"{ kind = "ttc", entity = "ego", of = "ego", freespace = true, rule = "less_than", value = 2.0 }"#);
@@ -1484,14 +1489,18 @@ mod tests {
         assert_eq!(validate_scripts(&ents), Ok(()));
         // The cycle of `phase_cycles_are_found`, with an OR group that does not wait: no deadlock.
         let ego1 = phase_ref("lead", 2, "started");
-        let lead1 = trig(r#"[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]"#);
+        let lead1 = trig(
+            r#"[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]"#,
+        );
         let ents = [
             ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1)] },
             ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, Some(&lead1), None] },
         ];
         assert_eq!(check_phase_cycles(&ents), Ok(()));
         // But an AND with the waiting condition is still a cycle.
-        let lead1 = trig(r#"[[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]]"#);
+        let lead1 = trig(
+            r#"[[{ kind = "phase_state", entity = "ego", phase = 1, state = "ended" }, { kind = "simulation_time", rule = "greater_than", value = 5.0 }]]"#,
+        );
         let ents = [
             ScriptedEntity { name: "ego", key: "vehicles[0].phases", starts: vec![None, Some(&ego1)] },
             ScriptedEntity { name: "lead", key: "vehicles[1].phases", starts: vec![None, Some(&lead1), None] },
@@ -1551,7 +1560,9 @@ stop = [{ kind = "ttc", entity = "ego", of = "lead", freespace = false, rule = "
         assert_eq!(trig(r#"{ kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }"#), Trigger::when(c.clone()));
         let c2 = c.clone().delayed(0.5).on(Edge::Rising);
         assert_eq!(
-            trig(r#"[[{ kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }, { kind = "speed", entity = "ego", value = 1.0, rule = "less_than", delay = 0.5, edge = "rising" }], { kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }]"#),
+            trig(
+                r#"[[{ kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }, { kind = "speed", entity = "ego", value = 1.0, rule = "less_than", delay = 0.5, edge = "rising" }], { kind = "speed", entity = "ego", value = 1.0, rule = "less_than" }]"#
+            ),
             Trigger::any_of(vec![vec![c.clone(), c2], vec![c]])
         );
         // Unknown keys, kinds and missing mandatory keys are errors.
@@ -1565,7 +1576,8 @@ stop = [{ kind = "ttc", entity = "ego", of = "lead", freespace = false, rule = "
         ] {
             assert!(toml::from_str::<W>(&format!("start = {bad}")).is_err(), "accepted {bad}");
         }
-        let e = toml::from_str::<W>(r#"start = { kind = "speed", entity = "ego", rule = "less_than", value = 1.0, speeed = 2.0 }"#).expect_err("unknown");
+        let e = toml::from_str::<W>(r#"start = { kind = "speed", entity = "ego", rule = "less_than", value = 1.0, speeed = 2.0 }"#)
+            .expect_err("unknown");
         assert!(e.to_string().contains("speeed"), "{e}");
     }
 }

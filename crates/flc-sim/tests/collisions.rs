@@ -172,7 +172,8 @@ follower = { initial_speed = 25.0, initial_gap = 20.0 }
 "#;
     let r = run(&Scenario::from_toml_str(&(text + patch), "platoon collision test").expect("scenario"));
     let p = r.platoon.as_ref().expect("platoon result");
-    let (c1, c2) = (p.followers[0].collision.clone().expect("follower 1 is hit"), p.followers[1].collision.clone().expect("follower 2 hits"));
+    let (c1, c2) =
+        (p.followers[0].collision.clone().expect("follower 1 is hit"), p.followers[1].collision.clone().expect("follower 2 hits"));
     // Follower 2 ran into the vehicle in front: the old record's meaning.
     assert_eq!(c2.object.name().as_deref(), Some("follower 1"));
     assert_eq!(c2.impact_speed, (c2.follower_speed - c2.lead_speed).max(0.0));

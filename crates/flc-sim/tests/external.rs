@@ -83,7 +83,9 @@ fn the_sensor_delays_and_blurs_what_the_controller_sees() {
     let (mut errs, mut ticks) = (Vec::new(), 0);
     for k in 0..4000 {
         let t = k as f64 * 0.01;
-        let o = f.step(&ExternalInput { t, dt: 0.01, gap: Some(20.0 + (k % 50) as f64 * 0.1), front_speed: Some(10.0), own_speed: 10.0 }).unwrap();
+        let o = f
+            .step(&ExternalInput { t, dt: 0.01, gap: Some(20.0 + (k % 50) as f64 * 0.1), front_speed: Some(10.0), own_speed: 10.0 })
+            .unwrap();
         if o.control_tick {
             ticks += 1;
             // Measured two scans (10 steps) ago.

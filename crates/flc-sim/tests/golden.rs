@@ -149,7 +149,12 @@ fn check_between(path: &Path, begin: &str, end: &str, actual: &str) {
     if std::env::var_os("FLC_BLESS").is_some() {
         std::fs::write(path, format!("{}{begin}{actual}{}", &text[..a], &text[b..])).expect("write");
     } else {
-        assert_eq!(&text[a + begin.len()..b], actual, "{}: the text between {begin} and {end} is stale (FLC_BLESS=1 rewrites it)", path.display());
+        assert_eq!(
+            &text[a + begin.len()..b],
+            actual,
+            "{}: the text between {begin} and {end} is stale (FLC_BLESS=1 rewrites it)",
+            path.display()
+        );
     }
 }
 
@@ -174,7 +179,8 @@ fn standard_suites_report() {
                 std::fs::create_dir_all(&docs).expect("mkdir");
                 std::fs::write(&committed, &a).expect("write");
             } else {
-                let c = std::fs::read_to_string(&committed).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", committed.display()));
+                let c =
+                    std::fs::read_to_string(&committed).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", committed.display()));
                 assert!(c == a, "{} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test golden rewrites it", committed.display());
             }
             if ext == "json" {
@@ -183,7 +189,12 @@ fn standard_suites_report() {
         }
     }
     assert_eq!(summary, flc_sim::suite::summary_table(&reports));
-    check_between(&root().join("docs/standard-suites.md"), "<!-- suite-summary: written by tests/golden.rs -->\n", "<!-- end suite-summary -->", &summary);
+    check_between(
+        &root().join("docs/standard-suites.md"),
+        "<!-- suite-summary: written by tests/golden.rs -->\n",
+        "<!-- end suite-summary -->",
+        &summary,
+    );
     check_between(&root().join("README.md"), "<!-- suite-line -->", "<!-- end suite-line -->", &flc_sim::suite::summary_line(&reports));
     let _ = (std::fs::remove_dir_all(&one), std::fs::remove_dir_all(&two));
 }

@@ -127,7 +127,10 @@ fn same_series(a: &Scenario, b: &Scenario) -> bool {
     let rb = flc_sim::run(b).unwrap_or_else(|e| panic!("{e}"));
     let (ca, cb) = (ra.series.columns(), rb.series.columns());
     ca.len() == cb.len()
-        && ca.iter().zip(&cb).all(|((na, va), (nb, vb))| na == nb && va.len() == vb.len() && va.iter().zip(vb).all(|(x, y)| x.to_bits() == y.to_bits()))
+        && ca
+            .iter()
+            .zip(&cb)
+            .all(|((na, va), (nb, vb))| na == nb && va.len() == vb.len() && va.iter().zip(vb).all(|(x, y)| x.to_bits() == y.to_bits()))
 }
 
 #[test]
@@ -164,7 +167,8 @@ fn tempdir(name: &str) -> PathBuf {
 fn cli(dir: &Path, name: &str, text: &str, extra: &[&str]) -> (i32, String) {
     let file = dir.join(name);
     std::fs::write(&file, text).unwrap_or_else(|e| panic!("{e}"));
-    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).arg("--config").arg(&file).args(extra).output().unwrap_or_else(|e| panic!("{e}"));
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_scenario")).arg("--config").arg(&file).args(extra).output().unwrap_or_else(|e| panic!("{e}"));
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
@@ -216,7 +220,10 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         assert!(line.contains(name) && line.contains(needle), "{name}: `{line}` should name the file and `{needle}`");
         // FILE:LINE: <Element>: the line number follows the file name.
         let after = line.split(name).nth(1).unwrap_or("");
-        assert!(after.starts_with(':') && after[1..].split(':').next().is_some_and(|n| n.parse::<u32>().is_ok()), "{name}: no line number in `{line}`");
+        assert!(
+            after.starts_with(':') && after[1..].split(':').next().is_some_and(|n| n.parse::<u32>().is_ok()),
+            "{name}: no line number in `{line}`"
+        );
     }
     // A file over the size limit is refused before it is parsed.
     let huge = format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO>{}</OpenSCENARIO>", " ".repeat(33 * 1024 * 1024));
@@ -233,8 +240,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     let cat = dir.join("cat");
     std::fs::create_dir_all(&cat).unwrap_or_else(|e| panic!("{e}"));
     std::fs::write(cat.join("C.xosc"), "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<Catalog name=\"Cat\">\n<Vehicle name=\"loop\"><CatalogReference catalogName=\"Cat\" entryName=\"loop\"/></Vehicle></Catalog></OpenSCENARIO>").unwrap_or_else(|e| panic!("{e}"));
-    let cyclic = target_replaced_by("<CatalogReference catalogName=\"Cat\" entryName=\"loop\"/>")
-        .replacen("<CatalogLocations/>", &format!("<CatalogLocations><VehicleCatalog><Directory path=\"{}\"/></VehicleCatalog></CatalogLocations>", cat.display()), 1);
+    let cyclic = target_replaced_by("<CatalogReference catalogName=\"Cat\" entryName=\"loop\"/>").replacen(
+        "<CatalogLocations/>",
+        &format!("<CatalogLocations><VehicleCatalog><Directory path=\"{}\"/></VehicleCatalog></CatalogLocations>", cat.display()),
+        1,
+    );
     let (code, err) = cli(&dir, "cycle.xosc", &cyclic, &[]);
     assert_eq!(code, 2, "{err}");
     assert!(err.lines().filter(|l| l.starts_with("error:")).count() == 1, "{err}");

@@ -37,8 +37,10 @@ fn assert_bit_identical(a: &RunResult, b: &RunResult, what: &str) {
 fn short_brake(controller: ControllerKind) -> Scenario {
     let mut s = Scenario { name: "short-brake".into(), controller, duration: 25.0, ..Default::default() };
     s.lead.initial_speed = 20.0;
-    s.lead.phases =
-        vec![Phase::Hold { until_x: None, until_t: Some(8.0), duration: None }.into(), Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into()];
+    s.lead.phases = vec![
+        Phase::Hold { until_x: None, until_t: Some(8.0), duration: None }.into(),
+        Phase::Brake { decel: 6.0, speed: None, speed_kmh: None }.into(),
+    ];
     s.follower.initial_speed = 20.0;
     s.follower.initial_gap = 22.0;
     s.v2v.enabled = controller != ControllerKind::Flc;

@@ -336,7 +336,12 @@ fn a_recording_shows_the_scripted_traffic() {
     s.duration = 8.0;
     let dir = tmpdir("traffic");
     let r = run_with(&s, Some(&dir)).expect("run");
-    let file = std::fs::read_dir(&dir).expect("dir").flatten().map(|e| e.path()).find(|p| p.extension().is_some_and(|x| x == "mcap")).expect("mcap");
+    let file = std::fs::read_dir(&dir)
+        .expect("dir")
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .expect("mcap");
     let (msgs, _) = read_all(&file);
     let t = by_topic(&msgs);
     let bodies: Vec<String> = t[TOPIC_VEHICLES]

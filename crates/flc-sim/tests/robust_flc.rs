@@ -45,8 +45,10 @@ fn steady(controller: ControllerKind, kmh: f64, decel: f64) -> Scenario {
     s.track = TrackSpec::Straight { length: 5000.0 };
     s.lead.initial_speed = v;
     s.lead.vehicle.max_brake = 10.0;
-    s.lead.phases =
-        vec![Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }.into(), Phase::Brake { decel, speed: None, speed_kmh: None }.into()];
+    s.lead.phases = vec![
+        Phase::Hold { until_x: None, until_t: None, duration: Some(2.0) }.into(),
+        Phase::Brake { decel, speed: None, speed_kmh: None }.into(),
+    ];
     s.follower.initial_speed = v;
     s.follower.initial_gap = own_gap(&s, v);
     s
@@ -272,7 +274,9 @@ fn comfort_scenarios(c: ControllerKind) -> Vec<(String, Scenario)> {
     let hold = |d: f64| Phase::Hold { until_x: None, until_t: None, duration: Some(d) };
     let go = |kmh: f64| Phase::Accelerate { accel: 1.0, speed: None, speed_kmh: Some(kmh) };
     let stop = || Phase::Brake { decel: 2.0, speed: None, speed_kmh: None };
-    s.lead.phases = [hold(3.0), go(50.0), hold(10.0), stop(), hold(5.0), go(30.0), hold(5.0), stop(), hold(5.0), go(20.0), stop()].map(Into::into).to_vec();
+    s.lead.phases = [hold(3.0), go(50.0), hold(10.0), stop(), hold(5.0), go(30.0), hold(5.0), stop(), hold(5.0), go(20.0), stop()]
+        .map(Into::into)
+        .to_vec();
     s.follower.initial_gap = if c == ROBUST { s.flc_robust.standstill_gap } else { 7.0 };
     s.duration = 150.0;
     out.push(("stop and go".to_string(), s));

@@ -294,9 +294,30 @@ actions = [{ name = "b", kind = "speed", speed = 5.0, shape = "linear", dimensio
 #[test]
 fn bad_stories_are_errors_naming_the_key() {
     let cases = [
-        (one_act("scripted", "\"nobody\"", "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"step\", dimension = \"time\", value = 0.0 }]"), "story.acts[0].groups[0].actors[0]"),
-        (one_act("scripted", "\"lead\"", "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nstart = { kind = \"element_state\", element = \"nope\", state = \"end_transition\" }\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"step\", dimension = \"time\", value = 0.0 }]"), "element"),
-        (one_act("scripted", "\"lead\"", "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"linear\", dimension = \"rate\", value = -2.0 }]"), "actions[0].value"),
+        (
+            one_act(
+                "scripted",
+                "\"nobody\"",
+                "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"step\", dimension = \"time\", value = 0.0 }]",
+            ),
+            "story.acts[0].groups[0].actors[0]",
+        ),
+        (
+            one_act(
+                "scripted",
+                "\"lead\"",
+                "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nstart = { kind = \"element_state\", element = \"nope\", state = \"end_transition\" }\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"step\", dimension = \"time\", value = 0.0 }]",
+            ),
+            "element",
+        ),
+        (
+            one_act(
+                "scripted",
+                "\"lead\"",
+                "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nactions = [{ name = \"a\", kind = \"speed\", speed = 1.0, shape = \"linear\", dimension = \"rate\", value = -2.0 }]",
+            ),
+            "actions[0].value",
+        ),
         (one_act("scripted", "\"lead\"", "[[story.acts.groups.maneuvers.events]]\nname = \"e\"\nactions = []"), "actions"),
     ];
     for (body, key) in cases {

@@ -104,7 +104,9 @@ fn cut_in_finishes_its_lateral_move_in_the_lane_change_time() {
 #[test]
 fn r157_cases_start_at_the_minimum_following_distance() {
     let s = suite("r157");
-    for (case, label, v_kmh, gap) in [("4.3_2", "EgoSpeed_kmh=60", 60.0, 1.6), ("4.3_2", "EgoSpeed_kmh=30", 30.0, 1.3), ("4.5_1", "EgoSpeed_kmh=40", 40.0, 1.4)] {
+    for (case, label, v_kmh, gap) in
+        [("4.3_2", "EgoSpeed_kmh=60", 60.0, 1.6), ("4.3_2", "EgoSpeed_kmh=30", 30.0, 1.3), ("4.5_1", "EgoSpeed_kmh=40", 40.0, 1.4)]
+    {
         let r = run(&case_run(&s, case, label, ControllerKind::Flc)).expect("run");
         let want = gap * v_kmh / 3.6;
         assert!((r.series.gap[0] - want).abs() < 1e-6, "{case} {label}: gap {} want {want}", r.series.gap[0]);
@@ -202,7 +204,11 @@ fn cli_suite_errors_exit_2_with_one_line() {
     // A broken suite.toml names the file and the key.
     let dir = std::env::temp_dir().join(format!("flc-suite-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
-    std::fs::write(dir.join("suite.toml"), "name = \"x\"\ntitle = \"x\"\nsource = \"x\"\n[[cases]]\nid = \"a\"\nfile = \"a.xosc\"\nsection = \"s\"\ncriterion = \"maybe\"\n").expect("write");
+    std::fs::write(
+        dir.join("suite.toml"),
+        "name = \"x\"\ntitle = \"x\"\nsource = \"x\"\n[[cases]]\nid = \"a\"\nfile = \"a.xosc\"\nsection = \"s\"\ncriterion = \"maybe\"\n",
+    )
+    .expect("write");
     let out = cli(&["suite", dir.to_str().expect("utf-8")]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);

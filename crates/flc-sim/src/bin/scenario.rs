@@ -6,9 +6,9 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
+use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
 use flc_sim::report::{self, RunRecord};
-use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{RunOptions, SimError};
 
@@ -138,7 +138,11 @@ fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, Strin
     let opts = import_options(cli)?;
     let controllers = match &cli.controllers {
         None => vec![None],
-        Some(list) => list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>().map_err(|e| format!("`--controllers`: {e}"))?,
+        Some(list) => list
+            .iter()
+            .map(|c| ControllerKind::parse(c).map(Some))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("`--controllers`: {e}"))?,
     };
     let mut out = Vec::new();
     for (k, c) in controllers.into_iter().enumerate() {
@@ -168,7 +172,9 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
             }
             Err(e) => bad_input(e),
         },
-        None => bad_input(format!("{}: {} runs (a distribution): give `--out DIR` to write one TOML file per run", file.display(), runs.len())),
+        None => {
+            bad_input(format!("{}: {} runs (a distribution): give `--out DIR` to write one TOML file per run", file.display(), runs.len()))
+        }
         Some(dir) => {
             if let Err(e) = std::fs::create_dir_all(dir) {
                 return bad_input(format!("`--out` {}: {e}", dir.display()));
@@ -203,7 +209,11 @@ fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) 
     let points: Vec<SweepPoint> = runs
         .into_iter()
         .enumerate()
-        .map(|(id, r)| SweepPoint { id, values: r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect(), scenario: r.scenario })
+        .map(|(id, r)| SweepPoint {
+            id,
+            values: r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect(),
+            scenario: r.scenario,
+        })
         .collect();
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
     match run_points(&keys, &points, &out, true) {
@@ -246,7 +256,9 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
 fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
     use flc_sim::suite::{Suite, default_root, markdown, summary_table, svg};
     // The cases fix their own parameters, ego and road: the per-file options do not apply.
-    for (given, flag) in [(cli.record.is_some(), "--record"), (!cli.param.is_empty(), "--param"), (cli.ego.is_some(), "--ego"), (cli.json, "--json")] {
+    for (given, flag) in
+        [(cli.record.is_some(), "--record"), (!cli.param.is_empty(), "--param"), (cli.ego.is_some(), "--ego"), (cli.json, "--json")]
+    {
         if given {
             return bad_input(format!("`{flag}` does not apply to `suite` (its cases fix their own; --out writes the reports)"));
         }
@@ -328,7 +340,8 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
             }
         };
         let default = ["flc", "pid", "pipeline"].map(String::from).to_vec();
-        let controllers = cli.controllers.as_ref().unwrap_or(&default).iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
+        let controllers =
+            cli.controllers.as_ref().unwrap_or(&default).iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
         for &speed in &cli.speeds {
             flc_sim::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
         }

@@ -87,11 +87,16 @@ impl CatalogFiles {
                     return Err(ImportError::at(file, dir, format!("catalog directory `{raw}` is not a directory")));
                 }
                 out.dirs.push((kind, raw.clone(), true));
-                let entries = std::fs::read_dir(&canon).map_err(|e| ImportError::at(file, dir, format!("catalog directory `{raw}`: {e}")))?;
+                let entries =
+                    std::fs::read_dir(&canon).map_err(|e| ImportError::at(file, dir, format!("catalog directory `{raw}`: {e}")))?;
                 let mut paths = Vec::new();
                 for (n, entry) in entries.enumerate() {
                     if n >= MAX_DIR_ENTRIES {
-                        return Err(ImportError::at(file, dir, format!("catalog directory `{raw}` has more than {MAX_DIR_ENTRIES} entries")));
+                        return Err(ImportError::at(
+                            file,
+                            dir,
+                            format!("catalog directory `{raw}` has more than {MAX_DIR_ENTRIES} entries"),
+                        ));
                     }
                     let Ok(entry) = entry else { continue };
                     let p = entry.path();

@@ -2,9 +2,9 @@
 //! either, their `ObjectController`; the choice of the ego and the lead and the names the
 //! entities get in the scenario.
 
+use super::Ctx;
 use super::error::ImportError;
 use super::xml;
-use super::Ctx;
 use crate::controllers::ControllerKind;
 use crate::vehicle::VehicleParams;
 
@@ -84,7 +84,8 @@ impl Ctx<'_, '_> {
                     _ => return Err(ImportError::unsupported(file, c)),
                 }
             }
-            let (kind, vehicle, center) = object.ok_or_else(|| ImportError::at(file, so, format!("entity `{name}` has no Vehicle or MiscObject")))?;
+            let (kind, vehicle, center) =
+                object.ok_or_else(|| ImportError::at(file, so, format!("entity `{name}` has no Vehicle or MiscObject")))?;
             out.push(EntityDef { osc_name: name, kind, vehicle, center, controller, file: file.to_string(), line: xml::line(so) });
         }
         Ok(out)
@@ -104,9 +105,10 @@ impl Ctx<'_, '_> {
             name => {
                 // Inline objects may declare their own parameters.
                 self.params.push_scope();
-                let r = self.params.declare_in(node, file, &Default::default()).and_then(|()| {
-                    if name == "Vehicle" { self.vehicle(file, node) } else { self.misc_object(file, node) }
-                });
+                let r = self
+                    .params
+                    .declare_in(node, file, &Default::default())
+                    .and_then(|()| if name == "Vehicle" { self.vehicle(file, node) } else { self.misc_object(file, node) });
                 self.params.pop_scope();
                 r
             }
@@ -181,7 +183,12 @@ impl Ctx<'_, '_> {
                         if wb >= 0.5 && wb <= length {
                             v.wheelbase = wb;
                         } else {
-                            self.warn.note("Axles", file, c, format!("wheelbase {wb} m outside [0.5, length] m: {} m is used", v.wheelbase));
+                            self.warn.note(
+                                "Axles",
+                                file,
+                                c,
+                                format!("wheelbase {wb} m outside [0.5, length] m: {} m is used", v.wheelbase),
+                            );
                         }
                     }
                 }
@@ -199,19 +206,34 @@ impl Ctx<'_, '_> {
             if (0.5..=15.0).contains(&d) {
                 v.max_brake = d;
             } else {
-                self.warn.note("Performance@maxDeceleration", file, node, format!("{d} m/s² outside [0.5, 15]: the default {} m/s² is used", v.max_brake));
+                self.warn.note(
+                    "Performance@maxDeceleration",
+                    file,
+                    node,
+                    format!("{d} m/s² outside [0.5, 15]: the default {} m/s² is used", v.max_brake),
+                );
             }
         }
         if let Some(a) = self.params.num_attr(node, "maxAcceleration", file)? {
             if (0.1..=15.0).contains(&a) {
                 v.max_accel = a;
             } else {
-                self.warn.note("Performance@maxAcceleration", file, node, format!("{a} m/s² outside [0.1, 15]: the default {} m/s² is used", v.max_accel));
+                self.warn.note(
+                    "Performance@maxAcceleration",
+                    file,
+                    node,
+                    format!("{a} m/s² outside [0.1, 15]: the default {} m/s² is used", v.max_accel),
+                );
             }
         }
         if node.attribute("maxSpeed").is_some() {
             self.params.num_attr(node, "maxSpeed", file)?;
-            self.warn.note("Performance@maxSpeed", file, node, "not used (speeds are the story's; flc's controllers have their own limits)".to_string());
+            self.warn.note(
+                "Performance@maxSpeed",
+                file,
+                node,
+                "not used (speeds are the story's; flc's controllers have their own limits)".to_string(),
+            );
         }
         Ok(())
     }
@@ -283,7 +305,12 @@ impl Ctx<'_, '_> {
         }
         match found {
             Some(k) => {
-                self.warn.note("Controller", file, node, format!("`{name}` selects flc's `{}` controller; its other properties are not mapped", k.as_str()));
+                self.warn.note(
+                    "Controller",
+                    file,
+                    node,
+                    format!("`{name}` selects flc's `{}` controller; its other properties are not mapped", k.as_str()),
+                );
             }
             None => {
                 self.warn.note("Controller", file, node, format!("`{name}` names no flc controller: not used"));
@@ -297,7 +324,9 @@ impl Ctx<'_, '_> {
 pub fn choose_ego(defs: &[EntityDef], want: Option<&str>) -> Result<usize, String> {
     let names = || defs.iter().map(|d| d.osc_name.as_str()).collect::<Vec<_>>().join(", ");
     let i = match want {
-        Some(w) => defs.iter().position(|d| d.osc_name == w).ok_or_else(|| format!("no entity `{w}` to be the ego (entities: {})", names()))?,
+        Some(w) => {
+            defs.iter().position(|d| d.osc_name == w).ok_or_else(|| format!("no entity `{w}` to be the ego (entities: {})", names()))?
+        }
         None => defs
             .iter()
             .position(|d| d.osc_name == "Ego")
@@ -376,12 +405,26 @@ mod tests {
     use super::*;
 
     fn def(name: &str, kind: Kind) -> EntityDef {
-        EntityDef { osc_name: name.into(), kind, vehicle: VehicleParams::default(), center: [1.4, 0.0], controller: None, file: String::new(), line: 0 }
+        EntityDef {
+            osc_name: name.into(),
+            kind,
+            vehicle: VehicleParams::default(),
+            center: [1.4, 0.0],
+            controller: None,
+            file: String::new(),
+            line: 0,
+        }
     }
 
     #[test]
     fn ego_lead_and_names() {
-        let defs = vec![def("A", Kind::Vehicle), def("Ego", Kind::Vehicle), def("lead", Kind::Vehicle), def("Obj", Kind::Misc), def("follower2", Kind::Vehicle)];
+        let defs = vec![
+            def("A", Kind::Vehicle),
+            def("Ego", Kind::Vehicle),
+            def("lead", Kind::Vehicle),
+            def("Obj", Kind::Misc),
+            def("follower2", Kind::Vehicle),
+        ];
         assert_eq!(choose_ego(&defs, None), Ok(1));
         assert_eq!(choose_ego(&defs, Some("A")), Ok(0));
         assert!(choose_ego(&defs, Some("Obj")).is_err());

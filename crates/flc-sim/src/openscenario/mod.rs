@@ -228,7 +228,8 @@ impl<'a, 't> Ctx<'a, 't> {
         let entry = self.params.req_str(reference, "entryName", file)?;
         let overrides = catalog::assignments(&self.params, reference, file)?;
         let cats = self.cats;
-        let (efile, node) = cats.find(kinds, &catalog, &entry)?.ok_or_else(|| ImportError::at(file, reference, cats.not_found(&catalog, &entry)))?;
+        let (efile, node) =
+            cats.find(kinds, &catalog, &entry)?.ok_or_else(|| ImportError::at(file, reference, cats.not_found(&catalog, &entry)))?;
         self.enter_catalog(file, reference, &catalog, &entry)?;
         self.params.push_scope();
         let r = self.params.declare_in(node, &efile, &overrides).and_then(|()| f(self, &efile, node));
@@ -305,19 +306,33 @@ fn check_limits(file: &str, entities: Node<'_, '_>, storyboard: Node<'_, '_>) ->
     let is = |d: &Node<'_, '_>, names: &[&str]| d.is_element() && names.contains(&d.tag_name().name());
     let m = storyboard.descendants().filter(|d| is(d, &["Act", "ManeuverGroup", "Maneuver", "Event", "Action"])).count();
     if m > crate::story::MAX_ELEMENTS {
-        return Err(ImportError::at(file, storyboard, format!("{m} storyboard elements, more than the limit of {}", crate::story::MAX_ELEMENTS)));
+        return Err(ImportError::at(
+            file,
+            storyboard,
+            format!("{m} storyboard elements, more than the limit of {}", crate::story::MAX_ELEMENTS),
+        ));
     }
     for t in storyboard.descendants().filter(|d| is(d, &["StartTrigger", "StopTrigger"])) {
         let c = t.descendants().filter(|d| is(d, &["Condition"])).count();
         if c > storyboard::MAX_CONDITIONS {
-            return Err(ImportError::at(file, t, format!("{c} conditions, more than the limit of {} per trigger", storyboard::MAX_CONDITIONS)));
+            return Err(ImportError::at(
+                file,
+                t,
+                format!("{c} conditions, more than the limit of {} per trigger", storyboard::MAX_CONDITIONS),
+            ));
         }
     }
     Ok(())
 }
 
 /// The road the ego's initial position names (following relative positions), if any.
-fn road_hint(ctx: &Ctx<'_, '_>, file: &str, ego: usize, init: &[storyboard::InitState<'_, '_>], names: &[String]) -> Result<Option<String>, ImportError> {
+fn road_hint(
+    ctx: &Ctx<'_, '_>,
+    file: &str,
+    ego: usize,
+    init: &[storyboard::InitState<'_, '_>],
+    names: &[String],
+) -> Result<Option<String>, ImportError> {
     let mut i = ego;
     for _ in 0..=names.len() {
         let Some(pos) = init.get(i).and_then(|s| s.position) else { return Ok(None) };
@@ -417,7 +432,12 @@ fn translate(
         }
         (RoadChoice::Straight, None) => None,
         (RoadChoice::File, None) => {
-            ctx.warn.note("RoadNetwork", file, network.unwrap_or(root), "no LogicFile: a straight road of 4 lanes of 3.5 m along +x".into());
+            ctx.warn.note(
+                "RoadNetwork",
+                file,
+                network.unwrap_or(root),
+                "no LogicFile: a straight road of 4 lanes of 3.5 m along +x".into(),
+            );
             None
         }
         (RoadChoice::File, Some(l)) => {
@@ -442,7 +462,10 @@ fn translate(
         if i != ego && d.controller.is_some() {
             ctx.warn.line(
                 "ObjectController",
-                format!("{}:{}: <ObjectController>: of `{}`, not the ego: not used (scripted entities follow the story)", d.file, d.line, d.osc_name),
+                format!(
+                    "{}:{}: <ObjectController>: of `{}`, not the ego: not used (scripted entities follow the story)",
+                    d.file, d.line, d.osc_name
+                ),
             );
         }
     }
@@ -473,7 +496,11 @@ fn translate(
     let ego_pose = poses.get(ego).copied().unwrap_or_default();
     let (es, et) = geo.road.to_local(ego_pose.x, ego_pose.y);
     let ego_lane = geo.road.lane_at(es, et).ok_or_else(|| {
-        ImportError::at(file, init_states.get(ego).and_then(|s| s.position).unwrap_or(root), format!("the ego is not in a lane of road `{}`", geo.road.id))
+        ImportError::at(
+            file,
+            init_states.get(ego).and_then(|s| s.position).unwrap_or(root),
+            format!("the ego is not in a lane of road `{}`", geo.road.id),
+        )
     })?;
     let (track, lanes) = road::to_track(&geo.road, ego_lane, &stem)?;
     if let Some(note) = &lanes.note {
@@ -491,7 +518,11 @@ fn translate(
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if d.kind == Kind::Vehicle && p.heading.abs() > std::f64::consts::FRAC_PI_2 {
             let at = init_states.get(i).and_then(|s| s.position).unwrap_or(entities);
-            return Err(ImportError::at(file, at, format!("`{}` faces against the ego's road direction: oncoming traffic is not supported", d.osc_name)));
+            return Err(ImportError::at(
+                file,
+                at,
+                format!("`{}` faces against the ego's road direction: oncoming traffic is not supported", d.osc_name),
+            ));
         }
     }
     let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width)
@@ -521,7 +552,14 @@ fn translate(
         }
         let name = names.get(i).cloned().unwrap_or_default();
         if i == lead {
-            s.lead = LeadSpec { initial_speed: speed_of(i), vehicle: d.vehicle, phases: Vec::new(), s: Some(p.s), offset: p.lateral, heading: p.heading };
+            s.lead = LeadSpec {
+                initial_speed: speed_of(i),
+                vehicle: d.vehicle,
+                phases: Vec::new(),
+                s: Some(p.s),
+                offset: p.lateral,
+                heading: p.heading,
+            };
         } else {
             s.vehicles.push(ScriptedVehicle {
                 name,
@@ -605,7 +643,13 @@ fn translate(
     let infos = defs
         .iter()
         .zip(&names)
-        .map(|(d, n)| EntityInfo { osc_name: d.osc_name.clone(), flc_name: n.clone(), ref_offset: d.center, length: d.vehicle.length, width: d.vehicle.width })
+        .map(|(d, n)| EntityInfo {
+            osc_name: d.osc_name.clone(),
+            flc_name: n.clone(),
+            ref_offset: d.center,
+            length: d.vehicle.length,
+            width: d.vehicle.width,
+        })
         .collect();
     Ok(Imported { scenario: s, params: opts.params.clone(), entities: infos })
 }
@@ -621,7 +665,13 @@ fn set_cruise_speed(s: &mut Scenario, v: f64) {
 }
 
 /// The flc controller an `AssignControllerAction` in Init names for the ego, if any.
-fn init_controller(ctx: &mut Ctx<'_, '_>, file: &str, init: Node<'_, '_>, names: &[String], ego: usize) -> Result<Option<ControllerKind>, ImportError> {
+fn init_controller(
+    ctx: &mut Ctx<'_, '_>,
+    file: &str,
+    init: Node<'_, '_>,
+    names: &[String],
+    ego: usize,
+) -> Result<Option<ControllerKind>, ImportError> {
     let Some(ego_name) = names.get(ego) else { return Ok(None) };
     let mut found = None;
     for actions in xml::elements(init) {
@@ -832,8 +882,14 @@ mod tests {
         assert!(close(s.follower.initial_speed, 13.888889));
         assert!(close(s.lead.s.unwrap_or(0.0), 111.4) && close(s.lead.offset, 0.0));
         assert!(close(s.lead.initial_speed, 13.888889));
-        assert_eq!((s.lead.vehicle.length, s.lead.vehicle.width, s.lead.vehicle.max_brake, s.lead.vehicle.max_accel), (4.5, 1.8, 10.0, 10.0));
-        assert_eq!(run.entities[1], EntityInfo { osc_name: "Target".into(), flc_name: "lead".into(), ref_offset: [1.4, 0.0], length: 4.5, width: 1.8 });
+        assert_eq!(
+            (s.lead.vehicle.length, s.lead.vehicle.width, s.lead.vehicle.max_brake, s.lead.vehicle.max_accel),
+            (4.5, 1.8, 10.0, 10.0)
+        );
+        assert_eq!(
+            run.entities[1],
+            EntityInfo { osc_name: "Target".into(), flc_name: "lead".into(), ref_offset: [1.4, 0.0], length: 4.5, width: 1.8 }
+        );
         assert!(matches!(&s.track, TrackSpec::Custom(t) if t.lanes == 3 && t.ego_lane == 1 && t.lane_width == 3.5));
         assert!(matches!(s.stop.trigger.as_ref().and_then(|t| t.conditions().next()).map(|c| &c.kind),
             Some(ConditionKind::SimulationTime { value, rule: Rule::GreaterThan, .. }) if *value == 6.0));
@@ -853,11 +909,15 @@ mod tests {
 
     #[test]
     fn parameters_with_overrides() {
-        let opts = ImportOptions { params: vec![("Decel".into(), "4".into()), ("FinalSpeed".into(), "${1 + 1}".into())], ..ImportOptions::default() };
+        let opts = ImportOptions {
+            params: vec![("Decel".into(), "4".into()), ("FinalSpeed".into(), "${1 + 1}".into())],
+            ..ImportOptions::default()
+        };
         // Overrides are literal values (an expression is not evaluated: an error for a double).
         let e = import(&fixtures().join("speed_linear_rate.xosc"), &opts).expect_err("literal");
         assert!(e.to_string().contains("FinalSpeed"), "{e}");
-        let opts = ImportOptions { params: vec![("Decel".into(), "4".into()), ("FinalSpeed".into(), "2".into())], ..ImportOptions::default() };
+        let opts =
+            ImportOptions { params: vec![("Decel".into(), "4".into()), ("FinalSpeed".into(), "2".into())], ..ImportOptions::default() };
         let imp = fixture("speed_linear_rate.xosc", &opts);
         assert!(matches!(find_action(story_of(&imp), "BrakeAction"),
             Action::Speed { speed: Some(v), transition: Transition { value, .. }, .. } if *v == 2.0 && *value == 4.0));
@@ -905,7 +965,14 @@ mod tests {
         // The ego at lane -2, s 100: the centreline; offsets from it (+ left) and s of centres.
         assert!(close(s.follower.start_s.unwrap_or(0.0), 101.4));
         let v = |n: &str| s.vehicles.iter().find(|v| v.name == n).cloned().unwrap_or_else(|| panic!("{n}"));
-        let expect = [("World", 131.4, 3.5), ("Road", 161.4, -3.5), ("RelObj", 161.4, 3.5), ("RelLane", 181.4, 3.8), ("RelLaneDs", 61.4, -3.7), ("RelWorld", 211.4, 3.5)];
+        let expect = [
+            ("World", 131.4, 3.5),
+            ("Road", 161.4, -3.5),
+            ("RelObj", 161.4, 3.5),
+            ("RelLane", 181.4, 3.8),
+            ("RelLaneDs", 61.4, -3.7),
+            ("RelWorld", 211.4, 3.5),
+        ];
         for (n, x, off) in expect {
             let veh = v(n);
             assert!(close(veh.s, x) && close(veh.offset.unwrap_or(f64::NAN), off), "{n}: {} {:?}", veh.s, veh.offset);
@@ -937,18 +1004,27 @@ mod tests {
         assert_eq!(c[0][0].edge, Edge::Rising);
         assert!(matches!(&c[0][0].kind, ConditionKind::TimeHeadway { entity, of, freespace: true, value, rule: Rule::LessThan, .. }
             if entity == "ego" && of == "lead" && *value == 1.0));
-        assert!(matches!(&only("LeadBrake")[0][0].kind, ConditionKind::RelativeDistance { distance: DistanceType::Longitudinal, freespace: true, .. }));
+        assert!(matches!(
+            &only("LeadBrake")[0][0].kind,
+            ConditionKind::RelativeDistance { distance: DistanceType::Longitudinal, freespace: true, .. }
+        ));
         let ego_stop = only("EgoStop");
         assert_eq!(ego_stop.len(), 1);
         assert_eq!(ego_stop[0].len(), 2);
         assert!(matches!(&ego_stop[0][0].kind, ConditionKind::Ttc { .. }));
-        assert!(matches!(&ego_stop[0][1].kind, ConditionKind::ElementState { element, state: ElementEvent::RunningState } if element == "LeadStop"));
+        assert!(
+            matches!(&ego_stop[0][1].kind, ConditionKind::ElementState { element, state: ElementEvent::RunningState } if element == "LeadStop")
+        );
         assert!(matches!(&only("LeadGo")[0][0].kind, ConditionKind::StandStill { duration, .. } if *duration == 1.0));
         let resume = only("EgoResume");
         assert_eq!(resume[0][0].delay, 1.0);
         assert!(matches!(&resume[0][0].kind, ConditionKind::ElementState { state: ElementEvent::EndTransition, .. }));
-        assert!(matches!(&only("SlowAccel")[0][0].kind, ConditionKind::Acceleration { value, rule: Rule::GreaterThan, .. } if *value == 2.0));
-        assert!(matches!(&only("SlowOffset")[0][0].kind, ConditionKind::RelativeSpeed { entity, of, .. } if entity == "Side" && of == "Slow"));
+        assert!(
+            matches!(&only("SlowAccel")[0][0].kind, ConditionKind::Acceleration { value, rule: Rule::GreaterThan, .. } if *value == 2.0)
+        );
+        assert!(
+            matches!(&only("SlowOffset")[0][0].kind, ConditionKind::RelativeSpeed { entity, of, .. } if entity == "Side" && of == "Slow")
+        );
         assert!(matches!(&only("SideCruise")[0][0].kind, ConditionKind::TraveledDistance { value, .. } if *value == 200.0));
         // Positions: world (350, -1.75) is s 350 on the track (ego lane -2 at y = -5.25),
         // lateral +3.5; shifted by the centre offset (freespace = false, reference point).
@@ -959,19 +1035,29 @@ mod tests {
             other => panic!("{other:?}"),
         }
         match &only("SlowReach")[0][0].kind {
-            ConditionKind::ReachPosition { s, lateral: Some(l), tolerance, .. } => assert!(close(*s, 201.4) && close(*l, -3.5) && *tolerance == 3.0),
+            ConditionKind::ReachPosition { s, lateral: Some(l), tolerance, .. } => {
+                assert!(close(*s, 201.4) && close(*l, -3.5) && *tolerance == 3.0)
+            }
             other => panic!("{other:?}"),
         }
         // Variables and parameters.
-        assert!(matches!(&only("AuxVar")[0][0].kind, ConditionKind::Variable { variable, value: VarValue::Num(v), rule: Rule::EqualTo } if variable == "Phase" && *v == 1.0));
+        assert!(
+            matches!(&only("AuxVar")[0][0].kind, ConditionKind::Variable { variable, value: VarValue::Num(v), rule: Rule::EqualTo } if variable == "Phase" && *v == 1.0)
+        );
         let aux = only("AuxParam");
-        assert!(matches!(&aux[0][0].kind, ConditionKind::Variable { variable, value: VarValue::Text(t), .. } if variable == "param:AuxMode" && t == "fast"));
+        assert!(
+            matches!(&aux[0][0].kind, ConditionKind::Variable { variable, value: VarValue::Text(t), .. } if variable == "param:AuxMode" && t == "fast")
+        );
         let or = only("AuxOr");
         assert_eq!((or.len(), or[0].len(), or[1].len()), (2, 1, 1));
         assert_eq!(or[0][0].delay, 2.0);
-        assert!(matches!(find_action(st, "SideAccelAction2"), Action::VariableSet { variable, value: VarValue::Num(v) } if variable == "Phase" && *v == 1.0));
+        assert!(
+            matches!(find_action(st, "SideAccelAction2"), Action::VariableSet { variable, value: VarValue::Num(v) } if variable == "Phase" && *v == 1.0)
+        );
         assert!(matches!(find_action(st, "AuxParamAction2"), Action::VariableModify { add: Some(a), multiply: None, .. } if *a == 1.0));
-        assert!(matches!(find_action(st, "SlowOffsetAction"), Action::LaneOffset { offset, of: None, shape: Shape::Sinusoidal, max_lateral_acc } if *offset == -0.5 && *max_lateral_acc == 0.3));
+        assert!(
+            matches!(find_action(st, "SlowOffsetAction"), Action::LaneOffset { offset, of: None, shape: Shape::Sinusoidal, max_lateral_acc } if *offset == -0.5 && *max_lateral_acc == 0.3)
+        );
         let vars: Vec<(&str, &VarValue)> = st.variables.iter().map(|v| (v.name.as_str(), &v.value)).collect();
         assert_eq!(vars, vec![("Phase", &VarValue::Num(0.0)), ("param:AuxMode", &VarValue::Text("fast".into()))]);
     }
@@ -980,7 +1066,15 @@ mod tests {
     fn lane_changes_and_priorities() {
         let imp = fixture("lane_change.xosc", &ImportOptions::default());
         let st = story_of(&imp);
-        let lc: Vec<&Action> = st.acts.iter().flat_map(|a| &a.groups).flat_map(|g| &g.maneuvers).flat_map(|m| &m.events).flat_map(|e| &e.actions).map(|a| &a.action).collect();
+        let lc: Vec<&Action> = st
+            .acts
+            .iter()
+            .flat_map(|a| &a.groups)
+            .flat_map(|g| &g.maneuvers)
+            .flat_map(|m| &m.events)
+            .flat_map(|e| &e.actions)
+            .map(|a| &a.action)
+            .collect();
         // A: lane -1 -> absolute lane -2 (the ego lane: offset 0), sinusoidal over 3 s.
         assert!(lc.iter().any(|a| matches!(a, Action::LaneChange { offset: Some(o), transition: Transition { shape: Shape::Sinusoidal, dimension: Dimension::Time, value }, .. } if *o == 0.0 && *value == 3.0)));
         // B: relative -1 to itself, linear over 60 m; C: +1 with targetLaneOffset 0.5.
@@ -1009,9 +1103,18 @@ mod tests {
         // A teleport outside Init, a continuous distance action, an EndOfRoadCondition, a
         // DynamicConstraints: errors too.
         let cases = [
-            ("<Action name=\"X\"><PrivateAction><TeleportAction><Position><WorldPosition x=\"1\" y=\"2\"/></Position></TeleportAction></PrivateAction></Action>", "TeleportAction"),
-            ("<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"true\"/></LongitudinalAction></PrivateAction></Action>", "LongitudinalDistanceAction"),
-            ("<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"false\"><DynamicConstraints maxSpeed=\"3\"/></LongitudinalDistanceAction></LongitudinalAction></PrivateAction></Action>", "DynamicConstraints"),
+            (
+                "<Action name=\"X\"><PrivateAction><TeleportAction><Position><WorldPosition x=\"1\" y=\"2\"/></Position></TeleportAction></PrivateAction></Action>",
+                "TeleportAction",
+            ),
+            (
+                "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"true\"/></LongitudinalAction></PrivateAction></Action>",
+                "LongitudinalDistanceAction",
+            ),
+            (
+                "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"false\"><DynamicConstraints maxSpeed=\"3\"/></LongitudinalDistanceAction></LongitudinalAction></PrivateAction></Action>",
+                "DynamicConstraints",
+            ),
             ("<Action name=\"X\"><GlobalAction><TrafficAction/></GlobalAction></Action>", "TrafficAction"),
         ];
         for (action, element) in cases {
@@ -1086,7 +1189,9 @@ mod tests {
             assert_eq!((groups.len(), groups[0]), shape, "{rule}: {groups:?}");
             let first = t.conditions().next().expect("condition");
             assert_eq!((first.delay, first.edge), (0.5, Edge::Rising));
-            assert!(matches!(find_action(st, "X"), Action::Speed { of: Some(o), factor: Some(f), continuous: true, transition: Transition { shape: Shape::Cubic, dimension: Dimension::Distance, .. }, .. } if o == "lead" && *f == 1.5));
+            assert!(
+                matches!(find_action(st, "X"), Action::Speed { of: Some(o), factor: Some(f), continuous: true, transition: Transition { shape: Shape::Cubic, dimension: Dimension::Distance, .. }, .. } if o == "lead" && *f == 1.5)
+            );
         }
         let _ = std::fs::remove_dir_all(&d);
     }
@@ -1118,9 +1223,13 @@ mod tests {
             "<OpenSCENARIO><Catalog name=\"V\"><Vehicle name=\"self\"><BoundingBox><Center x=\"1\" y=\"0\" z=\"0\"/><Dimensions width=\"2\" length=\"4\" height=\"1\"/></BoundingBox>\
              <CatalogReference catalogName=\"V\" entryName=\"self\"/></Vehicle></Catalog></OpenSCENARIO>",
         );
-        let ents = format!("{}<ScenarioObject name=\"T\"><CatalogReference catalogName=\"V\" entryName=\"self\"/></ScenarioObject>\n", car("Ego"));
+        let ents =
+            format!("{}<ScenarioObject name=\"T\"><CatalogReference catalogName=\"V\" entryName=\"self\"/></ScenarioObject>\n", car("Ego"));
         let init = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 10.0));
-        let text = xosc("", &ents, &init, "").replace("<CatalogLocations/>", "<CatalogLocations><VehicleCatalog><Directory path=\"cat\"/></VehicleCatalog></CatalogLocations>");
+        let text = xosc("", &ents, &init, "").replace(
+            "<CatalogLocations/>",
+            "<CatalogLocations><VehicleCatalog><Directory path=\"cat\"/></VehicleCatalog></CatalogLocations>",
+        );
         let e = import(&write(&d, "c.xosc", &text), &ImportOptions::default()).expect_err("self reference");
         assert!(e.to_string().contains("v.xosc:1: <CatalogReference>: unsupported"), "{e}");
         let _ = std::fs::remove_dir_all(&d);
@@ -1154,7 +1263,9 @@ mod tests {
         let st = story_of(&imp);
         assert_eq!(st.acts[0].name, "init");
         assert_eq!(st.acts[0].groups[0].actors, vec!["lead_osc".to_string()]);
-        assert!(matches!(find_action(st, "init/lead_osc/0"), Action::Speed { speed: Some(v), transition: Transition { shape: Shape::Linear, .. }, .. } if *v == 4.0));
+        assert!(
+            matches!(find_action(st, "init/lead_osc/0"), Action::Speed { speed: Some(v), transition: Transition { shape: Shape::Linear, .. }, .. } if *v == 4.0)
+        );
         assert!(close(run.scenario.vehicles[0].initial_speed, 10.0));
         let _ = std::fs::remove_dir_all(&d);
     }
@@ -1177,14 +1288,17 @@ mod tests {
         let st = story_of(&imp);
         // Init multiplies the initial value (2 * 3); the story sets it.
         assert_eq!(st.variables, vec![Variable { name: "param:Mode".into(), value: VarValue::Num(6.0) }]);
-        assert!(matches!(find_action(st, "P"), Action::VariableSet { variable, value: VarValue::Num(v) } if variable == "param:Mode" && *v == 7.0));
+        assert!(
+            matches!(find_action(st, "P"), Action::VariableSet { variable, value: VarValue::Num(v) } if variable == "param:Mode" && *v == 7.0)
+        );
         let t = find_event(st, "E").start.as_ref().expect("trigger");
         assert!(matches!(&t.conditions().next().expect("c").kind, ConditionKind::Variable { rule: Rule::GreaterOrEqual, .. }));
         // Errors: a lane change by rate, a TTC to a position, a trajectory coordinate system, a
         // position on another road, a relative position in a condition.
         let lc = "<Action name=\"X\"><PrivateAction><LateralAction><LaneChangeAction><LaneChangeActionDynamics dynamicsShape=\"linear\" dynamicsDimension=\"rate\" value=\"1\"/>\
                   <LaneChangeTarget><AbsoluteTargetLane value=\"-2\"/></LaneChangeTarget></LaneChangeAction></LateralAction></PrivateAction></Action>";
-        let text = xosc("", &ents, &format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 10.0)), &story("T", lc, &at_time(1.0)));
+        let text =
+            xosc("", &ents, &format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 10.0)), &story("T", lc, &at_time(1.0)));
         let e = import(&write(&d, "p.xosc", &text), &ImportOptions::default()).expect_err("rate");
         assert!(e.to_string().contains("<LaneChangeActionDynamics>: a lane change by rate"), "{e}");
         let speed = "<Action name=\"X\"><PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape=\"step\" dynamicsDimension=\"time\" value=\"0\"/>\
@@ -1200,12 +1314,23 @@ mod tests {
                 "<TimeToCollisionCondition value=\"3\" freespace=\"true\" rule=\"lessThan\"><TimeToCollisionConditionTarget><Position><WorldPosition x=\"1\" y=\"1\"/></Position></TimeToCollisionConditionTarget></TimeToCollisionCondition>",
                 "<Position>: unsupported",
             ),
-            ("<RelativeDistanceCondition entityRef=\"T\" value=\"3\" freespace=\"true\" rule=\"lessThan\" relativeDistanceType=\"longitudinal\" coordinateSystem=\"trajectory\"/>", "coordinateSystem=\"trajectory\""),
-            ("<ReachPositionCondition tolerance=\"1\"><Position><RelativeRoadPosition entityRef=\"T\" ds=\"1\" dt=\"0\"/></Position></ReachPositionCondition>", "<RelativeRoadPosition>: a position relative"),
+            (
+                "<RelativeDistanceCondition entityRef=\"T\" value=\"3\" freespace=\"true\" rule=\"lessThan\" relativeDistanceType=\"longitudinal\" coordinateSystem=\"trajectory\"/>",
+                "coordinateSystem=\"trajectory\"",
+            ),
+            (
+                "<ReachPositionCondition tolerance=\"1\"><Position><RelativeRoadPosition entityRef=\"T\" ds=\"1\" dt=\"0\"/></Position></ReachPositionCondition>",
+                "<RelativeRoadPosition>: a position relative",
+            ),
             ("<SpeedCondition value=\"3\" rule=\"lessThan\" direction=\"lateral\"/>", "direction=\"lateral\""),
         ];
         for (inner, want) in cases {
-            let text = xosc("", &ents, &format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 10.0)), &story("T", speed, &by_entity(inner)));
+            let text = xosc(
+                "",
+                &ents,
+                &format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 10.0)),
+                &story("T", speed, &by_entity(inner)),
+            );
             let e = import(&write(&d, "p.xosc", &text), &ImportOptions::default()).expect_err(want);
             assert!(e.to_string().contains(want), "{want}: {e}");
         }
@@ -1214,7 +1339,8 @@ mod tests {
                     <lanes><laneSection s=\"0\"><center><lane id=\"0\" type=\"none\"/></center><right><lane id=\"-1\" type=\"driving\"><width sOffset=\"0\" a=\"3.5\" b=\"0\" c=\"0\" d=\"0\"/></lane></right></laneSection></lanes></road></OpenDRIVE>";
         write(&d, "r.xodr", road);
         let t_on_2 = place("T", -1, 60.0, 10.0).replace("roadId=\"1\"", "roadId=\"2\"");
-        let text = xosc("", &ents, &format!("{}{t_on_2}", place("Ego", -1, 20.0, 10.0)), "").replace("<RoadNetwork/>", "<RoadNetwork><LogicFile filepath=\"r.xodr\"/></RoadNetwork>");
+        let text = xosc("", &ents, &format!("{}{t_on_2}", place("Ego", -1, 20.0, 10.0)), "")
+            .replace("<RoadNetwork/>", "<RoadNetwork><LogicFile filepath=\"r.xodr\"/></RoadNetwork>");
         let e = import(&write(&d, "p.xosc", &text), &ImportOptions::default()).expect_err("road 2");
         assert!(e.to_string().contains("only one road"), "{e}");
         // The same file with --road straight: any road id is the straight road.
@@ -1244,7 +1370,10 @@ mod tests {
             let v: f64 = run.params.iter().find(|(n, _)| n == "V").map_or(f64::NAN, |(_, v)| v.parse().unwrap_or(f64::NAN));
             let dd: f64 = run.params.iter().find(|(n, _)| n == "D").map_or(f64::NAN, |(_, v)| v.parse().unwrap_or(f64::NAN));
             let st = run.scenario.story.as_ref().expect("story");
-            assert!(matches!(find_action(st, "X"), Action::Speed { speed: Some(s), transition: Transition { value, .. }, .. } if *s == v && *value == dd), "{i}");
+            assert!(
+                matches!(find_action(st, "X"), Action::Speed { speed: Some(s), transition: Transition { value, .. }, .. } if *s == v && *value == dd),
+                "{i}"
+            );
         }
         let combos: Vec<(String, String)> = imp.runs.iter().map(|r| (r.params[0].1.clone(), r.params[1].1.clone())).collect();
         assert_eq!(combos.len(), 4);

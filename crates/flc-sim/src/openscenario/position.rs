@@ -203,10 +203,13 @@ pub fn resolve(
         "RelativeLanePosition" => {
             let r = reference(p)?;
             let (s0, t0) = geo.road.to_local(r.x, r.y);
-            let from = geo
-                .road
-                .lane_at(s0, t0)
-                .ok_or_else(|| ImportError::at(file, p, format!("the reference entity is not in a lane (road `{}`, s = {s0:.2} m, t = {t0:.2} m)", geo.road.id)))?;
+            let from = geo.road.lane_at(s0, t0).ok_or_else(|| {
+                ImportError::at(
+                    file,
+                    p,
+                    format!("the reference entity is not in a lane (road `{}`, s = {s0:.2} m, t = {t0:.2} m)", geo.road.id),
+                )
+            })?;
             let d = params.req_int(p, "dLane", file)?;
             let d = i32::try_from(d.clamp(-1000, 1000)).unwrap_or(0);
             let to = shift_lane(from, d);
@@ -217,10 +220,9 @@ pub fn resolve(
             };
             let s = s0 + if from > 0 { -ds } else { ds };
             geo.check_s(file, p, s)?;
-            let centre = geo
-                .road
-                .lane_center_t(to, s)
-                .ok_or_else(|| ImportError::at(file, p, format!("lane {to} ({from} + {d}) does not exist at s = {s} m of road `{}`", geo.road.id)))?;
+            let centre = geo.road.lane_center_t(to, s).ok_or_else(|| {
+                ImportError::at(file, p, format!("lane {to} ({from} + {d}) does not exist at s = {s} m of road `{}`", geo.road.id))
+            })?;
             let sign = if to > 0 { -1.0 } else { 1.0 };
             Ok(on_road(s, centre + sign * num("offset")?.unwrap_or(0.0), None))
         }
@@ -277,14 +279,30 @@ mod tests {
         let geo = Geo::straight(3, 3.5, 2000.0).expect("road");
         let none = |_: &str| None;
         close(at(&geo, "<Position><WorldPosition x=\"3\" y=\"-1\" h=\"0.1\"/></Position>", &none).expect("world"), 3.0, -1.0, 0.1);
-        close(at(&geo, "<Position><LanePosition roadId=\"1\" laneId=\"-2\" s=\"100\" offset=\"0.5\"/></Position>", &none).expect("lane"), 100.0, -4.75, 0.0);
+        close(
+            at(&geo, "<Position><LanePosition roadId=\"1\" laneId=\"-2\" s=\"100\" offset=\"0.5\"/></Position>", &none).expect("lane"),
+            100.0,
+            -4.75,
+            0.0,
+        );
         close(at(&geo, "<Position><RoadPosition roadId=\"1\" s=\"160\" t=\"-8.75\"/></Position>", &none).expect("road"), 160.0, -8.75, 0.0);
         let ego = Pose { x: 100.0, y: -5.25, h: 0.0 };
         let refs = move |n: &str| (n == "Ego").then_some(ego);
-        close(at(&geo, "<Position><RelativeRoadPosition entityRef=\"Ego\" ds=\"30\" dt=\"0\"/></Position>", &refs).expect("rr"), 130.0, -5.25, 0.0);
-        close(at(&geo, "<Position><RelativeObjectPosition entityRef=\"Ego\" dx=\"60\" dy=\"3.5\"/></Position>", &refs).expect("ro"), 160.0, -1.75, 0.0);
         close(
-            at(&geo, "<Position><RelativeLanePosition entityRef=\"Ego\" dLane=\"1\" ds=\"80\" offset=\"0.3\"/></Position>", &refs).expect("rl"),
+            at(&geo, "<Position><RelativeRoadPosition entityRef=\"Ego\" ds=\"30\" dt=\"0\"/></Position>", &refs).expect("rr"),
+            130.0,
+            -5.25,
+            0.0,
+        );
+        close(
+            at(&geo, "<Position><RelativeObjectPosition entityRef=\"Ego\" dx=\"60\" dy=\"3.5\"/></Position>", &refs).expect("ro"),
+            160.0,
+            -1.75,
+            0.0,
+        );
+        close(
+            at(&geo, "<Position><RelativeLanePosition entityRef=\"Ego\" dLane=\"1\" ds=\"80\" offset=\"0.3\"/></Position>", &refs)
+                .expect("rl"),
             180.0,
             -1.45,
             0.0,
@@ -296,7 +314,12 @@ mod tests {
             -8.95,
             0.0,
         );
-        close(at(&geo, "<Position><RelativeWorldPosition entityRef=\"Ego\" dx=\"80\" dy=\"0\"/></Position>", &refs).expect("rw"), 180.0, -5.25, 0.0);
+        close(
+            at(&geo, "<Position><RelativeWorldPosition entityRef=\"Ego\" dx=\"80\" dy=\"0\"/></Position>", &refs).expect("rw"),
+            180.0,
+            -5.25,
+            0.0,
+        );
         // Orientation: relative to the lane, or absolute.
         close(
             at(&geo, "<Position><LanePosition roadId=\"1\" laneId=\"-1\" s=\"10\"><Orientation type=\"relative\" h=\"0.2\"/></LanePosition></Position>", &none)

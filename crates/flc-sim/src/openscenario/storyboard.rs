@@ -4,13 +4,15 @@
 
 use std::collections::BTreeMap;
 
+use super::Ctx;
 use super::error::ImportError;
 use super::expr::Value;
 use super::position::{self, Geo};
 use super::road::LaneMap;
 use super::xml;
-use super::Ctx;
-use crate::story::{Act, Action, Dimension, EgoMode, Event, Maneuver, ManeuverGroup, Priority, Shape, StoryAction, Transition, MAX_ELEMENTS};
+use crate::story::{
+    Act, Action, Dimension, EgoMode, Event, MAX_ELEMENTS, Maneuver, ManeuverGroup, Priority, Shape, StoryAction, Transition,
+};
 use crate::track::Track;
 use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, Rule, Trigger, VarValue};
 
@@ -154,7 +156,12 @@ pub fn speed_action<'a, 'i>(private: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
 
 /// Reads `Init`'s per-entity state: teleports and immediate speed actions (by OpenSCENARIO name;
 /// `entities` are the names in order). The other init actions are [`Sb::init_act`]'s.
-pub fn init_state<'a, 'i>(ctx: &mut Ctx<'_, '_>, file: &str, init: Node<'a, 'i>, entities: &[String]) -> Result<Vec<InitState<'a, 'i>>, ImportError> {
+pub fn init_state<'a, 'i>(
+    ctx: &mut Ctx<'_, '_>,
+    file: &str,
+    init: Node<'a, 'i>,
+    entities: &[String],
+) -> Result<Vec<InitState<'a, 'i>>, ImportError> {
     let mut out: Vec<InitState<'a, 'i>> = vec![InitState::default(); entities.len()];
     for actions in xml::elements(init) {
         if actions.tag_name().name() != "Actions" {
@@ -177,7 +184,8 @@ pub fn init_state<'a, 'i>(ctx: &mut Ctx<'_, '_>, file: &str, init: Node<'a, 'i>,
                     if !immediate_speed(ctx, file, sa)? {
                         continue;
                     }
-                    let target = xml::child(sa, "SpeedActionTarget").ok_or_else(|| ImportError::at(file, sa, "<SpeedActionTarget> is missing"))?;
+                    let target =
+                        xml::child(sa, "SpeedActionTarget").ok_or_else(|| ImportError::at(file, sa, "<SpeedActionTarget> is missing"))?;
                     if let Some(a) = xml::child(target, "AbsoluteTargetSpeed") {
                         st.speed = Some(ctx.params.req_num(a, "value", file)?);
                         st.relative_speed = None;
@@ -212,7 +220,11 @@ pub fn init_state<'a, 'i>(ctx: &mut Ctx<'_, '_>, file: &str, init: Node<'a, 'i>,
     if let Some((i, s)) = out.iter().enumerate().find(|(_, s)| s.relative_speed.is_some()) {
         let of = s.relative_speed.as_ref().map(|r| r.0.clone()).unwrap_or_default();
         let e = entities.get(i).cloned().unwrap_or_default();
-        return Err(ImportError::at(file, init, format!("the initial speed of `{e}` is relative to `{of}`, which has no absolute initial speed")));
+        return Err(ImportError::at(
+            file,
+            init,
+            format!("the initial speed of `{e}` is relative to `{of}`, which has no absolute initial speed"),
+        ));
     }
     Ok(out)
 }
@@ -267,7 +279,12 @@ impl Sb<'_, '_, '_> {
                                     if self.ego_mode == EgoMode::Controller && action == (Action::Controller { longitudinal: false }) {
                                         acts.push((pa, action));
                                     } else {
-                                        self.ctx.warn.note("Init/ActivateControllerAction", file, act, "no effect at t = 0 (flc's controller or the story already drives the ego)".into());
+                                        self.ctx.warn.note(
+                                            "Init/ActivateControllerAction",
+                                            file,
+                                            act,
+                                            "no effect at t = 0 (flc's controller or the story already drives the ego)".into(),
+                                        );
                                     }
                                 }
                                 for x in xml::elements(c) {
@@ -415,7 +432,11 @@ impl Sb<'_, '_, '_> {
         let name = self.ctx.params.str_attr(node, "name", file)?.unwrap_or_else(|| format!("{act}/group{i}"));
         if let Some(n) = self.ctx.params.int_attr(node, "maximumExecutionCount", file)? {
             if n != 1 {
-                return Err(ImportError::at(file, node, format!("maximumExecutionCount = {n} of a ManeuverGroup is not supported (only 1)")));
+                return Err(ImportError::at(
+                    file,
+                    node,
+                    format!("maximumExecutionCount = {n} of a ManeuverGroup is not supported (only 1)"),
+                ));
             }
         }
         let mut g = ManeuverGroup { name, actors: Vec::new(), maneuvers: Vec::new() };
@@ -431,7 +452,11 @@ impl Sb<'_, '_, '_> {
                     }
                 }
                 if g.actors.is_empty() && self.ctx.params.bool_attr(c, "selectTriggeringEntities", file)? == Some(true) {
-                    return Err(ImportError::at(file, c, "actors chosen by selectTriggeringEntities are not supported: name them with EntityRef"));
+                    return Err(ImportError::at(
+                        file,
+                        c,
+                        "actors chosen by selectTriggeringEntities are not supported: name them with EntityRef",
+                    ));
                 }
             }
         }
@@ -454,7 +479,14 @@ impl Sb<'_, '_, '_> {
         Ok(g)
     }
 
-    fn catalog_maneuver(&mut self, file: &str, node: Node<'_, '_>, group: &str, k: usize, actors: &[String]) -> Result<Maneuver, ImportError> {
+    fn catalog_maneuver(
+        &mut self,
+        file: &str,
+        node: Node<'_, '_>,
+        group: &str,
+        k: usize,
+        actors: &[String],
+    ) -> Result<Maneuver, ImportError> {
         // The entry is read inside the reference's parameter scope.
         let cats = self.ctx.cats;
         let catalog = self.ctx.params.req_str(node, "catalogName", file)?;
@@ -630,7 +662,12 @@ impl Sb<'_, '_, '_> {
         }
         let longitudinal = self.ctx.params.bool_attr(node, "longitudinal", file)?.unwrap_or(true);
         if self.ego_mode == EgoMode::Scripted {
-            self.ctx.warn.note("ActivateControllerAction", file, node, "--ego-mode scripted: the ego follows the story; controller activations hand nothing over".into());
+            self.ctx.warn.note(
+                "ActivateControllerAction",
+                file,
+                node,
+                "--ego-mode scripted: the ego follows the story; controller activations hand nothing over".into(),
+            );
             return Ok(Action::Controller { longitudinal: false });
         }
         Ok(Action::Controller { longitudinal })
@@ -679,9 +716,14 @@ impl Sb<'_, '_, '_> {
         let (transition, x) = self.dynamics_and_target(file, node, ("SpeedActionDynamics", "SpeedActionTarget"), true)?;
         let p = &self.ctx.params;
         match x.tag_name().name() {
-            "AbsoluteTargetSpeed" => {
-                Ok(Action::Speed { speed: Some(p.req_num(x, "value", file)?), of: None, delta: None, factor: None, continuous: false, transition })
-            }
+            "AbsoluteTargetSpeed" => Ok(Action::Speed {
+                speed: Some(p.req_num(x, "value", file)?),
+                of: None,
+                delta: None,
+                factor: None,
+                continuous: false,
+                transition,
+            }),
             "RelativeTargetSpeed" => {
                 let of = self.entity(file, x, "entityRef")?;
                 let p = &self.ctx.params;
@@ -713,11 +755,12 @@ impl Sb<'_, '_, '_> {
         let distance = p.num_attr(node, "distance", file)?;
         let time_gap = p.num_attr(node, "timeGap", file)?;
         let freespace = p.req_bool(node, "freespace", file)?;
-        let ahead = match p.enum_attr(node, "displacement", file, &["trailingReferencedEntity", "leadingReferencedEntity", "any"])?.as_deref() {
-            Some("leadingReferencedEntity") => true,
-            Some("any") => return Err(ImportError::at(file, node, "displacement=\"any\" is not supported")),
-            _ => false,
-        };
+        let ahead =
+            match p.enum_attr(node, "displacement", file, &["trailingReferencedEntity", "leadingReferencedEntity", "any"])?.as_deref() {
+                Some("leadingReferencedEntity") => true,
+                Some("any") => return Err(ImportError::at(file, node, "displacement=\"any\" is not supported")),
+                _ => false,
+            };
         self.coordinate_system(file, node, false)?;
         if distance.is_some() == time_gap.is_some() {
             return Err(ImportError::at(file, node, "give `distance` or `timeGap`"));
@@ -983,7 +1026,15 @@ impl Sb<'_, '_, '_> {
                         node,
                         "state",
                         file,
-                        &["startTransition", "endTransition", "stopTransition", "skipTransition", "completeState", "runningState", "standbyState"],
+                        &[
+                            "startTransition",
+                            "endTransition",
+                            "stopTransition",
+                            "skipTransition",
+                            "completeState",
+                            "runningState",
+                            "standbyState",
+                        ],
                     )?
                     .as_str()
                 {
@@ -1020,7 +1071,12 @@ impl Sb<'_, '_, '_> {
     }
 
     fn distance_type(&self, file: &str, node: Node<'_, '_>, default: Option<DistanceType>) -> Result<DistanceType, ImportError> {
-        let v = self.ctx.params.enum_attr(node, "relativeDistanceType", file, &["longitudinal", "lateral", "cartesianDistance", "euclidianDistance"])?;
+        let v = self.ctx.params.enum_attr(
+            node,
+            "relativeDistanceType",
+            file,
+            &["longitudinal", "lateral", "cartesianDistance", "euclidianDistance"],
+        )?;
         match v.as_deref() {
             Some("longitudinal") => Ok(DistanceType::Longitudinal),
             Some("lateral") => Ok(DistanceType::Lateral),
@@ -1041,7 +1097,13 @@ impl Sb<'_, '_, '_> {
     /// The common part of `TimeHeadwayCondition` and `TimeToCollisionCondition` (`what` names it
     /// in errors): longitudinal only, `alongRoute` and the coordinate system checked, then
     /// `(freespace, value, rule)`.
-    fn longitudinal_time(&mut self, file: &str, node: Node<'_, '_>, (entity, of): (&str, &str), what: &str) -> Result<(bool, f64, Rule), ImportError> {
+    fn longitudinal_time(
+        &mut self,
+        file: &str,
+        node: Node<'_, '_>,
+        (entity, of): (&str, &str),
+        what: &str,
+    ) -> Result<(bool, f64, Rule), ImportError> {
         self.along_route(file, node)?;
         self.coordinate_system(file, node, true)?;
         if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
@@ -1075,7 +1137,11 @@ impl Sb<'_, '_, '_> {
     fn track_position(&mut self, file: &str, position: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
         if position::reference(&self.ctx.params, file, position)?.is_some() {
             let inner = position::inner(file, position)?;
-            return Err(ImportError::at(file, inner, "a position relative to an entity is not supported in a condition (it moves with the entity)"));
+            return Err(ImportError::at(
+                file,
+                inner,
+                "a position relative to an entity is not supported in a condition (it moves with the entity)",
+            ));
         }
         let pose = position::resolve(&self.ctx.params, self.geo, file, position, &|_| None)?;
         let pr = self.track.project(pose.x, pose.y);
@@ -1111,7 +1177,9 @@ impl Sb<'_, '_, '_> {
                 Ok(ConditionKind::RelativeSpeed { entity, of, value, rule: self.rule(file, node)?, tolerance: None })
             }
             "StandStillCondition" => Ok(ConditionKind::StandStill { entity, duration: self.ctx.params.req_num(node, "duration", file)? }),
-            "TraveledDistanceCondition" => Ok(ConditionKind::TraveledDistance { entity, value: self.ctx.params.req_num(node, "value", file)? }),
+            "TraveledDistanceCondition" => {
+                Ok(ConditionKind::TraveledDistance { entity, value: self.ctx.params.req_num(node, "value", file)? })
+            }
             "RelativeDistanceCondition" => {
                 let of = self.entity(file, node, "entityRef")?;
                 let distance = self.distance_type(file, node, None)?;
@@ -1121,7 +1189,15 @@ impl Sb<'_, '_, '_> {
                     self.centre_note(file, node, &entity, &of);
                 }
                 let value = self.ctx.params.req_num(node, "value", file)?;
-                Ok(ConditionKind::RelativeDistance { entity, of, distance, freespace, value, rule: self.rule(file, node)?, tolerance: None })
+                Ok(ConditionKind::RelativeDistance {
+                    entity,
+                    of,
+                    distance,
+                    freespace,
+                    value,
+                    rule: self.rule(file, node)?,
+                    tolerance: None,
+                })
             }
             "TimeHeadwayCondition" => {
                 let of = self.entity(file, node, "entityRef")?;
@@ -1129,7 +1205,8 @@ impl Sb<'_, '_, '_> {
                 Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule, tolerance: None })
             }
             "TimeToCollisionCondition" => {
-                let target = xml::child(node, "TimeToCollisionConditionTarget").ok_or_else(|| ImportError::at(file, node, "<TimeToCollisionConditionTarget> is missing"))?;
+                let target = xml::child(node, "TimeToCollisionConditionTarget")
+                    .ok_or_else(|| ImportError::at(file, node, "<TimeToCollisionConditionTarget> is missing"))?;
                 let mut it = xml::elements(target);
                 let (Some(x), None) = (it.next(), it.next()) else {
                     return Err(ImportError::at(file, target, "a <TimeToCollisionConditionTarget> holds one target"));

@@ -36,7 +36,9 @@ pub fn parse<'a>(text: &'a str, origin: &str) -> Result<roxmltree::Document<'a>,
     let doc = roxmltree::Document::parse_with_options(text, opts).map_err(|e| {
         let pos = e.pos();
         let message = match e {
-            roxmltree::Error::DtdDetected => "a DTD (<!DOCTYPE ...>) is not accepted: no entity declarations, no external entities".to_string(),
+            roxmltree::Error::DtdDetected => {
+                "a DTD (<!DOCTYPE ...>) is not accepted: no entity declarations, no external entities".to_string()
+            }
             roxmltree::Error::NodesLimitReached => format!("more than {MAX_NODES} XML nodes"),
             other => format!("not well-formed XML: {other}"),
         };

@@ -4,9 +4,10 @@ use flc_core::{ActiveController, Frame, LeadDetector, Point2, PurePursuit, Switc
 
 use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
+use super::traffic::centreline_pursuit;
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
-use crate::follower::{FollowerConfig, Perception};
+use crate::follower::{FollowerConfig, LostLeadSteering, Perception};
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
 use crate::platoon::V2vSource;
@@ -33,6 +34,15 @@ pub(super) struct Follower {
     pub(super) v2v_lead: Option<V2vChannel>,
     pub(super) detector: Box<LeadDetector>,
     pub(super) pursuit: PurePursuit,
+    /// Lost-lead steering `hold_lane`: the lane keeper (pure pursuit of a point on the lane
+    /// centre, with the follower's own wheelbase and steering limit).
+    pub(super) lane_keeper: PurePursuit,
+    /// `hold_lane` while no lead is detected: the offset of the lane held (chosen when the lead
+    /// was lost; `None` while a lead is detected).
+    pub(super) held_lane: Option<f64>,
+    /// Forward distance from the sensor to the last lead detected, m (`None` before the first):
+    /// where `hold_lane` puts the detector's corridor on the lane.
+    pub(super) last_lead_x: Option<f64>,
     /// Its longitudinal law (the registry builds it from `cfg`).
     pub(super) longitudinal: BoxedLaw,
     pub(super) distance_offset: f64,
@@ -81,6 +91,9 @@ impl Follower {
             v2v_lead,
             detector: Box::new(<LeadDetector>::new(cfg.detector)?),
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
+            lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
+            held_lane: None,
+            last_lead_x: None,
             longitudinal,
             distance_offset,
             grid_buf: Vec::new(),
@@ -130,6 +143,8 @@ impl Follower {
             let s = road.track.project(fs.x, fs.y).s;
             self.steer_cmd = centreline_steer(road.track, road.steer, fs, s, 0.0);
             self.path_curvature = road.track.curvature_at(s);
+        } else if detection.is_none() && self.cfg.follower.lost_lead_steering == LostLeadSteering::HoldLane {
+            self.hold_lane(fs, road.track);
         } else {
             // Pure pursuit in the vehicle frame (sensor offset added).
             let (mx, my) = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
@@ -139,12 +154,12 @@ impl Follower {
             self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
             // Path for the detector's corridor on the next scan: the arc from the sensor through
             // the lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight
-            // without one.
-            self.path_curvature = detection.map_or(0.0, |d| {
-                let (x, y) = (d.position.x, d.position.y);
-                let r2 = x * x + y * y;
-                if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
-            });
+            // without one (`lost_lead_steering = "straight"`).
+            self.path_curvature = detection.map_or(0.0, |d| arc_curvature(d.position.x, d.position.y));
+            if let Some(d) = detection {
+                self.held_lane = None;
+                self.last_lead_x = Some(d.position.x);
+            }
         }
         let dt = self.last_tick_t.map_or(1.0 / self.cfg.lidar.rate_hz, |p| t - p);
         self.last_tick_t = Some(t);
@@ -170,6 +185,27 @@ impl Follower {
         self.v2v_age = out.v2v_age_ticks;
         let cmd = out.command;
         self.speed_cmd = cmd.speed;
+    }
+
+    /// Lost-lead steering `hold_lane` (no lead detected this scan): steer along the centre of the
+    /// lane held, the one whose centre was nearest to the follower when the lead was lost (the
+    /// simulator's stand-in for a camera lane keeper: it reads the track, no sensor model), and
+    /// put the detector's corridor for the next scan on that lane: the arc from the sensor
+    /// through the lane centre at the forward distance of the last lead detected (at least the
+    /// lane keeper's lookahead), so a lead still in the lane is found again where it was lost.
+    fn hold_lane(&mut self, fs: &VehicleState, track: &Track) {
+        let proj = track.project(fs.x, fs.y);
+        let lane = *self.held_lane.get_or_insert_with(|| nearest_lane_offset(track, proj.lateral_offset));
+        self.steer_cmd = centreline_steer(track, &self.lane_keeper, fs, proj.s, lane);
+        let (mx, my) = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
+        let reach = self.last_lead_x.unwrap_or(0.0).max(self.lane_keeper.lookahead(fs.speed));
+        // The lane centre `reach` m ahead of the sensor, in the sensor's frame.
+        let (px, py, _) = track.place(proj.s + mx + reach, lane);
+        let (gx, gy) = (px - fs.x, py - fs.y);
+        let (c, sn) = (fs.yaw.cos(), fs.yaw.sin());
+        let (x, y) = (c * gx + sn * gy - mx, -sn * gx + c * gy - my);
+        self.lookahead = (x + mx, y + my);
+        self.path_curvature = arc_curvature(x, y);
     }
 
     /// Records the step (and returns its record).
@@ -204,4 +240,20 @@ impl Follower {
         self.series.push(rec);
         rec
     }
+}
+
+/// Curvature of the arc from the sensor (heading along x) through `(x, y)`, kappa = 2 y / (x² +
+/// y²) (pure-pursuit geometry); 0 for a point within 1 m.
+fn arc_curvature(x: f64, y: f64) -> f64 {
+    let r2 = x * x + y * y;
+    if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
+}
+
+/// The offset (m, + left of the centreline) of the track's lane whose centre is nearest to
+/// `lateral_offset`.
+fn nearest_lane_offset(track: &Track, lateral_offset: f64) -> f64 {
+    (0..track.lanes.max(1))
+        .map(|l| track.lane_offset(l))
+        .min_by(|a, b| (a - lateral_offset).abs().total_cmp(&(b - lateral_offset).abs()))
+        .unwrap_or(0.0)
 }

@@ -185,7 +185,8 @@ impl Simulation {
         }
         // Scripted traffic: bodies after the string's.
         let traffic = s.vehicles.iter().map(|v| Traffic::new(v, &track, &mut world)).collect::<Result<Vec<_>, _>>()?;
-        let per_phase = |phases: &[crate::lead::ScriptedPhase]| phases.iter().map(|_| crate::trigger::TriggerState::new()).collect::<Vec<_>>();
+        let per_phase =
+            |phases: &[crate::lead::ScriptedPhase]| phases.iter().map(|_| crate::trigger::TriggerState::new()).collect::<Vec<_>>();
         let mut phase_triggers = vec![per_phase(&s.lead.phases)];
         phase_triggers.extend(s.vehicles.iter().map(|v| per_phase(&v.phases)));
         let any = s.stop.trigger.is_some()
@@ -203,7 +204,9 @@ impl Simulation {
             }
             StoryRun::new(story, &track, &initial)
         });
-        let speeds0 = std::iter::once(lead_state.speed).chain(traffic.iter().map(|t| t.vehicle.state().speed)).chain(followers.iter().map(|f| f.vehicle.state().speed));
+        let speeds0 = std::iter::once(lead_state.speed)
+            .chain(traffic.iter().map(|t| t.vehicle.state().speed))
+            .chain(followers.iter().map(|f| f.vehicle.state().speed));
         let still = speeds0.map(|v| if v < 1.0e-3 { 0.0 } else { -1.0 }).collect();
         let state = State {
             scenario: s.clone(),
@@ -337,7 +340,8 @@ impl<O: Observer> Simulation<O> {
         let ls = *self.state.lead.state();
         let lproj = self.state.track.project(ls.x, ls.y);
         let mut lcmd = self.state.lead_driver.step(t, ls.speed, lproj.s - self.state.lead_x0);
-        let tracking = |st: &State, j: usize, p: &crate::vehicle::VehicleParams, v: f64| st.story.as_ref().and_then(|r| r.tracking(j, p, v));
+        let tracking =
+            |st: &State, j: usize, p: &crate::vehicle::VehicleParams, v: f64| st.story.as_ref().and_then(|r| r.tracking(j, p, v));
         if let Some((accel, offset)) = tracking(&self.state, 0, &self.state.scenario.lead.vehicle, ls.speed) {
             (lcmd.accel, lcmd.lateral_offset) = (accel, offset);
         }

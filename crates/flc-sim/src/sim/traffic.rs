@@ -42,13 +42,7 @@ impl Traffic {
     pub(super) fn new(spec: &ScriptedVehicle, track: &Track, world: &mut World) -> Result<Self, SimError> {
         let offset = spec.offset.or(spec.lane.map(|l| track.lane_offset(l))).unwrap_or(0.0);
         let (x, y, h) = track.place(spec.s, offset);
-        let state = VehicleState {
-            x,
-            y,
-            yaw: h + spec.heading,
-            speed: spec.initial_speed,
-            ..VehicleState::default()
-        };
+        let state = VehicleState { x, y, yaw: h + spec.heading, speed: spec.initial_speed, ..VehicleState::default() };
         let lane_offset = |l: u32| track.lane_offset(l);
         Ok(Self {
             name: spec.name.clone(),
@@ -127,7 +121,16 @@ fn entity_state(track: &Track, v: &Vehicle, s0: f64, still_for: f64) -> EntitySt
     let st = v.state();
     let p = track.project(st.x, st.y);
     let par = v.params();
-    EntityState { s: p.s, lateral: p.lateral_offset, speed: st.speed, length: par.length, width: par.width, traveled: p.s - s0, accel: st.accel, still_for }
+    EntityState {
+        s: p.s,
+        lateral: p.lateral_offset,
+        speed: st.speed,
+        length: par.length,
+        width: par.width,
+        traveled: p.s - s0,
+        accel: st.accel,
+        still_for,
+    }
 }
 
 /// Follower index (0-based) of a trigger name: `ego` or `follower <k>`.
@@ -146,7 +149,12 @@ impl WorldView for Truth<'_> {
         }
         if let Some(k) = follower_index(name) {
             let f = self.followers.get(k)?;
-            return Some(entity_state(self.track, &f.vehicle, self.follower_s0.get(k).copied().unwrap_or(0.0), still(1 + self.traffic.len() + k)));
+            return Some(entity_state(
+                self.track,
+                &f.vehicle,
+                self.follower_s0.get(k).copied().unwrap_or(0.0),
+                still(1 + self.traffic.len() + k),
+            ));
         }
         let i = self.traffic.iter().position(|t| t.name == name)?;
         self.traffic.get(i).map(|t| entity_state(self.track, &t.vehicle, t.s0, still(1 + i)))
@@ -165,7 +173,9 @@ impl WorldView for Truth<'_> {
         let follower_hit = |k: usize, other: &str| {
             self.followers.get(k).and_then(|f| f.collision.as_ref()).is_some_and(|c| {
                 let name = c.object.name();
-                other.is_empty() || name.as_deref() == Some(other) || (other == crate::scenario::EGO && name.as_deref() == Some("follower 1"))
+                other.is_empty()
+                    || name.as_deref() == Some(other)
+                    || (other == crate::scenario::EGO && name.as_deref() == Some("follower 1"))
             })
         };
         let is = |n: &str, who: &str| n == who || (who == crate::scenario::EGO && n == "follower 1");
@@ -194,7 +204,11 @@ impl WorldView for Truth<'_> {
 /// The vehicle in front of the ego among `candidates` (`(state, length, width)`): the nearest
 /// whose centre is ahead along the ego's heading and whose box overlaps the ego's lane (lateral
 /// distance of the centres below half the two widths plus 0.5 m); `None` if there is none.
-pub(super) fn nearest_ahead(ego: &VehicleState, ego_width: f64, candidates: impl Iterator<Item = (VehicleState, f64, f64)>) -> Option<(VehicleState, f64)> {
+pub(super) fn nearest_ahead(
+    ego: &VehicleState,
+    ego_width: f64,
+    candidates: impl Iterator<Item = (VehicleState, f64, f64)>,
+) -> Option<(VehicleState, f64)> {
     let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
     let mut best: Option<(f64, VehicleState, f64)> = None;
     for (st, len, width) in candidates {
@@ -218,7 +232,11 @@ pub(super) const WANDERING: f64 = 0.375;
 /// the next lane starting to cut in counts once it has moved more than the wandering zone) and is
 /// not leaving it (more than `WANDERING` off the line and heading away: a cut-out, past which
 /// the driver looks). `None`: nothing in front.
-pub(super) fn human_front(ego: &VehicleState, lane_width: f64, candidates: impl Iterator<Item = (VehicleState, f64)>) -> Option<(VehicleState, f64)> {
+pub(super) fn human_front(
+    ego: &VehicleState,
+    lane_width: f64,
+    candidates: impl Iterator<Item = (VehicleState, f64)>,
+) -> Option<(VehicleState, f64)> {
     let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
     let mut best: Option<(f64, VehicleState, f64)> = None;
     for (st, len) in candidates {

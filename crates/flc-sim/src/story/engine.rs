@@ -375,7 +375,8 @@ impl StoryState {
     fn start_event(&mut self, story: &Story, i: usize, started: &mut Vec<Started>, stopped: &mut Vec<usize>) {
         let m = self.event_maneuver[i];
         let Some(&(a, g, mi, ei, _)) = self.event_actions.get(i).and_then(|r| self.action_path.get(r.start)) else { return };
-        let Some(ev) = story.acts.get(a).and_then(|x| x.groups.get(g)).and_then(|x| x.maneuvers.get(mi)).and_then(|x| x.events.get(ei)) else {
+        let Some(ev) = story.acts.get(a).and_then(|x| x.groups.get(g)).and_then(|x| x.maneuvers.get(mi)).and_then(|x| x.events.get(ei))
+        else {
             return;
         };
         let siblings: Vec<usize> = self.maneuver_events[m].clone().filter(|&j| j != i && self.e.events[j].running).collect();

@@ -32,8 +32,8 @@ pub use motion::{Motion, MotionStep};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
-pub use crate::trigger::VarValue;
 use crate::trigger::Trigger;
+pub use crate::trigger::VarValue;
 
 /// How the story's scripted entities move (`[story] dynamics`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -537,7 +537,10 @@ impl Story {
                 let gk = format!("{ak}.groups[{j}]");
                 for (x, actor) in g.actors.iter().enumerate() {
                     if !known(actor) {
-                        return Err(ConfigError::new(format!("{gk}.actors[{x}]"), format!("no entity `{actor}` (entities: {})", entities.join(", "))));
+                        return Err(ConfigError::new(
+                            format!("{gk}.actors[{x}]"),
+                            format!("no entity `{actor}` (entities: {})", entities.join(", ")),
+                        ));
                     }
                 }
                 for (k, m) in g.maneuvers.iter().enumerate() {
@@ -557,7 +560,10 @@ impl Story {
                             }
                             if let Action::VariableSet { variable, .. } | Action::VariableModify { variable, .. } = &act.action {
                                 if vars.binary_search(&variable.as_str()).is_err() {
-                                    return Err(ConfigError::new(format!("{key}.variable"), format!("no variable `{variable}` in story.variables")));
+                                    return Err(ConfigError::new(
+                                        format!("{key}.variable"),
+                                        format!("no variable `{variable}` in story.variables"),
+                                    ));
                                 }
                             }
                             if (act.action.is_longitudinal() || act.action.is_lateral()) && g.actors.is_empty() {

@@ -74,7 +74,19 @@ impl Motion {
     /// An entity at rest in its motion (no action running) at `s`, `offset`, `speed`, on a track
     /// of lanes `lane_width` wide.
     pub fn new(s: f64, offset: f64, speed: f64, lane_width: f64) -> Self {
-        Self { s, offset, speed, accel: 0.0, heading: 0.0, traveled: 0.0, lane_width, own_len: None, reference: [0.0, 0.0], long: None, lat: None }
+        Self {
+            s,
+            offset,
+            speed,
+            accel: 0.0,
+            heading: 0.0,
+            traveled: 0.0,
+            lane_width,
+            own_len: None,
+            reference: [0.0, 0.0],
+            long: None,
+            lat: None,
+        }
     }
 
     /// This motion for an entity `length` m long (freespace placements).
@@ -127,7 +139,11 @@ impl Motion {
                         let v_of = world.entity(name).map_or(self.speed, |e| e.speed);
                         let (d, f) = (delta.unwrap_or(0.0), factor.unwrap_or(1.0));
                         let v = if factor.is_some() { v_of * f } else { v_of + d };
-                        (v.max(0.0), continuous.then(|| (name.clone(), if factor.is_some() { 0.0 } else { d }, if factor.is_some() { f } else { 1.0 })))
+                        (
+                            v.max(0.0),
+                            continuous
+                                .then(|| (name.clone(), if factor.is_some() { 0.0 } else { d }, if factor.is_some() { f } else { 1.0 })),
+                        )
                     }
                     (None, None) => (self.speed, None),
                 };
@@ -191,7 +207,8 @@ impl Motion {
             Dimension::Distance => (true, tr.value),
             _ => (false, tr.value),
         };
-        self.lat = Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
+        self.lat =
+            Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
     }
 
     /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)

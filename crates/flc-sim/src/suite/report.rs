@@ -52,12 +52,14 @@ fn cell(r: &CaseResult) -> String {
 
 /// The summary table (one line per controller), as Markdown.
 pub fn summary_table(reports: &[SuiteReport]) -> String {
-    let mut out = String::from("| suite | controller | passed | collisions | below the careful driver | NCAP score |\n|---|---|---|---|---|---|\n");
+    let mut out =
+        String::from("| suite | controller | passed | collisions | below the careful driver | NCAP score |\n|---|---|---|---|---|---|\n");
     for rep in reports {
         for s in &rep.summary {
             let score = s.ncap_score.map_or("-".to_string(), |x| format!("{:.1} %", 100.0 * x));
             let below = if s.controller == REFERENCE { "(reference)".to_string() } else { s.below_reference.to_string() };
-            let _ = writeln!(out, "| {} | {} | {} / {} | {} | {} | {} |", rep.name, s.controller, s.passed, s.runs, s.collisions, below, score);
+            let _ =
+                writeln!(out, "| {} | {} | {} / {} | {} | {} | {} |", rep.name, s.controller, s.passed, s.runs, s.collisions, below, score);
         }
     }
     out
@@ -86,7 +88,11 @@ pub fn summary_line(reports: &[SuiteReport]) -> String {
 pub fn markdown(rep: &SuiteReport, command: &str) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "# {} (`{}`)\n", rep.title, rep.name);
-    let _ = writeln!(out, "Source: {}. Written by `{command}`; the cases are this project's own files (`scenarios/suites/{}/`).\n", rep.source, rep.name);
+    let _ = writeln!(
+        out,
+        "Source: {}. Written by `{command}`; the cases are this project's own files (`scenarios/suites/{}/`).\n",
+        rep.source, rep.name
+    );
     let _ = writeln!(out, "## Summary\n\n{}", summary_table(std::slice::from_ref(rep)));
     let _ = writeln!(
         out,
@@ -101,7 +107,13 @@ pub fn markdown(rep: &SuiteReport, command: &str) -> String {
             super::Criterion::Ncap => "avoid (NCAP partial credit by speed reduction)",
             super::Criterion::NoCollision => "no collision",
         };
-        let _ = writeln!(out, "| {} | {} | {crit} | {} |", c.id, c.section, c.max_decel.map_or("-".to_string(), |m| format!("max decel {m} m/s²")));
+        let _ = writeln!(
+            out,
+            "| {} | {} | {crit} | {} |",
+            c.id,
+            c.section,
+            c.max_decel.map_or("-".to_string(), |m| format!("max decel {m} m/s²"))
+        );
     }
     out.push_str("\n## Outcomes\n\n✓ pass, ✗ collision (relative impact speed, m/s), ~ beyond the comfort limit (max decel, m/s²), ! below the careful driver.\n\n");
     let _ = writeln!(out, "| case | run | {} |", rep.controllers.join(" | "));
@@ -176,7 +188,11 @@ pub fn svg(rep: &SuiteReport) -> String {
             }
         }
     }
-    let _ = writeln!(out, r#"<text x="8" y="{}">green: pass · amber: beyond the comfort limit (max decel, m/s²) · red: collision (impact speed, m/s)</text>"#, h - 28.0);
+    let _ = writeln!(
+        out,
+        r#"<text x="8" y="{}">green: pass · amber: beyond the comfort limit (max decel, m/s²) · red: collision (impact speed, m/s)</text>"#,
+        h - 28.0
+    );
     let _ = writeln!(out, r#"<text x="8" y="{}">black frame: the careful driver passes, the controller does not</text>"#, h - 12.0);
     out.push_str("</svg>\n");
     out
