@@ -40,7 +40,7 @@
 /**
  * Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
  */
-#define FLC_DETECTOR_WORDS 5933
+#define FLC_DETECTOR_WORDS 5934
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -840,6 +840,10 @@ typedef struct FlcDetectorParams {
      * Largest longitudinal extent of a vehicle, m.
      */
     double max_depth;
+    /**
+     * Depth limit of narrow objects, m per m of width (plus 1 m).
+     */
+    double depth_per_width;
     /**
      * Lateral half width of the path corridor, m.
      */

@@ -116,12 +116,18 @@ pub struct DetectorParams {
     pub min_cluster_points: usize,
     /// Smallest width across the path of a vehicle, m: the extent of its points plus one beam
     /// spacing at its range (an object w wide returns points between w and w minus one spacing
-    /// apart) must reach it. Default 0.5: a 0.7 m wide motorcycle, or a partly seen car.
+    /// apart) must reach it. Default 0.6: a 0.7 m wide motorcycle (at 80 m its 0.1 deg returns span
+    /// 0.56 m), or a partly seen car; not a post beside a guard rail (0.5 m).
     pub min_width: f64,
     /// Largest extent across the path, m. Default 3.0 (trucks are ~2.55 m wide).
     pub max_width: f64,
     /// Largest longitudinal extent of a vehicle, m. Default 7.0 (rejects guard rails and walls).
     pub max_depth: f64,
+    /// Narrow objects are short: the depth may not exceed `depth_per_width * width + 1 m` either
+    /// (a 0.8 m motorcycle up to 3.4 m, a car 1.8 m wide up to 6.4 m). Default 3.0: a piece of
+    /// guard rail seen at a grazing angle near the sensor (0.5 m across the path, 6 m long) is not
+    /// a vehicle.
+    pub depth_per_width: f64,
     /// Half width of the follower's path corridor, m. Default 1.8 (half a 3.6 m lane).
     pub path_half_width: f64,
     /// Most points used per scan; later points are ignored ([`DetectorStatus::Truncated`]).
@@ -153,9 +159,10 @@ impl DetectorParams {
             join_beams: 7,
             join_depth: 1.0,
             min_cluster_points: 3,
-            min_width: 0.5,
+            min_width: 0.6,
             max_width: 3.0,
             max_depth: 7.0,
+            depth_per_width: 3.0,
             path_half_width: 1.8,
             max_points: 8192,
             reprojection: Reprojection::PointRefined,
@@ -192,6 +199,7 @@ impl DetectorParams {
             return Err(ParamError { field: "max_width", problem: "must be >= min_width" });
         }
         check_range("max_depth", self.max_depth, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
+        check_range("depth_per_width", self.depth_per_width, 0.0, 1000.0, "must be finite and in [0, 1000]")?;
         check_positive("path_half_width", self.path_half_width, 100.0, "must be finite and in (0, 100] m")?;
         if !(1..=1_000_000).contains(&self.max_points) {
             return Err(ParamError { field: "max_points", problem: "must be in [1, 1e6]" });
@@ -545,7 +553,7 @@ impl Geometry {
 /// `far_start`, `far_cell_size` beyond), `NY` cells of `cell_size` across the predicted path
 /// (`NY <= 64`, checked at compile time). The default `LeadDetector<520, 60>` covers x in
 /// [0.5, 200.5] m (200 columns of 0.2 m, then 320 of 0.5 m) and 6 m either side of the path, and
-/// takes 47 464 bytes = 46.4 KiB on 64-bit targets (a test checks
+/// takes 47 472 bytes = 46.4 KiB on 64-bit targets (a test checks
 /// `size_of::<LeadDetector>() <= 64 KiB`).
 ///
 /// Each grid column is one `u64` bitmap (bit `iy` = lateral cell `iy`), so occupancy, edges and
@@ -864,7 +872,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
                     && gap <= p.join_gap
                     && gap <= beams
                     && union.width() <= p.max_width
-                    && union.depth() <= p.max_depth
+                    && union.depth() <= p.max_depth.min(p.depth_per_width * union.width() + 1.0)
                 {
                     group = union;
                     count += 1;
@@ -1099,7 +1107,7 @@ fn judge(c: &ClusterInfo, p: &DetectorParams) -> Option<RejectReason> {
         Some(RejectReason::TooNarrow)
     } else if width > p.max_width {
         Some(RejectReason::TooWide)
-    } else if c.depth() > p.max_depth {
+    } else if c.depth() > p.max_depth || c.depth() > p.depth_per_width * width + 1.0 {
         Some(RejectReason::TooDeep)
     } else if libm::fabs(c.center_offset()) <= p.path_half_width {
         // Written so that a non-finite offset is rejected.
@@ -1197,7 +1205,7 @@ mod tests {
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
         // The figure quoted in the docs (46.4 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size, 47464);
+        assert_eq!(size, 47472);
     }
 
     #[test]
@@ -1224,10 +1232,10 @@ mod tests {
         assert_eq!(d.params().lateral_radius_at(60.0), 1);
         assert_eq!(d.params().lateral_radius_at(100.0), 2);
         assert_eq!(d.params().lateral_radius_at(200.0), 2);
-        // The point threshold: 3 near, 2 from 48 m (where 0.5 m spans fewer than 6 beams).
+        // The point threshold: 3 near, 2 from 57.3 m (where 0.6 m spans fewer than 6 beams).
         assert_eq!(d.params().min_points_at(10.0), 3);
-        assert_eq!(d.params().min_points_at(47.0), 3);
-        assert_eq!(d.params().min_points_at(49.0), 2);
+        assert_eq!(d.params().min_points_at(57.0), 3);
+        assert_eq!(d.params().min_points_at(58.0), 2);
         assert_eq!(d.params().min_points_at(190.0), 2);
     }
 
@@ -1743,7 +1751,7 @@ mod tests {
                 prop_assert!(det.position.y >= y0 - 1e-9 && det.position.y <= y1 + 1e-9);
                 prop_assert_eq!(det.distance, det.position.x);
                 prop_assert!(det.width + det.distance.max(0.0) * p.beam_spacing() >= p.min_width && det.width <= p.max_width);
-                prop_assert!(det.depth >= 0.0 && det.depth <= p.max_depth);
+                prop_assert!(det.depth >= 0.0 && det.depth <= p.max_depth && det.depth <= p.depth_per_width * det.width + 1.0);
                 prop_assert!(det.points >= p.min_points_at(det.distance) && det.points <= out.points_used);
                 prop_assert!(det.points >= 2.min(p.min_cluster_points));
                 prop_assert!((0.0..=1.0).contains(&det.confidence));

@@ -80,6 +80,8 @@ pub struct FlcDetectorParams {
     pub max_width: f64,
     /// Largest longitudinal extent of a vehicle, m.
     pub max_depth: f64,
+    /// Depth limit of narrow objects, m per m of width (plus 1 m).
+    pub depth_per_width: f64,
     /// Lateral half width of the path corridor, m.
     pub path_half_width: f64,
     /// Fewest original points for a vehicle.
@@ -166,7 +168,7 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 5933;
+pub const FLC_DETECTOR_WORDS: usize = 5934;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
@@ -199,6 +201,7 @@ impl From<DetectorParams> for FlcDetectorParams {
             min_width: p.min_width,
             max_width: p.max_width,
             max_depth: p.max_depth,
+            depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             min_cluster_points: u32::try_from(p.min_cluster_points).unwrap_or(u32::MAX),
             max_points: u32::try_from(p.max_points).unwrap_or(u32::MAX),
@@ -238,6 +241,7 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             min_width: p.min_width,
             max_width: p.max_width,
             max_depth: p.max_depth,
+            depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             max_points,
             reprojection,
