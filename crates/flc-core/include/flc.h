@@ -40,7 +40,7 @@
 /**
  * Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
  */
-#define FLC_DETECTOR_WORDS 5934
+#define FLC_DETECTOR_WORDS 5935
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -848,6 +848,10 @@ typedef struct FlcDetectorParams {
      * Lateral half width of the path corridor, m.
      */
     double path_half_width;
+    /**
+     * Objects narrower than this must lie wholly inside the corridor, m.
+     */
+    double narrow_width;
     /**
      * Fewest original points for a vehicle.
      */

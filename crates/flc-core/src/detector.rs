@@ -116,8 +116,8 @@ pub struct DetectorParams {
     pub min_cluster_points: usize,
     /// Smallest width across the path of a vehicle, m: the extent of its points plus one beam
     /// spacing at its range (an object w wide returns points between w and w minus one spacing
-    /// apart) must reach it. Default 0.6: a 0.7 m wide motorcycle (at 80 m its 0.1 deg returns span
-    /// 0.56 m), or a partly seen car; not a post beside a guard rail (0.5 m).
+    /// apart) must reach it. Default 0.5: a 0.7 m wide motorcycle (at 80 m its 0.1 deg returns span
+    /// 0.56 m), or a partly seen car.
     pub min_width: f64,
     /// Largest extent across the path, m. Default 3.0 (trucks are ~2.55 m wide).
     pub max_width: f64,
@@ -128,8 +128,14 @@ pub struct DetectorParams {
     /// guard rail seen at a grazing angle near the sensor (0.5 m across the path, 6 m long) is not
     /// a vehicle.
     pub depth_per_width: f64,
-    /// Half width of the follower's path corridor, m. Default 1.8 (half a 3.6 m lane).
+    /// Half width of the follower's path corridor, m: the centre of a vehicle's points must lie
+    /// within it. Default 1.8 (half a 3.6 m lane).
     pub path_half_width: f64,
+    /// Objects narrower than this must lie wholly inside the corridor, m. Default 1.2: a
+    /// motorcycle rides inside the lane, while a post beside a guard rail at the corridor's edge
+    /// (0.5 m wide, centred 1.8 m off the path) is not a vehicle; a car cutting in is wider and
+    /// counts once its centre is inside.
+    pub narrow_width: f64,
     /// Most points used per scan; later points are ignored ([`DetectorStatus::Truncated`]).
     /// Default 8192.
     pub max_points: usize,
@@ -159,11 +165,12 @@ impl DetectorParams {
             join_beams: 7,
             join_depth: 1.0,
             min_cluster_points: 3,
-            min_width: 0.6,
+            min_width: 0.5,
             max_width: 3.0,
             max_depth: 7.0,
             depth_per_width: 3.0,
             path_half_width: 1.8,
+            narrow_width: 1.2,
             max_points: 8192,
             reprojection: Reprojection::PointRefined,
         }
@@ -201,6 +208,7 @@ impl DetectorParams {
         check_range("max_depth", self.max_depth, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
         check_range("depth_per_width", self.depth_per_width, 0.0, 1000.0, "must be finite and in [0, 1000]")?;
         check_positive("path_half_width", self.path_half_width, 100.0, "must be finite and in (0, 100] m")?;
+        check_range("narrow_width", self.narrow_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
         if !(1..=1_000_000).contains(&self.max_points) {
             return Err(ParamError { field: "max_points", problem: "must be in [1, 1e6]" });
         }
@@ -553,7 +561,7 @@ impl Geometry {
 /// `far_start`, `far_cell_size` beyond), `NY` cells of `cell_size` across the predicted path
 /// (`NY <= 64`, checked at compile time). The default `LeadDetector<520, 60>` covers x in
 /// [0.5, 200.5] m (200 columns of 0.2 m, then 320 of 0.5 m) and 6 m either side of the path, and
-/// takes 47 472 bytes = 46.4 KiB on 64-bit targets (a test checks
+/// takes 47 480 bytes = 46.4 KiB on 64-bit targets (a test checks
 /// `size_of::<LeadDetector>() <= 64 KiB`).
 ///
 /// Each grid column is one `u64` bitmap (bit `iy` = lateral cell `iy`), so occupancy, edges and
@@ -1109,7 +1117,9 @@ fn judge(c: &ClusterInfo, p: &DetectorParams) -> Option<RejectReason> {
         Some(RejectReason::TooWide)
     } else if c.depth() > p.max_depth || c.depth() > p.depth_per_width * width + 1.0 {
         Some(RejectReason::TooDeep)
-    } else if libm::fabs(c.center_offset()) <= p.path_half_width {
+    } else if libm::fabs(c.center_offset()) <= p.path_half_width
+        && (width >= p.narrow_width || libm::fabs(c.center_offset()) + 0.5 * width <= p.path_half_width)
+    {
         // Written so that a non-finite offset is rejected.
         None
     } else {
@@ -1205,7 +1215,7 @@ mod tests {
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
         // The figure quoted in the docs (46.4 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size, 47472);
+        assert_eq!(size, 47480);
     }
 
     #[test]
@@ -1232,10 +1242,10 @@ mod tests {
         assert_eq!(d.params().lateral_radius_at(60.0), 1);
         assert_eq!(d.params().lateral_radius_at(100.0), 2);
         assert_eq!(d.params().lateral_radius_at(200.0), 2);
-        // The point threshold: 3 near, 2 from 57.3 m (where 0.6 m spans fewer than 6 beams).
+        // The point threshold: 3 near, 2 from 47.7 m (where 0.5 m spans fewer than 6 beams).
         assert_eq!(d.params().min_points_at(10.0), 3);
-        assert_eq!(d.params().min_points_at(57.0), 3);
-        assert_eq!(d.params().min_points_at(58.0), 2);
+        assert_eq!(d.params().min_points_at(47.0), 3);
+        assert_eq!(d.params().min_points_at(49.0), 2);
         assert_eq!(d.params().min_points_at(190.0), 2);
     }
 

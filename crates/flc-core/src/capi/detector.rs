@@ -84,6 +84,8 @@ pub struct FlcDetectorParams {
     pub depth_per_width: f64,
     /// Lateral half width of the path corridor, m.
     pub path_half_width: f64,
+    /// Objects narrower than this must lie wholly inside the corridor, m.
+    pub narrow_width: f64,
     /// Fewest original points for a vehicle.
     pub min_cluster_points: u32,
     /// Most points used per scan.
@@ -168,7 +170,7 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 5934;
+pub const FLC_DETECTOR_WORDS: usize = 5935;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
@@ -203,6 +205,7 @@ impl From<DetectorParams> for FlcDetectorParams {
             max_depth: p.max_depth,
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
+            narrow_width: p.narrow_width,
             min_cluster_points: u32::try_from(p.min_cluster_points).unwrap_or(u32::MAX),
             max_points: u32::try_from(p.max_points).unwrap_or(u32::MAX),
             dilation_radius: p.dilation_radius,
@@ -243,6 +246,7 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             max_depth: p.max_depth,
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
+            narrow_width: p.narrow_width,
             max_points,
             reprojection,
         };
