@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
 use crate::vehicle::VehicleState;
-use crate::world::{Body, RayFan, World};
+use crate::world::{Body, NO_HIT, RayFan, World};
 
 /// LiDAR parameters. `Default`: 20 Hz (the paper's), 120 deg forward field of view at 0.125 deg
 /// (961 rays), 100 m range, 2 cm range noise.
@@ -33,8 +33,15 @@ pub struct LidarParams {
     pub mount_yaw_deg: f64,
     /// Standard deviation of the Gaussian range noise, m.
     pub range_noise_std: f64,
-    /// Probability that a ray returns nothing.
+    /// Probability that a ray returns nothing (at every range; with `dropout_at_max_range > 0`,
+    /// at range 0).
     pub dropout_prob: f64,
+    /// Range-dependent dropout, off at 0: the probability that a ray whose hit lies at
+    /// `max_range` returns nothing. A ray hitting at range `r` is then lost with
+    /// `dropout_prob + (dropout_at_max_range - dropout_prob) (r / max_range)^2`, the quadratic
+    /// growth of the received power's `1 / r^2` fall-off (`docs/sim-model.md`). At least
+    /// `dropout_prob` when on.
+    pub dropout_at_max_range: f64,
     /// Probability that a whole scan is lost.
     pub scan_drop_prob: f64,
     /// Scans are delivered this many scan periods after capture.
@@ -55,6 +62,7 @@ impl Default for LidarParams {
             mount_yaw_deg: 0.0,
             range_noise_std: 0.02,
             dropout_prob: 0.0,
+            dropout_at_max_range: 0.0,
             scan_drop_prob: 0.0,
             latency_frames: 0,
             jitter: 0.0,
@@ -77,6 +85,13 @@ impl LidarParams {
         check_range("mount_yaw_deg", self.mount_yaw_deg, -180.0, 180.0, "deg")?;
         check_range("range_noise_std", self.range_noise_std, 0.0, 5.0, "m")?;
         check_range("dropout_prob", self.dropout_prob, 0.0, 1.0, "")?;
+        check_range("dropout_at_max_range", self.dropout_at_max_range, 0.0, 1.0, "")?;
+        if self.dropout_at_max_range > 0.0 && self.dropout_at_max_range < self.dropout_prob {
+            return Err(ConfigError::new(
+                "dropout_at_max_range",
+                format!("must be 0 (off) or at least dropout_prob ({}), got {}", self.dropout_prob, self.dropout_at_max_range),
+            ));
+        }
         check_range("scan_drop_prob", self.scan_drop_prob, 0.0, 1.0, "")?;
         check_range("latency_frames", f64::from(self.latency_frames), 0.0, 100.0, "scans")?;
         check_range("jitter", self.jitter, 0.0, 0.9, "(fraction of the frame interval)")
@@ -148,7 +163,8 @@ pub struct Lidar {
     /// `(cos, sin)` of each ray's angle in the sensor frame.
     unit: Vec<[f64; 2]>,
     dirs: Vec<[f64; 2]>,
-    hits: Vec<Option<f64>>,
+    /// Hit distance per ray ([`crate::world::NO_HIT`]: none), m.
+    hits: Vec<f32>,
 }
 
 impl Lidar {
@@ -211,23 +227,31 @@ impl Lidar {
         self.dirs.clear();
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
-        world.cast_fan(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
+        world.cast_fan_f32(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
         let mut points = Vec::with_capacity(self.hits.len());
-        for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
+        // Range-dependent dropout (`dropout_at_max_range > 0`): `p(r) = p0 + (p1 - p0) (r / R)^2`.
+        let ranged = p.dropout_at_max_range > 0.0;
+        let draw = ranged || p.dropout_prob > 0.0;
+        let (p0, slope) = (p.dropout_prob, (p.dropout_at_max_range - p.dropout_prob) / (p.max_range * p.max_range));
+        for ([ca, sa], &hit) in self.unit.iter().zip(&self.hits) {
             // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
-            // what the other rays hit.
-            let drop = p.dropout_prob > 0.0 && self.rng_dropout.random::<f64>() < p.dropout_prob;
+            // what the other rays hit (and without range-dependent dropout the draws are exactly
+            // those of `dropout_prob` alone).
+            let u = if draw { self.rng_dropout.random::<f64>() } else { 1.0 };
             // `std * z` with z standard normal: `Normal::sample` without its `mean + ` (mean 0, and
             // `r + n` is the same either way), written out so that rustc inlines it here.
             let n = match self.noise {
                 Some(d) => d.std_dev() * self.rng_noise.sample::<f64, _>(rand_distr::StandardNormal),
                 None => 0.0,
             };
-            if let Some(r) = hit {
-                if !drop {
-                    let r = (r + n).max(0.0);
-                    points.push([r * ca, r * sa]);
-                }
+            if hit == NO_HIT {
+                continue;
+            }
+            let r = f64::from(hit);
+            let drop = draw && u < if ranged { p0 + slope * r * r } else { p0 };
+            if !drop {
+                let r = (r + n).max(0.0);
+                points.push([r * ca, r * sa]);
             }
         }
         Scan { t_captured: t, points }
