@@ -51,6 +51,7 @@ mod units;
 mod v2v;
 mod vehicle;
 mod world;
+mod ziggurat;
 
 pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};

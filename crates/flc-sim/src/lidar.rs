@@ -10,10 +10,25 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
 use crate::vehicle::VehicleState;
-use crate::world::{Body, RayFan, World};
+use crate::world::{Body, NO_HIT, RayFan, World};
 
-/// LiDAR parameters. `Default`: 20 Hz (the paper's), 120 deg forward field of view at 0.125 deg
-/// (961 rays), 100 m range, 2 cm range noise.
+/// LiDAR parameters. `Default`: a forward-looking automotive unit of the current generation
+/// (sources and numbers in `docs/sim-model.md`, section LiDAR):
+///
+/// * `rate_hz` 20: the paper's 20 fps (Hesai AT128: 10 Hz; Ouster OS1: 10 / 20 Hz);
+/// * `fov_deg` 120: the horizontal field of view of the Hesai AT128 and the Luminar Iris;
+/// * `resolution_deg` 0.1: the AT128's horizontal resolution (1201 rays per scan; Iris 0.05);
+/// * `max_range` 200 m: the AT128's range at 10 % reflectivity (Iris: 250 m at < 10 %);
+/// * `mount_x`, `mount_y`, `mount_yaw_deg` 2.0 m, 0, 0: roof / windscreen-top mount, 0.45 m
+///   behind the front bumper of the default 4.9 m car;
+/// * `range_noise_std` 0.02 m: within the AT128's +-3 cm accuracy, between the Ouster OS1's 1 sigma
+///   repeatability of +-1.5 cm (SNR > 250) and +-3 cm (SNR 100);
+/// * `dropout_prob`, `dropout_at_max_range`, `scan_drop_prob`, `latency_frames`, `jitter`: 0
+///   (impairments off unless a scenario asks for them).
+///
+/// Rays are infinitely thin: beam divergence (Ouster OS1: 0.13-0.18 deg FWHM; the AT128's beam is
+/// of the order of its 0.1 x 0.2 deg cell) is not modelled, so a target narrower than the ray
+/// spacing (0.35 m at 200 m) can fall between two rays.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LidarParams {
@@ -33,8 +48,15 @@ pub struct LidarParams {
     pub mount_yaw_deg: f64,
     /// Standard deviation of the Gaussian range noise, m.
     pub range_noise_std: f64,
-    /// Probability that a ray returns nothing.
+    /// Probability that a ray returns nothing (at every range; with `dropout_at_max_range > 0`,
+    /// at range 0).
     pub dropout_prob: f64,
+    /// Range-dependent dropout, off at 0: the probability that a ray whose hit lies at
+    /// `max_range` returns nothing. A ray hitting at range `r` is then lost with
+    /// `dropout_prob + (dropout_at_max_range - dropout_prob) (r / max_range)^2`, the quadratic
+    /// growth of the received power's `1 / r^2` fall-off (`docs/sim-model.md`). At least
+    /// `dropout_prob` when on.
+    pub dropout_at_max_range: f64,
     /// Probability that a whole scan is lost.
     pub scan_drop_prob: f64,
     /// Scans are delivered this many scan periods after capture.
@@ -48,13 +70,14 @@ impl Default for LidarParams {
         Self {
             rate_hz: 20.0,
             fov_deg: 120.0,
-            resolution_deg: 0.125,
-            max_range: 100.0,
+            resolution_deg: 0.1,
+            max_range: 200.0,
             mount_x: 2.0,
             mount_y: 0.0,
             mount_yaw_deg: 0.0,
             range_noise_std: 0.02,
             dropout_prob: 0.0,
+            dropout_at_max_range: 0.0,
             scan_drop_prob: 0.0,
             latency_frames: 0,
             jitter: 0.0,
@@ -77,6 +100,13 @@ impl LidarParams {
         check_range("mount_yaw_deg", self.mount_yaw_deg, -180.0, 180.0, "deg")?;
         check_range("range_noise_std", self.range_noise_std, 0.0, 5.0, "m")?;
         check_range("dropout_prob", self.dropout_prob, 0.0, 1.0, "")?;
+        check_range("dropout_at_max_range", self.dropout_at_max_range, 0.0, 1.0, "")?;
+        if self.dropout_at_max_range > 0.0 && self.dropout_at_max_range < self.dropout_prob {
+            return Err(ConfigError::new(
+                "dropout_at_max_range",
+                format!("must be 0 (off) or at least dropout_prob ({}), got {}", self.dropout_prob, self.dropout_at_max_range),
+            ));
+        }
         check_range("scan_drop_prob", self.scan_drop_prob, 0.0, 1.0, "")?;
         check_range("latency_frames", f64::from(self.latency_frames), 0.0, 100.0, "scans")?;
         check_range("jitter", self.jitter, 0.0, 0.9, "(fraction of the frame interval)")
@@ -148,7 +178,8 @@ pub struct Lidar {
     /// `(cos, sin)` of each ray's angle in the sensor frame.
     unit: Vec<[f64; 2]>,
     dirs: Vec<[f64; 2]>,
-    hits: Vec<Option<f64>>,
+    /// Hit distance per ray ([`crate::world::NO_HIT`]: none), m.
+    hits: Vec<f32>,
 }
 
 impl Lidar {
@@ -211,23 +242,31 @@ impl Lidar {
         self.dirs.clear();
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
-        world.cast_fan(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
+        world.cast_fan_f32(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
         let mut points = Vec::with_capacity(self.hits.len());
-        for ([ca, sa], hit) in self.unit.iter().zip(&self.hits) {
+        // Range-dependent dropout (`dropout_at_max_range > 0`): `p(r) = p0 + (p1 - p0) (r / R)^2`.
+        let ranged = p.dropout_at_max_range > 0.0;
+        let draw = ranged || p.dropout_prob > 0.0;
+        let (p0, slope) = (p.dropout_prob, (p.dropout_at_max_range - p.dropout_prob) / (p.max_range * p.max_range));
+        for ([ca, sa], &hit) in self.unit.iter().zip(&self.hits) {
             // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
-            // what the other rays hit.
-            let drop = p.dropout_prob > 0.0 && self.rng_dropout.random::<f64>() < p.dropout_prob;
+            // what the other rays hit (and without range-dependent dropout the draws are exactly
+            // those of `dropout_prob` alone).
+            let u = if draw { self.rng_dropout.random::<f64>() } else { 1.0 };
             // `std * z` with z standard normal: `Normal::sample` without its `mean + ` (mean 0, and
-            // `r + n` is the same either way), written out so that rustc inlines it here.
+            // `r + n` is the same either way), its ziggurat's common case inlined here.
             let n = match self.noise {
-                Some(d) => d.std_dev() * self.rng_noise.sample::<f64, _>(rand_distr::StandardNormal),
+                Some(d) => d.std_dev() * crate::ziggurat::standard_normal(&mut self.rng_noise),
                 None => 0.0,
             };
-            if let Some(r) = hit {
-                if !drop {
-                    let r = (r + n).max(0.0);
-                    points.push([r * ca, r * sa]);
-                }
+            if hit == NO_HIT {
+                continue;
+            }
+            let r = f64::from(hit);
+            let drop = draw && u < if ranged { p0 + slope * r * r } else { p0 };
+            if !drop {
+                let r = (r + n).max(0.0);
+                points.push([r * ca, r * sa]);
             }
         }
         Scan { t_captured: t, points }
@@ -250,8 +289,127 @@ mod tests {
     }
 
     #[test]
-    fn default_has_at_least_900_rays() {
-        assert!(LidarParams::default().rays() >= 900);
+    fn default_has_the_reach_and_resolution_of_an_automotive_unit() {
+        let p = LidarParams::default();
+        assert!(p.max_range >= 200.0 && p.resolution_deg <= 0.1 && p.fov_deg >= 120.0, "{p:?}");
+        assert_eq!(p.rays(), (p.fov_deg / p.resolution_deg).round() as usize + 1);
+        assert!(p.validate().is_ok());
+    }
+
+    #[test]
+    fn default_reaches_a_car_at_190_m() {
+        // Rear face 190 m ahead of the sensor: lead centre at 190 + mount_x + half length.
+        let d = 190.0;
+        let half_length = VehicleParams::default().length / 2.0;
+        let (w, ego) = scene(d + LidarParams::default().mount_x + half_length);
+        let scan = Lidar::new(LidarParams::default(), 3).capture(0.0, &w, ego, &VehicleState::default());
+        let std = LidarParams::default().range_noise_std;
+        let on_face: Vec<_> = scan.points.iter().filter(|p| (p[0] - d).abs() < 4.0 * std + 1e-3).collect();
+        // 1.9 m wide at 190 m is 0.57 deg: at least 5 rays at 0.1 deg.
+        let width = VehicleParams::default().width;
+        let expected = ((width / d).atan().to_degrees() / LidarParams::default().resolution_deg).floor() as usize;
+        assert!(on_face.len() >= expected && expected >= 5, "{} returns on the face, expected {expected}", on_face.len());
+        assert_eq!(on_face.len(), scan.points.len(), "nothing but the lead in view");
+        // The old 100 m sensor saw nothing there (the test is not vacuous).
+        let short = LidarParams { max_range: 100.0, ..Default::default() };
+        assert!(Lidar::new(short, 3).capture(0.0, &w, ego, &VehicleState::default()).points.is_empty());
+    }
+
+    /// Straight track with guard rails (returns at every range up to `max_range`), ego at x = 300.
+    fn rails() -> (World, Body, VehicleState) {
+        let track = Track::straight(2000.0);
+        let mut w = World::new(&track);
+        let ego_state = VehicleState { x: 300.0, ..Default::default() };
+        let ego = w.add_vehicle(&VehicleParams::default(), &ego_state);
+        w.step(0.01);
+        (w, ego, ego_state)
+    }
+
+    #[test]
+    fn range_dependent_dropout_thins_returns_with_range_as_the_law_says() {
+        let (w, ego, pose) = rails();
+        let clean = LidarParams { range_noise_std: 0.0, ..Default::default() };
+        let full = Lidar::new(clean.clone(), 1).capture(0.0, &w, ego, &pose);
+        let (p0, p1) = (0.05, 0.8);
+        let params = LidarParams { dropout_prob: p0, dropout_at_max_range: p1, ..clean.clone() };
+        let law = |r: f64| p0 + (p1 - p0) * (r / params.max_range).powi(2);
+        // Ranges of the rays that return without dropout (noise off: the exact hit distance),
+        // keyed by their point's bits; a capture with dropout keeps a subset of these points.
+        let range_of: std::collections::HashMap<[u64; 2], f64> =
+            full.points.iter().map(|p| ([p[0].to_bits(), p[1].to_bits()], p[0].hypot(p[1]))).collect();
+        let mut l = Lidar::new(params.clone(), 9);
+        let scans = 200;
+        // Per range bin (quarters of max_range): trials, observed drops, expected drops, variance.
+        let mut bins = [(0.0f64, 0.0f64, 0.0f64, 0.0f64); 4];
+        let bin = |r: f64| ((r / params.max_range * 4.0) as usize).min(3);
+        for _ in 0..scans {
+            let scan = l.capture(0.0, &w, ego, &pose);
+            let kept: std::collections::HashSet<[u64; 2]> = scan.points.iter().map(|p| [p[0].to_bits(), p[1].to_bits()]).collect();
+            assert!(kept.iter().all(|k| range_of.contains_key(k)), "a point that the clean scan does not have");
+            for (k, &r) in &range_of {
+                let b = &mut bins[bin(r)];
+                let p = law(r);
+                b.0 += 1.0;
+                b.1 += f64::from(u8::from(!kept.contains(k)));
+                b.2 += p;
+                b.3 += p * (1.0 - p);
+            }
+        }
+        let mut last = -1.0;
+        for (i, (n, dropped, expected, var)) in bins.iter().enumerate() {
+            assert!(*n > 1000.0, "bin {i}: only {n} trials");
+            // 4 binomial standard deviations.
+            assert!(
+                (dropped - expected).abs() < 4.0 * var.sqrt(),
+                "bin {i}: {dropped} dropped of {n}, expected {expected:.0} +- {:.0}",
+                var.sqrt()
+            );
+            let fraction = dropped / n;
+            assert!(fraction > last, "bin {i}: drop fraction {fraction} not above the nearer bin's {last}");
+            last = fraction;
+        }
+    }
+
+    /// The points of one capture computed here from the fan's hits and the documented draw order
+    /// (stream 1: one N(0, std^2) per ray; stream 2: one U[0, 1) per ray when `dropout_prob > 0`).
+    fn reference_capture(p: &LidarParams, seed: u64, w: &World, ego: Body, pose: &VehicleState) -> Vec<[f64; 2]> {
+        let stream = |k: u64| {
+            let mut r = ChaCha8Rng::seed_from_u64(seed);
+            r.set_stream(k);
+            r
+        };
+        let (mut noise, mut dropout) = (stream(1), stream(2));
+        let l = Lidar::new(p.clone(), seed);
+        let origin = [pose.x + p.mount_x, pose.y];
+        let mut hits = Vec::new();
+        w.cast_fan(&RayFan { origin, base: 0.0, angles: &l.angles, unit: &l.unit }, p.max_range, ego, &mut hits);
+        let mut out = Vec::new();
+        for (a, hit) in l.angles.iter().zip(&hits) {
+            let drop = p.dropout_prob > 0.0 && dropout.random::<f64>() < p.dropout_prob;
+            let n = if p.range_noise_std > 0.0 { p.range_noise_std * noise.sample::<f64, _>(rand_distr::StandardNormal) } else { 0.0 };
+            if let (Some(r), false) = (hit, drop) {
+                let r = (r + n).max(0.0);
+                out.push([r * a.cos(), r * a.sin()]);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn without_range_dependent_dropout_scans_are_those_of_before() {
+        let (w, ego, pose) = rails();
+        for p in [LidarParams::default(), LidarParams { dropout_prob: 0.3, ..Default::default() }] {
+            let scan = Lidar::new(p.clone(), 4).capture(0.0, &w, ego, &pose);
+            let reference = reference_capture(&p, 4, &w, ego, &pose);
+            assert_eq!(scan.points.len(), reference.len());
+            for (a, b) in scan.points.iter().zip(&reference) {
+                assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9, "{a:?} vs {b:?}");
+            }
+        }
+        // A flat law (dropout_at_max_range = dropout_prob) draws the same numbers: the same scan.
+        let flat = LidarParams { dropout_prob: 0.3, dropout_at_max_range: 0.3, ..Default::default() };
+        let constant = LidarParams { dropout_prob: 0.3, ..Default::default() };
+        assert_eq!(Lidar::new(flat, 4).capture(0.0, &w, ego, &pose), Lidar::new(constant, 4).capture(0.0, &w, ego, &pose));
     }
 
     #[test]
@@ -379,7 +537,7 @@ mod tests {
         let origin = [ego_state.x + 2.0, ego_state.y];
         for _ in 0..scans / 10 {
             for [c, s] in &l.unit {
-                hits += usize::from(w.cast_ray(origin, [*c, *s], 100.0, ego).is_some());
+                hits += usize::from(w.cast_ray(origin, [*c, *s], l.params().max_range, ego).is_some());
             }
         }
         let s = start.elapsed().as_secs_f64();
@@ -389,5 +547,12 @@ mod tests {
     #[test]
     fn validation_names_the_key() {
         assert_eq!(LidarParams { rate_hz: 0.0, ..Default::default() }.validate().unwrap_err().key, "rate_hz");
+        for (p0, p1) in [(0.0, 1.5), (0.0, -0.1), (0.3, 0.1)] {
+            let e = LidarParams { dropout_prob: p0, dropout_at_max_range: p1, ..Default::default() }.validate().unwrap_err();
+            assert_eq!(e.key, "dropout_at_max_range", "{p0} {p1}: {e:?}");
+        }
+        for (p0, p1) in [(0.0, 0.0), (0.3, 0.0), (0.3, 0.3), (0.0, 1.0)] {
+            assert!(LidarParams { dropout_prob: p0, dropout_at_max_range: p1, ..Default::default() }.validate().is_ok(), "{p0} {p1}");
+        }
     }
 }

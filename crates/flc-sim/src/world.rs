@@ -255,11 +255,20 @@ impl World {
     /// for cuboids and balls), which makes a scan cost about one shape test per ray instead of a
     /// BVH descent per ray.
     pub fn cast_fan(&self, fan: &RayFan<'_>, max_range: f64, exclude: Body, hits: &mut Vec<Option<f64>>) {
+        let mut best = Vec::new();
+        self.cast_fan_f32(fan, max_range, exclude, &mut best);
+        hits.clear();
+        hits.extend(best.iter().map(|&b| (b != NO_HIT).then_some(f64::from(b))));
+    }
+
+    /// [`World::cast_fan`] into an `f32` buffer (parry's precision), [`NO_HIT`] for no return: the
+    /// LiDAR's hot loop, without an `Option` and an `f64 -> f32` conversion per ray and collider.
+    pub(crate) fn cast_fan_f32(&self, fan: &RayFan<'_>, max_range: f64, exclude: Body, hits: &mut Vec<f32>) {
         use rapier2d::parry::bounding_volume::Aabb;
         use std::f64::consts::{FRAC_PI_2, TAU};
         let RayFan { origin, base, angles, unit } = *fan;
         hits.clear();
-        hits.resize(angles.len(), None);
+        hits.resize(angles.len(), NO_HIT);
         let (Some(&a_first), Some(&a_last)) = (angles.first(), angles.last()) else { return };
         let filter = QueryFilter::default().exclude_rigid_body(exclude.body);
         let qp = self.pw.query_pipeline_with_filter(filter);
@@ -301,18 +310,20 @@ impl World {
                 let last = angles.partition_point(|&a| a <= h);
                 let (Some(dirs), Some(slots)) = (unit.get(first..last), hits.get_mut(first..last)) else { continue };
                 let rays = dirs.iter().map(|d| Vector::new(d[0] as f32, d[1] as f32)).zip(slots);
+                // The cast's `max_toi` is the nearest hit so far, `r` before the first (`NO_HIT` is
+                // infinite, every hit is <= r: `min(slot, r)`, written as a compare).
                 match &local {
                     Some(b) => {
                         for (dir, slot) in rays {
-                            if let Some(toi) = b.cast(b.inv_rot * dir, slot.map_or(r, |v| v as f32)) {
-                                *slot = Some(f64::from(toi));
+                            if let Some(toi) = b.cast(b.inv_rot * dir, if *slot < r { *slot } else { r }) {
+                                *slot = toi;
                             }
                         }
                     }
                     None => {
                         for (dir, slot) in rays {
-                            if let Some(toi) = co.shape().cast_ray(pos, &Ray::new(o, dir), slot.map_or(r, |v| v as f32), true) {
-                                *slot = Some(f64::from(toi));
+                            if let Some(toi) = co.shape().cast_ray(pos, &Ray::new(o, dir), if *slot < r { *slot } else { r }, true) {
+                                *slot = toi;
                             }
                         }
                     }
@@ -350,8 +361,17 @@ impl LocalBox {
                 if a > b {
                     std::mem::swap(&mut a, &mut b);
                 }
-                tmin = tmin.max(a);
-                tmax = tmax.min(b);
+                // `tmin.max(a)` and `tmax.min(b)` as parry writes them, as compares: the same value
+                // for every input that can occur (`tmin`, `tmax` are never NaN; a NaN `a` or `b`
+                // keeps the other, as `max` / `min` do), one instruction each instead of the
+                // NaN-aware sequence. Equal values differ at most in the sign of a zero, which
+                // no consumer distinguishes (a range of -0 and +0 give the same point).
+                if a > tmin {
+                    tmin = a;
+                }
+                if b < tmax {
+                    tmax = b;
+                }
                 if tmin > tmax {
                     return None;
                 }
@@ -360,6 +380,9 @@ impl LocalBox {
         Some(tmin)
     }
 }
+
+/// "No return" in [`World::cast_fan_f32`]'s buffer.
+pub(crate) const NO_HIT: f32 = f32::INFINITY;
 
 /// Angular margin added to each collider's extent in [`World::cast_fan`], rad: covers f32
 /// rounding of the shapes (1e-4 m at 1 km from the origin is 1e-7 rad at 1 m range).
