@@ -873,15 +873,16 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
                     continue;
                 }
                 let Some(c) = self.clusters.get(usize::from(ib)) else { continue };
+                if !(libm::fabs(c.x_min - group.x_min) <= p.join_depth) {
+                    continue;
+                }
                 let gap = (c.d_min - group.d_max).max(group.d_min - c.d_max);
                 let beams = (f64::from(p.join_beams) + 1.0) * c.x_min.min(group.x_min).max(0.0) * p.beam_spacing();
+                if !(gap <= p.join_gap && gap <= beams) {
+                    continue;
+                }
                 let union = union_of(&group, c);
-                if libm::fabs(c.x_min - group.x_min) <= p.join_depth
-                    && gap <= p.join_gap
-                    && gap <= beams
-                    && union.width() <= p.max_width
-                    && union.depth() <= p.max_depth.min(p.depth_per_width * union.width() + 1.0)
-                {
+                if union.width() <= p.max_width && union.depth() <= p.max_depth.min(p.depth_per_width * union.width() + 1.0) {
                     group = union;
                     count += 1;
                     if let Some(m) = members.get_mut(b) {
