@@ -274,13 +274,13 @@ struct Frame2 {
 }
 
 impl Frame2 {
-    fn to_local(&self, p: [f64; 2]) -> [f64; 2] {
+    fn to_local(self, p: [f64; 2]) -> [f64; 2] {
         let (c, s) = (self.yaw.cos(), self.yaw.sin());
         let (dx, dy) = (p[0] - self.x, p[1] - self.y);
         [c * dx + s * dy, -s * dx + c * dy]
     }
 
-    fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
+    fn to_world(self, p: [f64; 2]) -> [f64; 2] {
         let (c, s) = (self.yaw.cos(), self.yaw.sin());
         [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
     }
@@ -571,7 +571,10 @@ pub fn run_clutter(run: &ClutterRun) -> Vec<ClutterResult> {
 const COLORS: [&str; 6] = ["#1f77b4", "#ff7f0e", "#d62728", "#2ca02c", "#9467bd", "#8c564b"];
 
 /// Panels: one per (track, target) of `curves`, rows = tracks, columns = targets.
-fn panels(curves: &[Curve], y: impl Fn(&BinResult) -> f64, extra: Option<(&str, &dyn Fn(&BinResult) -> f64)>) -> (Vec<Panel>, usize) {
+/// A second, dashed line per condition: its legend suffix and its value per bin.
+type Extra<'a> = Option<(&'a str, &'a dyn Fn(&BinResult) -> f64)>;
+
+fn panels(curves: &[Curve], y: impl Fn(&BinResult) -> f64, extra: Extra<'_>) -> (Vec<Panel>, usize) {
     let mut keys: Vec<(&str, &str)> = Vec::new();
     for c in curves {
         if !keys.contains(&(c.track, c.target.name)) {

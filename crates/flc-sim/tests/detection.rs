@@ -64,7 +64,7 @@ fn require(target: Target, condition: Condition, up_to: f64, required: f64) {
             p.frames,
             p.max_abs_error
         );
-        if !(rate >= required) {
+        if rate.is_nan() || rate < required {
             failures.push(format!(
                 "{} track: {:.2} % of the visible frames detected within {ACCURATE} m (required {:.1} %)\n{}",
                 track.name(),
