@@ -31,6 +31,9 @@ cargo test --locked
 echo "== Rust: golden outputs, byte for byte (release; tests/golden/README.md)"
 cargo test --locked --release -p flc-sim --test golden
 
+echo "== Rust: detector acceptance tests (release; docs/detector.md, issue 23)"
+cargo test --locked --release -p flc-sim --test detection
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"

@@ -17,11 +17,13 @@
 //!    the string-stability measures ([`string_stability`]);
 //! 4. **the loop**: [`Simulation`], talking to sinks only through [`Observer`]; the same follower
 //!    pipeline driven by another simulator ([`ExternalFollower`], `flc.sumo`);
-//! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]);
+//! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]), the SVG
+//!    writer of the generated figures (`svg`);
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
 //! 7. **experiments**: [`sweep`], the standard test suites ([`suite`]), the frequency response
-//!    ([`frequency_response`]) and the `scenario` binary.
+//!    ([`frequency_response`]), the detector study ([`detection_study`]) and the `scenario` binary.
 mod controllers;
+pub mod detection_study;
 mod error;
 mod external;
 mod follower;
@@ -44,6 +46,7 @@ mod sim;
 pub mod story;
 pub mod string_stability;
 pub mod suite;
+mod svg;
 pub mod sweep;
 mod track;
 pub mod trigger;

@@ -175,9 +175,9 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["series", "metrics"],
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],
-    &["record", "report"],
+    &["record", "report", "svg"],
     &["runner"],
-    &["sweep", "suite", "frequency_response"],
+    &["sweep", "suite", "frequency_response", "detection_study"],
 ];
 
 #[test]

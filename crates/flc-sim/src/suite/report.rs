@@ -5,6 +5,7 @@ use std::fmt::Write;
 
 use super::{CaseResult, Outcome, REFERENCE, SuiteReport};
 use crate::metrics::Metrics;
+use crate::svg::{close, esc, open};
 
 /// The metric columns of the report, by their `Metrics` field names (`docs/v2v-and-metrics.md`),
 /// with headers.
@@ -139,10 +140,6 @@ pub fn markdown(rep: &SuiteReport, command: &str) -> String {
     out
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
-}
-
 /// The overview figure of one suite: runs down, controllers across; green pass, amber beyond the
 /// comfort limit, red collision (darker the faster the impact, its speed written in the cell);
 /// a black frame marks a run the careful driver passes and the controller does not.
@@ -155,11 +152,7 @@ pub fn svg(rep: &SuiteReport) -> String {
     let (label_w, cell_w, cell_h, head_h) = (16.0 + 6.8 * longest as f64, 92.0, 18.0, 50.0);
     let (w, h) = ((label_w + cell_w * cols as f64 + 10.0).max(560.0), head_h + cell_h * rows as f64 + 52.0);
     let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="11">"#
-    );
-    let _ = writeln!(out, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    open(&mut out, w, h);
     let _ = writeln!(out, r#"<text x="8" y="18" font-size="14" font-weight="bold">{}</text>"#, esc(&rep.title));
     for (j, c) in rep.controllers.iter().enumerate() {
         let x = label_w + cell_w * (j as f64 + 0.5);
@@ -194,6 +187,6 @@ pub fn svg(rep: &SuiteReport) -> String {
         h - 28.0
     );
     let _ = writeln!(out, r#"<text x="8" y="{}">black frame: the careful driver passes, the controller does not</text>"#, h - 12.0);
-    out.push_str("</svg>\n");
+    close(&mut out);
     out
 }
