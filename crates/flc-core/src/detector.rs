@@ -798,10 +798,10 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
             if c.points == 0 {
                 *c = ClusterInfo { x_min: 0.0, x_max: 0.0, y_min: 0.0, y_max: 0.0, d_min: 0.0, d_max: 0.0, ..*c };
             }
-            c.rejection = judge(c, &p);
+            c.rejection = judge(c, &p, g.kappa);
             c.selected = false;
         }
-        self.join_fragments(&p);
+        self.join_fragments(&p, g.kappa);
 
         // (8): the nearest vehicle.
         let mut best: Option<usize> = None;
@@ -841,7 +841,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     /// the group is at most `join_gap`, while the union fits `max_width` and `max_depth`. A group
     /// of two or more that passes step 7 replaces its first member's statistics; the others are
     /// marked [`RejectReason::Joined`]. At most `JOIN_CAPACITY^2 / 2` pair checks per scan.
-    fn join_fragments(&mut self, p: &DetectorParams) {
+    fn join_fragments(&mut self, p: &DetectorParams, kappa: f64) {
         if !(p.join_gap > 0.0) {
             return;
         }
@@ -890,7 +890,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
                     }
                 }
             }
-            if count < 2 || judge(&group, p).is_some() {
+            if count < 2 || judge(&group, p, kappa).is_some() {
                 continue;
             }
             group.rejection = None;
@@ -1107,8 +1107,14 @@ fn union(parent: &mut [u16], a: usize, b: usize) {
 }
 
 /// Step 7.
-fn judge(c: &ClusterInfo, p: &DetectorParams) -> Option<RejectReason> {
+fn judge(c: &ClusterInfo, p: &DetectorParams, kappa: f64) -> Option<RejectReason> {
     let width = c.width();
+    // A sparse narrow cluster must be a face square to the path: its x extent at most its width
+    // times (tan of the path's heading at its range + 1), plus 0.2 m of noise. Two returns of a
+    // guard rail crossing the corridor far ahead are 0.3 m apart across and 1.7 m along it.
+    let kx = libm::fabs(kappa * c.x_min);
+    let tan_heading = if kx < 0.99 { kx / libm::sqrt(1.0 - kx * kx) } else { 7.0 };
+    let sparse = c.points < 2 * p.min_cluster_points && width < p.narrow_width;
     if c.points < p.min_points_at(c.x_min) {
         Some(RejectReason::TooFewPoints)
     } else if width + c.x_min.max(0.0) * p.beam_spacing() < p.min_width {
@@ -1116,7 +1122,10 @@ fn judge(c: &ClusterInfo, p: &DetectorParams) -> Option<RejectReason> {
         Some(RejectReason::TooNarrow)
     } else if width > p.max_width {
         Some(RejectReason::TooWide)
-    } else if c.depth() > p.max_depth || c.depth() > p.depth_per_width * width + 1.0 {
+    } else if c.depth() > p.max_depth
+        || c.depth() > p.depth_per_width * width + 1.0
+        || (sparse && c.depth() > width * (tan_heading + 1.0) + 0.2)
+    {
         Some(RejectReason::TooDeep)
     } else if libm::fabs(c.center_offset()) <= p.path_half_width
         && (width >= p.narrow_width || libm::fabs(c.center_offset()) + 0.5 * width <= p.path_half_width)

@@ -54,7 +54,7 @@ pub const MOTORCYCLE: Target = Target { name: "motorcycle", width: 0.8, length: 
 /// The preset tracks of the study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TrackKind {
-    /// [`Track::straight`] (5 km): guard rails, posts, parked cars in the next lane.
+    /// [`Track::straight`] (5.2 km): guard rails, posts, parked cars in the next lane.
     Straight,
     /// [`Track::curvy`] (the route with curves of radius 120-250 m): guard rails, posts.
     Curvy,
@@ -75,7 +75,7 @@ impl TrackKind {
     /// The track.
     pub fn track(self) -> Track {
         match self {
-            TrackKind::Straight => Track::straight(5000.0),
+            TrackKind::Straight => Track::straight(5200.0),
             TrackKind::Curvy => Track::curvy(),
         }
     }
@@ -458,7 +458,7 @@ pub struct ClutterRun {
 }
 
 impl Default for ClutterRun {
-    /// Both tracks (5 km straight + the 2 km curvy route), 30-130 km/h with a 1 km period,
+    /// Both tracks (5.2 km straight + the 2 km curvy route), 30-130 km/h with a 1 km period,
     /// the default LiDAR and detector, seed 23.
     fn default() -> Self {
         Self {
@@ -483,6 +483,10 @@ pub struct FalseDetection {
     pub position: [f64; 2],
     /// Its width, m.
     pub width: f64,
+    /// Its depth, m.
+    pub depth: f64,
+    /// Its number of points.
+    pub points: usize,
 }
 
 /// The result of a clutter run on one track.
@@ -548,6 +552,8 @@ pub fn run_clutter(run: &ClutterRun) -> Vec<ClutterResult> {
                                 curvature,
                                 position: [d.position.x, d.position.y],
                                 width: d.width,
+                                depth: d.depth,
+                                points: d.points,
                             })
                         };
                         (detect(kappa), detect(0.0))
