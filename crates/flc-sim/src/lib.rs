@@ -54,7 +54,6 @@ mod units;
 mod v2v;
 mod vehicle;
 mod world;
-mod ziggurat;
 
 pub use controllers::{BoxedLaw, ControllerSections};
 pub use error::{ConfigError, SimError, check_range};

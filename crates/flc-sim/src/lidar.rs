@@ -254,9 +254,9 @@ impl Lidar {
             // those of `dropout_prob` alone).
             let u = if draw { self.rng_dropout.random::<f64>() } else { 1.0 };
             // `std * z` with z standard normal: `Normal::sample` without its `mean + ` (mean 0, and
-            // `r + n` is the same either way), its ziggurat's common case inlined here.
+            // `r + n` is the same either way), written out so that rustc inlines it here.
             let n = match self.noise {
-                Some(d) => d.std_dev() * crate::ziggurat::standard_normal(&mut self.rng_noise),
+                Some(d) => d.std_dev() * self.rng_noise.sample::<f64, _>(rand_distr::StandardNormal),
                 None => 0.0,
             };
             if hit == NO_HIT {
