@@ -68,12 +68,15 @@ fn scan(rng: &mut Lcg, d: f64, width: f64, dropout: f64, rails: bool) -> Vec<[f6
     pts
 }
 
+/// Runs a detector on one scan and returns the detected distance.
+type DetectFn = Box<dyn FnMut(&[[f64; 2]]) -> Option<f64>>;
+
 /// A representation: its name, memory and a detect function.
 struct Repr {
     name: &'static str,
     bytes: usize,
     reach: f64,
-    detect: Box<dyn FnMut(&[[f64; 2]]) -> Option<f64>>,
+    detect: DetectFn,
 }
 
 fn repr<const NX: usize>(name: &'static str, params: DetectorParams) -> Repr {

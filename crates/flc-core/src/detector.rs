@@ -520,7 +520,7 @@ impl Geometry {
             return Some(y);
         }
         let c = 1.0 - k * y;
-        if !(c > 0.0) {
+        if c.is_nan() || c <= 0.0 {
             return None;
         }
         let kx = k * x;
@@ -536,7 +536,7 @@ impl Geometry {
         // floor() (and much cheaper than libm's software floor).
         let ix = if x < self.x_far {
             let fx = (x - self.x_lo) / self.cell;
-            if !(fx >= 0.0) {
+            if fx.is_nan() || fx < 0.0 {
                 return None;
             }
             (fx as usize).min(self.n_near.saturating_sub(1))
@@ -842,7 +842,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     /// of two or more that passes step 7 replaces its first member's statistics; the others are
     /// marked [`RejectReason::Joined`]. At most `JOIN_CAPACITY^2 / 2` pair checks per scan.
     fn join_fragments(&mut self, p: &DetectorParams, kappa: f64) {
-        if !(p.join_gap > 0.0) {
+        if p.join_gap.is_nan() || p.join_gap <= 0.0 {
             return;
         }
         let reach = p.path_half_width + p.max_width;
@@ -873,7 +873,8 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
                     continue;
                 }
                 let Some(c) = self.clusters.get(usize::from(ib)) else { continue };
-                if !(libm::fabs(c.x_min - group.x_min) <= p.join_depth) {
+                let dx = libm::fabs(c.x_min - group.x_min);
+                if dx.is_nan() || dx > p.join_depth {
                     continue;
                 }
                 let gap = (c.d_min - group.d_max).max(group.d_min - c.d_max);
