@@ -86,13 +86,12 @@ fn deterministic_across_runs_and_thread_counts() {
     assert_ne!(key(&run(&other)), k0);
 }
 
-/// On the curved track the FLC-driven follower stays within 0.5 m of the lane centre on average.
-/// It loses the lead for a scan at the end of the last right-hand curve (about 112.6 s, the car
-/// seen obliquely is too wide for the detector). With `lost_lead_steering = "hold_lane"` (the
-/// default) it holds its lane, finds the lead again and stops behind it without contact; with
-/// `"straight"` (steering 0, the pipeline as first built) the corridor goes straight, the lead
-/// is never found again and the follower touches the left guard rail (track object 1) at about
-/// 114.7 s, 7.7 m/s.
+/// On the curved track the FLC-driven follower stays within 0.5 m of the lane centre on average
+/// and stops behind the lead without contact. Before issue 23 it lost the lead out of the last
+/// right-hand curve (the detector's grid did not follow the path) and, steering straight, touched
+/// the left guard rail; now the detector keeps the lead through every curve, so the run ends the
+/// same with either lost-lead steering (what `hold_lane` does when a lead is lost is tested in
+/// `tests/lost_lead.rs`).
 #[test]
 fn curved_track_tracking_error() {
     let s = Scenario::from_file(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/curvy-follow.toml")))
@@ -107,8 +106,7 @@ fn curved_track_tracking_error() {
     let mut straight = s.clone();
     straight.follower.lost_lead_steering = flc_sim::LostLeadSteering::Straight;
     let r = run(&straight).expect("run");
-    let c = r.collision.expect("steering straight, the follower touches the left guard rail after losing the lead");
-    assert_eq!((c.object.kind, c.object.index), (flc_sim::ObjectKind::GuardRail, Some(1)), "{c:?}");
-    assert!(c.time > 110.0 && c.follower_speed < 10.0, "{c:?}");
-    assert!(r.series.detected_distance.iter().rev().take(100).all(|d| d.is_nan()), "the lead is out of sight before the contact");
+    assert!(r.collision.is_none(), "{:?}", r.collision);
+    assert!(r.metrics.final_clearance.is_some_and(|c| c > 2.0), "{:?}", r.metrics.final_clearance);
+    assert!(r.series.detected_distance.iter().rev().take(100).all(|d| d.is_finite()), "the lead is in sight at the stop");
 }

@@ -126,7 +126,9 @@ fn follower_series_are_against_the_vehicle_in_front() {
     assert!(same_bits(&r.series, f1));
     // Gaps: front of follower 2 to rear of follower 1.
     let i = f2.len() - 1;
-    assert!((f2.lead_x[i] - f2.follower_x[i] - 4.9 - f2.gap[i]).abs() < 1e-9);
+    // Along the front vehicle's heading (bumper_gap), lengths 4.9 m.
+    let (dx, dy, yaw) = (f2.lead_x[i] - f2.follower_x[i], f2.lead_y[i] - f2.follower_y[i], f1.follower_yaw[i]);
+    assert!((dx * yaw.cos() + dy * yaw.sin() - 4.9 - f2.gap[i]).abs() < 1e-9, "{dx} {dy} {yaw} {}", f2.gap[i]);
 }
 
 /// Four pipeline followers at 20 m/s; the link into follower 2 is down from t = 5 s.
