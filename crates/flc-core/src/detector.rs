@@ -397,12 +397,26 @@ impl ClusterInfo {
 
     #[inline]
     fn add_point(&mut self, x: f64, y: f64, d: f64, ix: usize, iy: usize) {
-        self.d_min = self.d_min.min(d);
-        self.d_max = self.d_max.max(d);
-        self.x_min = self.x_min.min(x);
-        self.x_max = self.x_max.max(x);
-        self.y_min = self.y_min.min(y);
-        self.y_max = self.y_max.max(y);
+        // Plain comparisons: the values are finite and -0.0 is normalised by the caller, so this is
+        // `min` / `max` without their NaN handling.
+        if d < self.d_min {
+            self.d_min = d;
+        }
+        if d > self.d_max {
+            self.d_max = d;
+        }
+        if x < self.x_min {
+            self.x_min = x;
+        }
+        if x > self.x_max {
+            self.x_max = x;
+        }
+        if y < self.y_min {
+            self.y_min = y;
+        }
+        if y > self.y_max {
+            self.y_max = y;
+        }
         let (ix, iy) = (ix as u16, iy as u16);
         self.ix_min = self.ix_min.min(ix);
         self.ix_max = self.ix_max.max(ix);
