@@ -500,7 +500,8 @@ pub struct ClutterResult {
     pub frames: usize,
     /// False detections with the road curvature at the ego as the path ([`Track::curvature_at`]).
     pub false_road_curvature: Vec<FalseDetection>,
-    /// False detections with a straight path (curvature 0, the follower without a lead today).
+    /// False detections with a straight path (curvature 0: the follower with
+    /// `lost_lead_steering = "straight"`).
     pub false_zero_curvature: Vec<FalseDetection>,
 }
 

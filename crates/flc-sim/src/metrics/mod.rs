@@ -370,28 +370,26 @@ mod tests {
         // Samples t = k dt cover (t - dt, t]: the rectangle sums are TET = 3 + dt and
         // TIT = dt² N (N + 1) / 2 with N = 3 / dt, i.e. 4.5 + 1.5 dt.
         let dt = 1e-3;
-        let s = series_dt(4000, dt, |t, r| {
-            r.follower_speed = 20.0;
-            r.gap = 40.0 - 10.0 * t;
-        });
+        // The approach sampled for `n` steps.
+        let approach = |n: usize| {
+            series_dt(n, dt, |t, r| {
+                r.follower_speed = 20.0;
+                r.gap = 40.0 - 10.0 * t;
+            })
+        };
+        let s = approach(4000);
         let m = Metrics::compute(&s, None);
         assert!(close(m.tet, 3.0 + dt, 1e-9), "{}", m.tet);
         assert!(close(m.tit, 4.5 + 1.5 * dt, 1e-6), "{}", m.tit);
         assert!(close(m.min_ttc.unwrap(), 0.0, 1e-9));
         // Past contact (gap <= 0 is TTC 0): one more second adds 1 s to TET and 3 s² to TIT.
-        let s = series_dt(5000, dt, |t, r| {
-            r.follower_speed = 20.0;
-            r.gap = 40.0 - 10.0 * t;
-        });
+        let s = approach(5000);
         let m = Metrics::compute(&s, None);
         assert!(close(m.tet, 4.0 + dt, 1e-9), "{}", m.tet);
         assert!(close(m.tit, 7.5 + 1.5 * dt, 1e-6), "{}", m.tit);
         // A lower threshold: TTC* = 1 s exposes t in [3, 4]: TET 1 s, TIT ∫_3^4 (t - 3) dt = 0.5 s².
         let p = MetricsParams { ttc_threshold: 1.0, ..MetricsParams::default() };
-        let s = series_dt(4000, dt, |t, r| {
-            r.follower_speed = 20.0;
-            r.gap = 40.0 - 10.0 * t;
-        });
+        let s = approach(4000);
         let m = Metrics::compute_with(&s, None, &p);
         assert!(close(m.tet, 1.0 + dt, 1e-9), "{}", m.tet);
         assert!(close(m.tit, 0.5 + 0.5 * dt, 1e-6), "{}", m.tit);
