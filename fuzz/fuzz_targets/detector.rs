@@ -26,7 +26,7 @@ enum Pt {
 #[derive(Arbitrary, Debug)]
 struct Input {
     params: [Param; 6],
-    far: [Param; 7],
+    far: [Param; 10],
     join_beams: u8,
     dilation_radius: u8,
     max_dilation_radius: u8,
@@ -48,7 +48,7 @@ static DETECTORS: Mutex<Option<(Box<LeadDetector>, Box<MaybeUninit<FlcDetector>>
 fuzz_target!(|inp: Input| {
     let d = DetectorParams::defaults();
     let [cell, x_min, min_w, max_w, max_depth, half] = inp.params;
-    let [far_start, far_cell, spacing, join_gap, join_depth, depth_per_width, narrow] = inp.far;
+    let [far_start, far_cell, spacing, join_gap, join_depth, depth_per_width, narrow, st_margin, st_share, rear_depth] = inp.far;
     let p = DetectorParams {
         cell_size: cell.get(d.cell_size, 0.0, 1.0),
         x_min: x_min.get(d.x_min, -1.0, 20.0),
@@ -68,6 +68,9 @@ fuzz_target!(|inp: Input| {
         depth_per_width: depth_per_width.get(d.depth_per_width, -0.5, 10.0),
         path_half_width: half.get(d.path_half_width, 0.0, 8.0),
         narrow_width: narrow.get(d.narrow_width, -0.5, 5.0),
+        see_through_margin: st_margin.get(d.see_through_margin, -0.5, 5.0),
+        see_through_share: st_share.get(d.see_through_share, -0.5, 2.0),
+        rear_face_depth: rear_depth.get(d.rear_face_depth, -0.5, 5.0),
         max_points: if inp.max_points == 0 { d.max_points } else { usize::from(inp.max_points) },
         reprojection: if inp.cell_center { Reprojection::CellCenter } else { Reprojection::PointRefined },
     };

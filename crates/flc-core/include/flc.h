@@ -38,9 +38,9 @@
 #define FLC_PURSUIT_WORDS 5
 
 /**
- * Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
+ * Words (8 bytes each) of `FlcDetector::storage` (50.4 KiB).
  */
-#define FLC_DETECTOR_WORDS 5935
+#define FLC_DETECTOR_WORDS 6450
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -853,6 +853,18 @@ typedef struct FlcDetectorParams {
      */
     double narrow_width;
     /**
+     * Solid-face test: a ray through the outline counts beyond this past its far edge, m.
+     */
+    double see_through_margin;
+    /**
+     * Solid-face test: rejected above this share of the cluster's point count.
+     */
+    double see_through_share;
+    /**
+     * Rear-face test of narrow candidates: depth of the rear face, m.
+     */
+    double rear_face_depth;
+    /**
      * Fewest original points for a vehicle.
      */
     uint32_t min_cluster_points;
@@ -884,7 +896,7 @@ typedef struct FlcDetectorParams {
 
 /**
  * Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
- * `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
+ * `flc_detector_init`. About 50 KiB: prefer static storage on small stacks.
  */
 typedef struct FlcDetector {
     uint64_t magic;

@@ -86,6 +86,12 @@ pub struct FlcDetectorParams {
     pub path_half_width: f64,
     /// Objects narrower than this must lie wholly inside the corridor, m.
     pub narrow_width: f64,
+    /// Solid-face test: a ray through the outline counts beyond this past its far edge, m.
+    pub see_through_margin: f64,
+    /// Solid-face test: rejected above this share of the cluster's point count.
+    pub see_through_share: f64,
+    /// Rear-face test of narrow candidates: depth of the rear face, m.
+    pub rear_face_depth: f64,
     /// Fewest original points for a vehicle.
     pub min_cluster_points: u32,
     /// Most points used per scan.
@@ -169,11 +175,11 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcDetector::storage` (46.4 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 5935;
+/// Words (8 bytes each) of `FlcDetector::storage` (50.4 KiB).
+pub const FLC_DETECTOR_WORDS: usize = 6450;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
-/// `flc_detector_init`. About 46 KiB: prefer static storage on small stacks.
+/// `flc_detector_init`. About 50 KiB: prefer static storage on small stacks.
 #[repr(C)]
 pub struct FlcDetector {
     magic: u64,
@@ -206,6 +212,9 @@ impl From<DetectorParams> for FlcDetectorParams {
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
+            see_through_margin: p.see_through_margin,
+            see_through_share: p.see_through_share,
+            rear_face_depth: p.rear_face_depth,
             min_cluster_points: u32::try_from(p.min_cluster_points).unwrap_or(u32::MAX),
             max_points: u32::try_from(p.max_points).unwrap_or(u32::MAX),
             dilation_radius: p.dilation_radius,
@@ -247,6 +256,9 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
+            see_through_margin: p.see_through_margin,
+            see_through_share: p.see_through_share,
+            rear_face_depth: p.rear_face_depth,
             max_points,
             reprojection,
         };
