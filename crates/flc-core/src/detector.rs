@@ -739,26 +739,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     /// A box `(x0, x1, y0, y1)` in the sensor frame that holds every point the grid can take for
     /// a scan with `path_curvature` (the whole grid bends along the path); for prefiltering scans.
     pub fn bounds(&self, path_curvature: f64) -> (f64, f64, f64, f64) {
-        let g = self.geometry(valid_curvature(path_curvature).unwrap_or(0.0));
-        let (x0, x1) = (g.x_lo, g.x_hi());
-        let half = -g.d_lo;
-        if g.kappa == 0.0 {
-            return (x0, x1, -half, half);
-        }
-        // Points within `half` of the near half of the circle of radius R: on the inside of the
-        // bend up to the inner circle at x1 (or the circle's centre line), on the outside down to
-        // `half` beyond the sensor's lateral position.
-        // With R = 1/|kappa| and the inner radius R - half: `R - sqrt((R - half)^2 - x1^2)`,
-        // written without cancellation or overflow for small kappa; 1 um of margin for rounding.
-        let k = libm::fabs(g.kappa);
-        let inner = 1.0 - k * half;
-        let reach = if inner > k * x1 {
-            (half * (2.0 - k * half) + k * x1 * x1) / (1.0 + libm::sqrt(inner * inner - k * k * x1 * x1))
-        } else {
-            1.0 / k
-        };
-        let (half, reach) = (half + 1e-6, reach + 1e-6);
-        if g.kappa > 0.0 { (x0, x1, -half, reach) } else { (x0, x1, -reach, half) }
+        grid_box(&self.geometry(valid_curvature(path_curvature).unwrap_or(0.0)))
     }
 
     /// The cell `(ix, iy)` holding the point `(x, y)` on the last scan's path, if inside the grid.
@@ -864,6 +845,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
 
         // (8): the nearest vehicle whose outline is solid. Each failed test rejects one candidate,
         // so this ends after at most `n_clusters` passes over the scan; in practice one.
+        let bx = grid_box(&g);
         let best = loop {
             let mut best: Option<usize> = None;
             let mut best_x = f64::INFINITY;
@@ -874,7 +856,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
                 }
             }
             let Some(c) = best.and_then(|i| self.clusters.get_mut(i)) else { break None };
-            match solid_face(c, scan, &p) {
+            match solid_face(c, scan, &p, bx) {
                 Some(reason) => c.rejection = Some(reason),
                 None => break best,
             }
@@ -1207,18 +1189,44 @@ fn judge(c: &ClusterInfo, p: &DetectorParams, kappa: f64) -> Option<RejectReason
     }
 }
 
+/// The box holding the grid of `g` (see [`LeadDetector::bounds`]).
+fn grid_box(g: &Geometry) -> (f64, f64, f64, f64) {
+    let (x0, x1) = (g.x_lo, g.x_hi());
+    let half = -g.d_lo;
+    if g.kappa == 0.0 {
+        return (x0, x1, -half, half);
+    }
+    // Points within `half` of the near half of the circle of radius R: on the inside of the
+    // bend up to the inner circle at x1 (or the circle's centre line), on the outside down to
+    // `half` beyond the sensor's lateral position.
+    // With R = 1/|kappa| and the inner radius R - half: `R - sqrt((R - half)^2 - x1^2)`,
+    // written without cancellation or overflow for small kappa; 1 um of margin for rounding.
+    let k = libm::fabs(g.kappa);
+    let inner = 1.0 - k * half;
+    let reach = if inner > k * x1 {
+        (half * (2.0 - k * half) + k * x1 * x1) / (1.0 + libm::sqrt(inner * inner - k * k * x1 * x1))
+    } else {
+        1.0 / k
+    };
+    let (half, reach) = (half + 1e-6, reach + 1e-6);
+    if g.kappa > 0.0 { (x0, x1, -half, reach) } else { (x0, x1, -reach, half) }
+}
+
 /// Step 8's solid-face tests, in one pass over the scan: [`RejectReason::SeeThrough`] when more
 /// than `see_through_share` of the cluster's point count are rays with a bearing strictly inside
 /// its span that return beyond its far edge; for a narrow cluster, [`RejectReason::NoRearFace`]
 /// when the returns inside its bearing span within `rear_face_depth` of its nearest x span less
-/// than half its bearing span.
-fn solid_face(c: &ClusterInfo, scan: &[[f64; 2]], p: &DetectorParams) -> Option<RejectReason> {
+/// than half its bearing span. Only points inside the grid's box `bx` ([`LeadDetector::bounds`])
+/// count, so that a scan prefiltered to the box gives the same result.
+fn solid_face(c: &ClusterInfo, scan: &[[f64; 2]], p: &DetectorParams, bx: (f64, f64, f64, f64)) -> Option<RejectReason> {
+    let (_, x1, y0, y1) = bx;
     let far = c.x_max + p.see_through_margin;
     let rear = c.x_min + p.rear_face_depth;
     let limit = p.see_through_share * c.points as f64;
     let (mut through, mut lo, mut hi) = (0usize, f64::INFINITY, f64::NEG_INFINITY);
     for &[x, y] in scan {
-        if !(x >= c.x_min && x.is_finite() && y.is_finite()) {
+        // Also false for NaN.
+        if !(x >= c.x_min && x <= x1 && y >= y0 && y <= y1) {
             continue;
         }
         let b = y / x;
