@@ -620,7 +620,7 @@ impl Geometry {
 /// `far_start`, `far_cell_size` beyond), `NY` cells of `cell_size` across the predicted path
 /// (`NY <= 64`, checked at compile time). The default `LeadDetector<520, 60>` covers x in
 /// [0.5, 200.5] m (200 columns of 0.2 m, then 320 of 0.5 m) and 6 m either side of the path, and
-/// takes 47 480 bytes = 46.4 KiB on 64-bit targets (a test checks
+/// takes 51 600 bytes = 50.4 KiB on 64-bit targets (a test checks
 /// `size_of::<LeadDetector>() <= 64 KiB`).
 ///
 /// Each grid column is one `u64` bitmap (bit `iy` = lateral cell `iy`), so occupancy, edges and
@@ -1334,7 +1334,7 @@ mod tests {
     fn memory_fits_in_64_kib() {
         let size = core::mem::size_of::<LeadDetector>();
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
-        // The figure quoted in the docs (46.4 KiB on 64-bit targets).
+        // The figure quoted in the docs (50.4 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
         assert_eq!(size, 51600);
     }
