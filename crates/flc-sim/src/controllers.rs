@@ -44,6 +44,9 @@ macro_rules! for_each_controller {
             /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
             /// `[flc_robust]`, `docs/robust-flc.md`).
             FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            /// Beyond the paper, in progress (issue 24): robust FLC v2, v1's laws with event rules
+            /// that do not brake for missed or spurious frames (`[flc_robust2]`).
+            FlcRobust2 = "flc-robust-v2", flc_robust2: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust2), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: Gipps (1981) safe-speed car following (`[gipps]`).
             Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Reference: the UN R157 careful and competent human driver (`[careful_driver]`,

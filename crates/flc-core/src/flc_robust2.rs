@@ -1,0 +1,401 @@
+//! Robust FLC v2 (issue 24, work in progress): the robust FLC's laws (R1)-(R6)
+//! ([`crate::flc_robust`]) with event rules that do not brake for what a missed or spurious frame
+//! looks like. Same inputs: the LiDAR distance (`None` without a detection) and the own speed, once
+//! per LiDAR frame; no timestamp, no `dt`, no lead speed, no V2V.
+//!
+//! What changes against v1 (`docs/robust-flc.md`, "v2"):
+//!
+//! - **A missed frame is not a reveal.** v1 forgot the lead on any frame without a detection and
+//!   latched the stop envelope on the next one: one missed detection while following at
+//!   72-130 km/h commanded about -10 m/s² (phantom braking). v2 keeps the last accepted distance;
+//!   a detection within `reveal_jump` of it is the same object.
+//! - **No detection: hold the speed** (`a = 0`) while the sight distance covers the stop envelope,
+//!   `v <= V_e(sight_distance)`; above that speed, slow at `sight_decel`. v1 braked by
+//!   `fault_brake_step` on every frame without a lead.
+//! - **Jumps need a second frame.** A distance more than `reveal_jump` from the last accepted one
+//!   (up: something revealed behind the lead; down: a cut-in, or a spurious short return) is held
+//!   as *pending* and the frame is handled as a missed one; the next frame confirms it (within
+//!   `reveal_jump` of the pending distance) or not (back near the last accepted distance). An
+//!   upward jump so confirmed is a reveal.
+//! - **The first detection is a reveal** (possibly standing; `first_object = "unknown"`).
+//! - **Release when the distance does not close while driving.** Besides v1's release (the
+//!   distance grew `reveal_release` above its smallest value since the latch), the latch is
+//!   released on a frame whose own speed is at least `release_speed` and whose distance is no more
+//!   than `release_closing` below the previous accepted one: the follower moved forward by
+//!   `v dt >= release_speed dt` since that frame, so a standing object would have come that much
+//!   closer. This holds for frame rates up to `release_speed / (release_closing + 3 sigma)` (with
+//!   range noise `sigma`): 64 Hz with the defaults and 2 cm noise.
+//! - **The stop envelope assumes wet brakes**: `envelope_decel` 4 m/s² (v1: 7), so that an
+//!   unknown object is approached in a way that stops before it on a road where the tyres give 6.
+//!
+//! None of the rules counts frames or reads a clock; "the next frame" is the next measurement
+//! event.
+
+use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::flc_robust::{FirstObject, RobustFlcParams};
+use crate::longitudinal::ActiveController;
+use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
+use crate::params::{ParamError, check_positive, check_range};
+
+/// Parameters of the robust FLC v2: the v1 law's parameters ([`RobustFlcParams`], same meaning)
+/// and the event rules'. `Default` is the documented design.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RobustFlc2Params {
+    /// (R1)-(R6) as in v1; defaults as v1 except `envelope_decel` 4.0 m/s² and `first_object`
+    /// [`FirstObject::Unknown`].
+    pub law: RobustFlcParams,
+    /// Distance within which the detector finds a standing car on the path, m: without a
+    /// detection the follower holds its speed up to `V_e(sight_distance)`. Default 200 (the
+    /// default detector and LiDAR, `docs/detector.md`).
+    pub sight_distance: f64,
+    /// Deceleration without a detection above `V_e(sight_distance)`, m/s². Default 2.0.
+    pub sight_decel: f64,
+    /// Smallest own speed for the "not closing" release, m/s. Default 15 (below it the stop
+    /// envelope at 4 m/s² is shorter than the desired gap, so the latch costs nothing).
+    pub release_speed: f64,
+    /// Largest decrease of the distance between two accepted frames that still counts as "not
+    /// closing", m. Default 0.15 (7 sigma of the default LiDAR's 2 cm noise).
+    pub release_closing: f64,
+}
+
+impl Default for RobustFlc2Params {
+    fn default() -> Self {
+        Self::documented()
+    }
+}
+
+impl RobustFlc2Params {
+    /// The documented design (identical to `Default`).
+    pub const fn documented() -> Self {
+        let mut law = RobustFlcParams::documented();
+        law.envelope_decel = 4.0;
+        law.first_object = FirstObject::Unknown;
+        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 15.0, release_closing: 0.15 }
+    }
+
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.law.validate()?;
+        check_positive("sight_distance", self.sight_distance, 1.0e4, "must be finite and in (0, 1e4] m")?;
+        check_positive("sight_decel", self.sight_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
+        check_range("release_speed", self.release_speed, 0.0, 1000.0, "must be finite and in [0, 1000] m/s")?;
+        check_range("release_closing", self.release_closing, 0.0, 100.0, "must be finite and in [0, 100] m")?;
+        Ok(())
+    }
+}
+
+/// The terms of one v2 step (for plots, logs and tests).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RobustFlc2Terms {
+    /// The distance the law used (the accepted one), m; 0 on a frame handled as missed.
+    pub distance: f64,
+    /// (R2) gap speed, m/s.
+    pub gap_speed: f64,
+    /// (R3) stop-envelope speed, m/s.
+    pub envelope_speed: f64,
+    /// (R4) target speed, m/s.
+    pub target_speed: f64,
+    /// This frame was handled as missed (no detection, or a jump pending confirmation).
+    pub held: bool,
+    /// A jump is pending confirmation after this frame.
+    pub pending: bool,
+    /// This frame set the latch.
+    pub revealed: bool,
+    /// The latch is set after this frame.
+    pub latched: bool,
+    /// (R5) acceleration, m/s².
+    pub a: f64,
+}
+
+/// The robust FLC v2. Construct with [`RobustFallbackController2::new`], call
+/// [`RobustFallbackController2::step`] once per LiDAR frame.
+#[derive(Debug, Clone)]
+pub struct RobustFallbackController2 {
+    params: RobustFlc2Params,
+    /// Last accepted distance, kept across missed frames.
+    last: Option<f64>,
+    /// A jump waiting for the next frame's confirmation.
+    pending: Option<f64>,
+    /// Smallest distance since the latch was set; `None` while not latched.
+    latch_min: Option<f64>,
+    terms: RobustFlc2Terms,
+}
+
+impl RobustFallbackController2 {
+    /// Validates `params` and builds the controller.
+    pub fn new(params: RobustFlc2Params) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(Self { params, last: None, pending: None, latch_min: None, terms: RobustFlc2Terms::default() })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &RobustFlc2Params {
+        &self.params
+    }
+
+    /// Forgets everything; the next detection is a first detection.
+    pub fn reset(&mut self) {
+        self.last = None;
+        self.pending = None;
+        self.latch_min = None;
+        self.terms = RobustFlc2Terms::default();
+    }
+
+    /// The terms of the last step.
+    pub fn terms(&self) -> &RobustFlc2Terms {
+        &self.terms
+    }
+
+    /// Whether the "possibly standing object" latch is set.
+    pub fn latched(&self) -> bool {
+        self.latch_min.is_some()
+    }
+
+    /// One LiDAR frame: `distance` in m (`None` without a detection), `own_speed` in m/s.
+    pub fn step(&mut self, distance: Option<f64>, own_speed: f64) -> LongitudinalCommand {
+        let p = self.params;
+        let law = p.law;
+        let speed_ok = valid_speed(own_speed, law.max_speed);
+        let status = match distance {
+            _ if !speed_ok => Status::InvalidSpeed,
+            None => Status::NoLead,
+            Some(d) if !(d.is_finite() && d >= 0.0 && d <= law.max_distance) => Status::InvalidDistance,
+            Some(_) => Status::Ok,
+        };
+        if !speed_ok || status == Status::InvalidDistance {
+            self.pending = None;
+            self.terms = RobustFlc2Terms { held: true, latched: self.latched(), ..RobustFlc2Terms::default() };
+            return safe_brake(own_speed, speed_ok, law.fault_brake_step, status);
+        }
+        let v = own_speed;
+        let accepted = match (distance, self.last) {
+            (None, _) => {
+                self.pending = None;
+                None
+            }
+            (Some(d), None) => Some((d, law.first_object == FirstObject::Unknown)),
+            (Some(d), Some(last)) if libm::fabs(d - last) <= law.reveal_jump => {
+                self.pending = None;
+                Some((d, false))
+            }
+            (Some(d), Some(last)) => match self.pending.take() {
+                Some(q) if libm::fabs(d - q) <= law.reveal_jump => Some((d, d > last)),
+                _ => {
+                    self.pending = Some(d);
+                    None
+                }
+            },
+        };
+        let Some((d, revealed)) = accepted else {
+            return self.hold(v, status);
+        };
+
+        let previous = self.last.replace(d);
+        if revealed {
+            self.latch_min = Some(d);
+        } else if let Some(m) = self.latch_min {
+            let m = m.min(d);
+            let grew = d >= m + law.reveal_release;
+            let not_closing = v >= p.release_speed && previous.is_some_and(|prev| d >= prev - p.release_closing);
+            self.latch_min = if grew || not_closing { None } else { Some(m) };
+        }
+        let latched = self.latched();
+        let gap_speed = law.gap_speed(d);
+        let envelope_speed = law.envelope_speed(d);
+        let target_speed = if latched { gap_speed.min(envelope_speed) } else { gap_speed };
+        let error = target_speed - v;
+        let gain = if error >= 0.0 { law.accel_gain } else { law.brake_gain };
+        let a = clamp(gain * error, -law.max_decel, law.max_accel);
+        self.terms = RobustFlc2Terms { distance: d, gap_speed, envelope_speed, target_speed, held: false, pending: false, revealed, latched, a };
+        self.command(v, a, Status::Ok)
+    }
+
+    /// A frame without a usable detection: hold the speed up to `V_e(sight_distance)`, slow at
+    /// `sight_decel` above it.
+    fn hold(&mut self, v: f64, status: Status) -> LongitudinalCommand {
+        let p = self.params;
+        let limit = p.law.envelope_speed(p.sight_distance);
+        let a = if v > limit { -p.sight_decel } else { 0.0 };
+        self.terms = RobustFlc2Terms { held: true, pending: self.pending.is_some(), latched: self.latched(), a, ..RobustFlc2Terms::default() };
+        self.command(v, a, status)
+    }
+
+    fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
+        let law = self.params.law;
+        let speed = clamp(v + law.command_gain * a, 0.0, law.max_speed);
+        if !(a.is_finite() && speed.is_finite()) {
+            return safe_brake(v, true, law.fault_brake_step, Status::InvalidDistance);
+        }
+        LongitudinalCommand { speed, accel: a, status }
+    }
+}
+
+impl RobustFlc2Terms {
+    /// The names of [`RobustFlc2Terms::to_terms`], in field order (flags as 0 / 1).
+    pub const NAMES: &'static [&'static str] =
+        &["distance", "gap_speed", "envelope_speed", "target_speed", "held", "pending", "revealed", "latched", "a"];
+
+    /// The terms as a named list ([`Terms`]).
+    pub fn to_terms(&self) -> Terms {
+        let t = self;
+        Terms::new(
+            Self::NAMES,
+            &[t.distance, t.gap_speed, t.envelope_speed, t.target_speed, flag(t.held), flag(t.pending), flag(t.revealed), flag(t.latched), t.a],
+        )
+    }
+}
+
+/// The robust FLC v2 through the common interface; `dt` and V2V are never read.
+///
+/// ```
+/// use flc_core::{Frame, LongitudinalController, RobustFallbackController2, RobustFlc2Params};
+///
+/// let mut c = RobustFallbackController2::new(RobustFlc2Params::default())?;
+/// // The first detection is possibly standing: 33 m ahead at 20 m/s, the stop envelope at
+/// // 4 m/s² allows V_e(33) = 4 (sqrt(0.25 + 2 * 31 / 4) - 0.5) = 13.87 m/s, so
+/// // a = 4 (13.87 - 20) = -24.5, clamped to -10.
+/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
+/// assert_eq!(out.command.accel, -10.0);
+/// // Next frame at the same distance while driving at 20 m/s: not standing, the latch is
+/// // released and (R1) holds: D_r(20) = 33 = d, a = 0.
+/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
+/// assert_eq!(out.command.accel, 0.0);
+/// # Ok::<(), flc_core::ParamError>(())
+/// ```
+impl LongitudinalController for RobustFallbackController2 {
+    fn step(&mut self, frame: &Frame) -> ControlOutput {
+        let command = RobustFallbackController2::step(self, frame.distance, frame.own_speed);
+        ControlOutput::single(command, self.terms.to_terms(), ActiveController::Flc)
+    }
+
+    fn reset(&mut self) {
+        RobustFallbackController2::reset(self);
+    }
+
+    /// (R1): `d_0 + h max(v, 0)`.
+    fn desired_gap(&self, v: f64) -> f64 {
+        self.params.law.desired_gap(v)
+    }
+
+    fn uses_dt(&self) -> bool {
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ctl() -> RobustFallbackController2 {
+        RobustFallbackController2::new(RobustFlc2Params::default()).unwrap()
+    }
+
+    /// Following at the desired gap at `v` (the first detection's latch released by the lead
+    /// moving away by `reveal_release`).
+    fn following(v: f64) -> (RobustFallbackController2, f64) {
+        let mut c = ctl();
+        let d = c.params.law.desired_gap(v);
+        c.step(Some(d), v);
+        c.step(Some(d + 0.6), v);
+        c.step(Some(d), v);
+        assert!(!c.latched());
+        (c, d)
+    }
+
+    #[test]
+    fn a_missed_frame_while_following_holds_the_speed() {
+        for kmh in [30.0, 72.0, 100.0, 130.0] {
+            let v = kmh / 3.6;
+            let (mut c, d) = following(v);
+            let out = c.step(None, v);
+            assert_eq!((out.accel, out.speed, out.status), (0.0, v, Status::NoLead), "{kmh} km/h");
+            // The lead is back at about the same distance: the same object, no latch.
+            let out = c.step(Some(d - 0.05), v);
+            assert!(!c.latched() && out.accel > -0.5, "{kmh} km/h: {out:?}");
+        }
+    }
+
+    #[test]
+    fn a_one_frame_spurious_short_return_is_held_not_braked_for() {
+        let v = 25.0;
+        let (mut c, d) = following(v);
+        let out = c.step(Some(4.0), v);
+        assert_eq!(out.accel, 0.0);
+        assert!(c.terms().pending);
+        let out = c.step(Some(d), v);
+        assert!(out.accel.abs() < 1e-9 && !c.latched());
+    }
+
+    #[test]
+    fn a_confirmed_cut_in_is_braked_for_one_frame_later() {
+        let v = 25.0;
+        let (mut c, _) = following(v);
+        assert_eq!(c.step(Some(12.0), v).accel, 0.0);
+        let out = c.step(Some(11.9), v);
+        assert_eq!(out.accel, -10.0);
+        // A downward jump is not a reveal: the gap policy already brakes.
+        assert!(!c.latched());
+    }
+
+    #[test]
+    fn a_confirmed_upward_jump_is_a_reveal() {
+        let v = 25.0;
+        let (mut c, d) = following(v);
+        c.step(Some(d + 30.0), v);
+        assert!(!c.latched());
+        c.step(Some(d + 29.0), v);
+        assert!(c.latched() && c.terms().revealed);
+    }
+
+    #[test]
+    fn the_first_detection_is_possibly_standing_until_it_does_not_close() {
+        let mut c = ctl();
+        let v = 22.2;
+        // CCRs-80: a standing car first seen at 88.9 m is latched and stays latched while the
+        // distance closes as the follower drives (1.1 m per frame at 20 Hz).
+        c.step(Some(88.9), v);
+        assert!(c.latched());
+        c.step(Some(87.8), v);
+        c.step(Some(86.7), v);
+        assert!(c.latched());
+        // A lead at the same speed: the distance stays, released on the second frame.
+        let mut c = ctl();
+        c.step(Some(88.9), v);
+        c.step(Some(88.88), v);
+        assert!(!c.latched());
+        // Below release_speed only growth releases.
+        let mut c = ctl();
+        c.step(Some(20.0), 10.0);
+        c.step(Some(20.0), 10.0);
+        assert!(c.latched());
+        c.step(Some(20.6), 10.0);
+        assert!(!c.latched());
+    }
+
+    #[test]
+    fn without_a_detection_the_speed_is_held_up_to_the_sight_limit() {
+        let mut c = ctl();
+        let limit = c.params.law.envelope_speed(c.params.sight_distance);
+        assert!(limit > 130.0 / 3.6, "V_e(200 m) = {limit} m/s");
+        assert_eq!(c.step(None, 30.0).accel, 0.0);
+        assert_eq!(c.step(None, limit + 1.0).accel, -2.0);
+    }
+
+    #[test]
+    fn invalid_inputs_brake_and_name_the_reason() {
+        let mut c = ctl();
+        assert_eq!(c.step(Some(f64::NAN), 10.0).status, Status::InvalidDistance);
+        assert_eq!(c.step(Some(10.0), f64::NAN).status, Status::InvalidSpeed);
+        assert!(c.step(Some(-1.0), 10.0).accel < 0.0);
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_field() {
+        let p = RobustFlc2Params { sight_distance: f64::NAN, ..RobustFlc2Params::default() };
+        assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "sight_distance");
+        let mut p = RobustFlc2Params::default();
+        p.law.time_gap = 0.0;
+        assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "time_gap");
+    }
+}
