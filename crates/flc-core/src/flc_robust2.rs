@@ -17,14 +17,16 @@
 //!   as *pending* and the frame is handled as a missed one; the next frame confirms it (within
 //!   `reveal_jump` of the pending distance) or not (back near the last accepted distance). An
 //!   upward jump so confirmed is a reveal.
-//! - **The first detection is a reveal** (possibly standing; `first_object = "unknown"`).
+//! - **The first detection is a reveal** (possibly standing; `first_object = "unknown"`). On a
+//!   reveal frame the law holds at most; the stop envelope applies from the next frame while the
+//!   latch survives (a reveal cannot yet show whether the object closes).
 //! - **Release when the distance does not close while driving.** Besides v1's release (the
 //!   distance grew `reveal_release` above its smallest value since the latch), the latch is
 //!   released on a frame whose own speed is at least `release_speed` and whose distance is no more
 //!   than `release_closing` below the previous accepted one: the follower moved forward by
 //!   `v dt >= release_speed dt` since that frame, so a standing object would have come that much
-//!   closer. This holds for frame rates up to `release_speed / (release_closing + 3 sigma)` (with
-//!   range noise `sigma`): 64 Hz with the defaults and 2 cm noise.
+//!   closer. This holds for frame rates up to `release_speed / (release_closing + 3 sqrt(2) sigma)`
+//!   (with range noise `sigma`): 43 Hz with the defaults and 2 cm noise, 38 Hz with 3 cm.
 //! - **The stop envelope assumes wet brakes**: `envelope_decel` 4 m/s² (v1: 7), so that an
 //!   unknown object is approached in a way that stops before it on a road where the tyres give 6.
 //!
@@ -51,11 +53,13 @@ pub struct RobustFlc2Params {
     pub sight_distance: f64,
     /// Deceleration without a detection above `V_e(sight_distance)`, m/s². Default 2.0.
     pub sight_decel: f64,
-    /// Smallest own speed for the "not closing" release, m/s. Default 15 (below it the stop
-    /// envelope at 4 m/s² is shorter than the desired gap, so the latch costs nothing).
+    /// Smallest own speed for the "not closing" release, m/s. Default 8 (below 8.9 m/s the stop
+    /// envelope at 4 m/s², `2 + 0.5 v + v²/8`, is shorter than the desired gap `3 + 1.5 v`, so
+    /// the latch costs nothing while following).
     pub release_speed: f64,
     /// Largest decrease of the distance between two accepted frames that still counts as "not
-    /// closing", m. Default 0.15 (7 sigma of the default LiDAR's 2 cm noise).
+    /// closing", m. Default 0.1 (3.5 sigma of the difference of two readings with the default
+    /// LiDAR's 2 cm noise).
     pub release_closing: f64,
 }
 
@@ -71,7 +75,7 @@ impl RobustFlc2Params {
         let mut law = RobustFlcParams::documented();
         law.envelope_decel = 4.0;
         law.first_object = FirstObject::Unknown;
-        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 15.0, release_closing: 0.15 }
+        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1 }
     }
 
     /// Checks every field; the error names the first offending one.
@@ -203,7 +207,14 @@ impl RobustFallbackController2 {
         let latched = self.latched();
         let gap_speed = law.gap_speed(d);
         let envelope_speed = law.envelope_speed(d);
-        let target_speed = if latched { gap_speed.min(envelope_speed) } else { gap_speed };
+        // On the reveal frame itself the law cannot yet tell a standing object from a moving one:
+        // it holds at most (the envelope's reaction time `T_s` covers the frame); from the next
+        // frame on, a latch that survived applies the envelope.
+        let target_speed = match (revealed, latched) {
+            (true, _) => gap_speed.min(v),
+            (false, true) => gap_speed.min(envelope_speed),
+            (false, false) => gap_speed,
+        };
         let error = target_speed - v;
         let gain = if error >= 0.0 { law.accel_gain } else { law.brake_gain };
         let a = clamp(gain * error, -law.max_decel, law.max_accel);
@@ -252,15 +263,17 @@ impl RobustFlc2Terms {
 /// use flc_core::{Frame, LongitudinalController, RobustFallbackController2, RobustFlc2Params};
 ///
 /// let mut c = RobustFallbackController2::new(RobustFlc2Params::default())?;
-/// // The first detection is possibly standing: 33 m ahead at 20 m/s, the stop envelope at
-/// // 4 m/s² allows V_e(33) = 4 (sqrt(0.25 + 2 * 31 / 4) - 0.5) = 13.87 m/s, so
-/// // a = 4 (13.87 - 20) = -24.5, clamped to -10.
-/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
-/// assert_eq!(out.command.accel, -10.0);
-/// // Next frame at the same distance while driving at 20 m/s: not standing, the latch is
-/// // released and (R1) holds: D_r(20) = 33 = d, a = 0.
+/// // The first detection, 33 m ahead at 20 m/s, is possibly standing: hold on this frame.
 /// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
 /// assert_eq!(out.command.accel, 0.0);
+/// // Next frame 1 m closer: still closing, so the stop envelope at 4 m/s² applies:
+/// // V_e(32) = 4 (sqrt(0.25 + 2 * 30 / 4) - 0.5) = 13.62 m/s, a = 4 (13.62 - 20) = -25.5,
+/// // clamped to -10.
+/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(32.0), 20.0, 0.05));
+/// assert_eq!(out.command.accel, -10.0);
+/// // Next frame at the same distance while driving at 20 m/s: it moves, the latch is released.
+/// let out = LongitudinalController::step(&mut c, &Frame::new(Some(32.0), 20.0, 0.05));
+/// assert!(!c.latched() && out.command.accel > -4.0);
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
 impl LongitudinalController for RobustFallbackController2 {
@@ -366,10 +379,10 @@ mod tests {
         assert!(!c.latched());
         // Below release_speed only growth releases.
         let mut c = ctl();
-        c.step(Some(20.0), 10.0);
-        c.step(Some(20.0), 10.0);
+        c.step(Some(20.0), 6.0);
+        c.step(Some(20.0), 6.0);
         assert!(c.latched());
-        c.step(Some(20.6), 10.0);
+        c.step(Some(20.6), 6.0);
         assert!(!c.latched());
     }
 
