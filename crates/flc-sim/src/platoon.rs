@@ -32,6 +32,9 @@ use crate::error::{ConfigError, check_range};
 /// Largest number of followers.
 pub const MAX_FOLLOWERS: u32 = 64;
 
+/// Most `[[platoon.overrides]]`.
+pub const MAX_OVERRIDES: usize = 1000;
+
 /// Where a follower's V2V messages come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -195,10 +198,16 @@ impl PlatoonSpec {
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_range("followers", f64::from(self.followers), 1.0, f64::from(MAX_FOLLOWERS), "")?;
         check_range("lead_weight", self.lead_weight, 0.0, 1.0, "")?;
+        if self.overrides.len() > MAX_OVERRIDES {
+            return Err(ConfigError::new("overrides", format!("at most {MAX_OVERRIDES} overrides, got {}", self.overrides.len())));
+        }
         for (i, o) in self.overrides.iter().enumerate() {
             let key = format!("overrides[{i}].followers");
             if o.followers.is_empty() {
                 return Err(ConfigError::new(key, "list at least one follower (1-based)"));
+            }
+            if o.followers.len() > MAX_FOLLOWERS as usize {
+                return Err(ConfigError::new(key, format!("at most {MAX_FOLLOWERS} followers, got {}", o.followers.len())));
             }
             for (j, &k) in o.followers.iter().enumerate() {
                 if k < 1 || k > self.followers {
