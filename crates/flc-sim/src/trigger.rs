@@ -74,10 +74,10 @@ use crate::error::{ConfigError, check_range};
 /// `openscenario::storyboard::MAX_GROUPS`).
 pub const MAX_TRIGGER_GROUPS: usize = 64;
 
-/// Most conditions of one trigger, all groups together (an imported trigger: up to
-/// `openscenario::storyboard::MAX_CONDITIONS` conditions as written, each expanded
-/// to at most one per entity).
-pub const MAX_TRIGGER_CONDITIONS: usize = 1024 * 256;
+/// Most conditions of one trigger, all groups together (an imported trigger has up to
+/// `openscenario::storyboard::MAX_CONDITIONS` as written; one expanded past this is rejected
+/// when its twin is validated).
+pub const MAX_TRIGGER_CONDITIONS: usize = 4096;
 
 /// Float slack of comparisons and delays.
 const EPS: f64 = 1e-9;
