@@ -96,7 +96,7 @@ fn override_followers_list() {
 fn vehicles() {
     let mut s = String::new();
     for i in 0..LIST {
-        let _ = write!(s, "[[vehicles]]\nname = \"car{i}\"\n");
+        let _ = write!(s, "[[vehicles]]\nname = \"car{i}\"\ns = 50.0\n");
     }
     config("vehicles", &s, "vehicles");
 }
@@ -110,7 +110,7 @@ fn lead_phases() {
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn vehicle_phases() {
-    let text = format!("[[vehicles]]\nname = \"car\"\n{}", repeat(LIST, "[[vehicles.phases]]\nkind = \"hold\"\nduration = 1.0\n"));
+    let text = format!("[[vehicles]]\nname = \"car\"\ns = 50.0\n{}", repeat(LIST, "[[vehicles.phases]]\nkind = \"hold\"\nduration = 1.0\n"));
     config("vehicle-phases", &text, "vehicles[0].phases");
 }
 
@@ -156,7 +156,7 @@ fn roadside_objects() {
 fn story_elements() {
     let mut s = String::from("[story]\n");
     for i in 0..LIST {
-        let _ = write!(s, "[[story.acts]]\nname = \"act{i}\"\n");
+        let _ = write!(s, "[[story.acts]]\nname = \"act{i}\"\ngroups = []\n");
     }
     config("story", &s, "story.acts");
 }
