@@ -4,7 +4,7 @@
 //!
 //! A failure is a panic, a mutant past its wall-time limit, an error that is not one line
 //! naming a key, or a finished run with non-finite metrics. The number of mutants is bounded
-//! (`FLC_MUTANTS` per file, default 60); the outcomes are printed by category.
+//! (`FLC_MUTANTS` per file, default 300); the outcomes are printed by category.
 //!
 //! Release only (tests/run_all.sh runs it with --release): the runs are slow in debug.
 
@@ -104,8 +104,8 @@ fn replacement(rng: &mut ChaCha8Rng, old: &Value) -> Value {
 
 #[derive(Debug)]
 enum Outcome {
-    /// Rejected with one line naming a key (`true`: the mutated key itself).
-    Rejected(bool),
+    /// Rejected with one line naming a key (`true`: the mutated key itself), the message.
+    Rejected(bool, String),
     /// Every run finished with finite metrics.
     Ran(usize),
     /// A failure, described.
@@ -150,13 +150,14 @@ fn judge_error(msg: &str, key: &str, leaf: &str) -> Outcome {
     if !msg.contains('`') {
         return Outcome::Failed(format!("error naming no key: {msg}"));
     }
-    Outcome::Rejected(msg.contains(key) || msg.contains(&format!("`{leaf}`")) || msg.contains(&format!(".{leaf}`")))
+    let named = msg.contains(key) || msg.contains(&format!("`{leaf}`")) || msg.contains(&format!(".{leaf}`"));
+    Outcome::Rejected(named, msg.to_string())
 }
 
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn mutated_scenarios_fail_cleanly_or_run() {
-    let per_file: usize = std::env::var("FLC_MUTANTS").ok().and_then(|v| v.parse().ok()).unwrap_or(60);
+    let per_file: usize = std::env::var("FLC_MUTANTS").ok().and_then(|v| v.parse().ok()).unwrap_or(300);
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .expect("scenarios/")
@@ -169,6 +170,7 @@ fn mutated_scenarios_fail_cleanly_or_run() {
     let mut rng = ChaCha8Rng::seed_from_u64(SEED);
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     let mut failures = Vec::new();
+    let mut others = Vec::new();
     let t0 = Instant::now();
     for f in &files {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -233,9 +235,17 @@ fn mutated_scenarios_fail_cleanly_or_run() {
             };
             let took = start.elapsed();
             match outcome {
-                Outcome::Rejected(true) => *counts.entry("rejected, naming the mutated key").or_default() += 1,
-                Outcome::Rejected(false) => *counts.entry("rejected, naming another key").or_default() += 1,
-                Outcome::Ran(_) => *counts.entry("ran, finite metrics").or_default() += 1,
+                Outcome::Rejected(true, _) => *counts.entry("rejected, naming the mutated key").or_default() += 1,
+                Outcome::Rejected(false, msg) => {
+                    *counts.entry("rejected, naming another key").or_default() += 1;
+                    if others.len() < 20 {
+                        others.push(format!("{label}: {msg}"));
+                    }
+                }
+                Outcome::Ran(n) => {
+                    *counts.entry("ran, finite metrics").or_default() += 1;
+                    *counts.entry("(runs, variants counted)").or_default() += n;
+                }
                 Outcome::Failed(why) => {
                     *counts.entry("FAILED").or_default() += 1;
                     failures.push(format!("{label} ({took:?}): {why}"));
@@ -243,10 +253,14 @@ fn mutated_scenarios_fail_cleanly_or_run() {
             }
         }
     }
-    let total: usize = counts.values().sum();
+    let total: usize = counts.iter().filter(|(k, _)| !k.starts_with('(')).map(|(_, n)| n).sum();
     println!("{total} mutants of {} files in {:?} (seed {SEED}):", files.len(), t0.elapsed());
     for (k, n) in &counts {
         println!("  {k}: {n}");
+    }
+    println!("some rejections naming another key than the mutated one (a dependent check):");
+    for o in &others {
+        println!("  {o}");
     }
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
 }
