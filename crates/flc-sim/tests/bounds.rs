@@ -215,3 +215,49 @@ fn sweep_axes() {
     let text = format!("family = \"paper\"\n{}", repeat(LIST, "[[axes]]\nkey = \"lead_decel\"\nvalues = [1.0]\n"));
     sweep("sweep-axes", &text, "axes");
 }
+
+/// Within the limits the checks stay linear: 64 vehicles of 1000 phases whose start triggers
+/// chain backwards through the entities (the old fixed-point search of the phase-cycle check
+/// needed one pass over all 64,000 phases per link of that chain) validate in the time it takes
+/// to parse the file.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn phase_checks_are_linear() {
+    let (m, p) = (64usize, 1000usize);
+    let name = |i: usize| if i == 0 { "lead".to_string() } else { format!("car{i}") };
+    let mut s = String::new();
+    for i in 0..m {
+        if i > 0 {
+            let _ = write!(s, "[[vehicles]]\nname = \"{}\"\ns = {}\n", name(i), 20.0 * i as f64 + 20.0);
+        }
+        let table = if i == 0 { "lead.phases" } else { "vehicles.phases" };
+        for k in 0..p {
+            let _ = write!(s, "[[{table}]]\nkind = \"hold\"\nduration = 1.0\n");
+            let waits = if i + 1 < m {
+                Some((name(i + 1), k))
+            } else {
+                k.checked_sub(1).map(|j| (name(0), j))
+            };
+            if let Some((e, j)) = waits {
+                let _ = write!(s, "start = {{ kind = \"phase_state\", entity = \"{e}\", phase = {j}, state = \"started\" }}\n");
+            }
+        }
+    }
+    let t = Instant::now();
+    let _: toml::Table = toml::from_str(&s).expect("valid TOML");
+    let parse = t.elapsed();
+    let t = Instant::now();
+    let sc = flc_sim::Scenario::from_toml_str(&s, "chain.toml").expect("valid scenario");
+    let took = t.elapsed();
+    assert_eq!(sc.vehicles.len(), m - 1);
+    let limit = BUDGET + parse * 3;
+    assert!(took < limit, "{took:?} (limit {limit:?}, parse alone {parse:?})");
+    println!("{} phases validated in {took:?} (parse {parse:?})", m * p);
+    // One link closing the chain into a cycle is found and reported.
+    let cyclic = s.replacen("entity = \"car1\", phase = 0,", "entity = \"car63\", phase = 999,", 1);
+    let t = Instant::now();
+    let e = flc_sim::Scenario::from_toml_str(&cyclic, "cycle.toml").expect_err("cycle");
+    assert!(t.elapsed() < limit, "{:?}", t.elapsed());
+    let msg = e.to_string();
+    assert!(msg.lines().count() == 1 && msg.contains("lead.phases[0]"), "{}", &msg[..msg.len().min(300)]);
+}
