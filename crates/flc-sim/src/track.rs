@@ -217,10 +217,7 @@ impl Track {
             return Err(ConfigError::new("centerline", "needs at least 2 points"));
         }
         if self.centerline.len() > MAX_CENTERLINE_POINTS {
-            return Err(ConfigError::new(
-                "centerline",
-                format!("at most {MAX_CENTERLINE_POINTS} points, got {}", self.centerline.len()),
-            ));
+            return Err(ConfigError::new("centerline", format!("at most {MAX_CENTERLINE_POINTS} points, got {}", self.centerline.len())));
         }
         if self.objects.len() > MAX_OBJECTS {
             return Err(ConfigError::new("objects", format!("at most {MAX_OBJECTS} road-side objects, got {}", self.objects.len())));

@@ -54,11 +54,7 @@ fn sweep(tag: &str, text: &str, key: &str) {
 }
 
 fn repeat(n: usize, item: &str) -> String {
-    let mut s = String::with_capacity(n * item.len());
-    for _ in 0..n {
-        s.push_str(item);
-    }
-    s
+    item.repeat(n)
 }
 
 const BIG: usize = 7_000_000;
@@ -77,7 +73,11 @@ fn followers() {
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn platoon_overrides() {
-    config("overrides", &format!("[platoon]\nfollowers = 2\n{}", repeat(LIST, "[[platoon.overrides]]\nfollowers = [1]\n")), "platoon.overrides");
+    config(
+        "overrides",
+        &format!("[platoon]\nfollowers = 2\n{}", repeat(LIST, "[[platoon.overrides]]\nfollowers = [1]\n")),
+        "platoon.overrides",
+    );
 }
 
 #[test]
@@ -96,7 +96,7 @@ fn override_followers_list() {
 fn vehicles() {
     let mut s = String::new();
     for i in 0..LIST {
-        let _ = write!(s, "[[vehicles]]\nname = \"car{i}\"\ns = 50.0\n");
+        let _ = writeln!(s, "[[vehicles]]\nname = \"car{i}\"\ns = 50.0");
     }
     config("vehicles", &s, "vehicles");
 }
@@ -110,7 +110,8 @@ fn lead_phases() {
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn vehicle_phases() {
-    let text = format!("[[vehicles]]\nname = \"car\"\ns = 50.0\n{}", repeat(LIST, "[[vehicles.phases]]\nkind = \"hold\"\nduration = 1.0\n"));
+    let text =
+        format!("[[vehicles]]\nname = \"car\"\ns = 50.0\n{}", repeat(LIST, "[[vehicles.phases]]\nkind = \"hold\"\nduration = 1.0\n"));
     config("vehicle-phases", &text, "vehicles[0].phases");
 }
 
@@ -144,11 +145,7 @@ fn centerline_points() {
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn roadside_objects() {
     let objs = vec!["{ kind = \"post\", s = 10.0, offset = 5.0, radius = 0.1 }"; LIST].join(",");
-    config(
-        "objects",
-        &format!("[track]\nkind = \"custom\"\ncenterline = [[0, 0], [1000, 0]]\nobjects = [{objs}]\n"),
-        "track.objects",
-    );
+    config("objects", &format!("[track]\nkind = \"custom\"\ncenterline = [[0, 0], [1000, 0]]\nobjects = [{objs}]\n"), "track.objects");
 }
 
 #[test]
@@ -156,7 +153,7 @@ fn roadside_objects() {
 fn story_elements() {
     let mut s = String::from("[story]\n");
     for i in 0..LIST {
-        let _ = write!(s, "[[story.acts]]\nname = \"act{i}\"\ngroups = []\n");
+        let _ = writeln!(s, "[[story.acts]]\nname = \"act{i}\"\ngroups = []");
     }
     config("story", &s, "story.acts");
 }
@@ -166,7 +163,7 @@ fn story_elements() {
 fn variants() {
     let mut s = String::new();
     for i in 0..LIST {
-        let _ = write!(s, "[[variants]]\nname = \"v{i}\"\n");
+        let _ = writeln!(s, "[[variants]]\nname = \"v{i}\"");
     }
     config("variants", &s, "variants");
 }
@@ -228,18 +225,14 @@ fn phase_checks_are_linear() {
     let mut s = String::new();
     for i in 0..m {
         if i > 0 {
-            let _ = write!(s, "[[vehicles]]\nname = \"{}\"\ns = {}\n", name(i), 20.0 * i as f64 + 20.0);
+            let _ = writeln!(s, "[[vehicles]]\nname = \"{}\"\ns = {}", name(i), 20.0 * i as f64 + 20.0);
         }
         let table = if i == 0 { "lead.phases" } else { "vehicles.phases" };
         for k in 0..p {
-            let _ = write!(s, "[[{table}]]\nkind = \"hold\"\nduration = 1.0\n");
-            let waits = if i + 1 < m {
-                Some((name(i + 1), k))
-            } else {
-                k.checked_sub(1).map(|j| (name(0), j))
-            };
+            let _ = writeln!(s, "[[{table}]]\nkind = \"hold\"\nduration = 1.0");
+            let waits = if i + 1 < m { Some((name(i + 1), k)) } else { k.checked_sub(1).map(|j| (name(0), j)) };
             if let Some((e, j)) = waits {
-                let _ = write!(s, "start = {{ kind = \"phase_state\", entity = \"{e}\", phase = {j}, state = \"started\" }}\n");
+                let _ = writeln!(s, "start = {{ kind = \"phase_state\", entity = \"{e}\", phase = {j}, state = \"started\" }}");
             }
         }
     }
