@@ -198,7 +198,7 @@ impl Scenario {
     }
 
     /// Every count the file controls, checked before anything is built from it (each check
-    /// constant time or linear in what was parsed): followers, overrides, vehicles, phases,
+    /// constant time or linear in what was parsed): followers, overrides, V2V outages, vehicles, phases,
     /// trigger groups and conditions, centreline points, road-side objects, storyboard
     /// elements, variants.
     fn check_sizes(&self) -> Result<(), ConfigError> {
@@ -209,6 +209,9 @@ impl Scenario {
             if t.centerline.len() > crate::track::MAX_CENTERLINE_POINTS || t.objects.len() > crate::track::MAX_OBJECTS {
                 t.validate().map_err(|e| e.within("track"))?;
             }
+        }
+        if self.v2v.outages.len() > crate::v2v::MAX_OUTAGES {
+            self.v2v.validate().map_err(|e| e.within("v2v"))?;
         }
         if self.vehicles.len() > MAX_VEHICLES {
             return Err(ConfigError::new("vehicles", format!("at most {MAX_VEHICLES} scripted vehicles, got {}", self.vehicles.len())));

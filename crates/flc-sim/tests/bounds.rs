@@ -181,6 +181,13 @@ fn frequencies() {
 
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn v2v_outages() {
+    let list = vec!["{ start = 1.0, end = 2.0 }"; LIST].join(",");
+    config("outages", &format!("[v2v]\noutages = [{list}]\n"), "v2v.outages");
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn rates_and_steps() {
     config("lidar-rate", &format!("[lidar]\nrate_hz = {BIG}.0\n"), "lidar.rate_hz");
     config("v2v-rate", &format!("[v2v]\nrate_hz = {BIG}.0\n"), "v2v.rate_hz");
