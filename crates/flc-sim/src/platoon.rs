@@ -32,6 +32,12 @@ use crate::error::{ConfigError, check_range};
 /// Largest number of followers.
 pub const MAX_FOLLOWERS: u32 = 64;
 
+/// Longest sine run of the frequency response, s (the limit of a scenario's `duration`).
+const MAX_SINE_RUN: f64 = 36_000.0;
+
+/// Most `[[platoon.overrides]]`.
+pub const MAX_OVERRIDES: usize = 1000;
+
 /// Where a follower's V2V messages come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -130,7 +136,20 @@ impl StringStabilitySpec {
         check_range("fit_periods", f64::from(self.fit_periods), 1.0, 100.0, "periods")?;
         check_range("min_warmup_time", self.min_warmup_time, 0.0, 1000.0, "s")?;
         check_range("min_fit_time", self.min_fit_time, 0.0, 1000.0, "s")?;
-        check_range("gamma_floor", self.gamma_floor, 0.0, 20.0, "m/s")
+        check_range("gamma_floor", self.gamma_floor, 0.0, 20.0, "m/s")?;
+        // A run's `duration` is at most 36000 s: so is each sine run's (no step count explodes
+        // at a low frequency with many periods).
+        for (i, f) in self.frequencies_hz.iter().enumerate() {
+            let (warmup, fit) = self.sine_periods(*f);
+            let t = self.settle_time + f64::from(warmup + fit) / f;
+            if t > MAX_SINE_RUN {
+                return Err(ConfigError::new(
+                    format!("frequencies_hz[{i}]"),
+                    format!("gives a sine run of {t} s (settle_time + warmup and fit periods), more than {MAX_SINE_RUN} s"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// `(warmup, fit)` periods of the sine run at `freq_hz`.
@@ -195,10 +214,16 @@ impl PlatoonSpec {
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_range("followers", f64::from(self.followers), 1.0, f64::from(MAX_FOLLOWERS), "")?;
         check_range("lead_weight", self.lead_weight, 0.0, 1.0, "")?;
+        if self.overrides.len() > MAX_OVERRIDES {
+            return Err(ConfigError::new("overrides", format!("at most {MAX_OVERRIDES} overrides, got {}", self.overrides.len())));
+        }
         for (i, o) in self.overrides.iter().enumerate() {
             let key = format!("overrides[{i}].followers");
             if o.followers.is_empty() {
                 return Err(ConfigError::new(key, "list at least one follower (1-based)"));
+            }
+            if o.followers.len() > MAX_FOLLOWERS as usize {
+                return Err(ConfigError::new(key, format!("at most {MAX_FOLLOWERS} followers, got {}", o.followers.len())));
             }
             for (j, &k) in o.followers.iter().enumerate() {
                 if k < 1 || k > self.followers {

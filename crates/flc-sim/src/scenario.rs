@@ -86,6 +86,16 @@ impl Default for StopSpec {
     }
 }
 
+/// Most `[[vehicles]]` (as many as an imported file may have entities,
+/// `openscenario::entities::MAX_ENTITIES`).
+pub const MAX_VEHICLES: usize = 256;
+
+/// Most phases of one scripted vehicle (the lead or one of `[[vehicles]]`).
+pub const MAX_PHASES: usize = 1000;
+
+/// Most `[[variants]]`.
+pub const MAX_VARIANTS: usize = 1000;
+
 /// Names a trigger may use for the followers: `ego` (= follower 1) and `follower <k>`.
 pub const EGO: &str = "ego";
 
@@ -161,6 +171,7 @@ pub struct Variant {
 impl Scenario {
     /// Checks every value; the error names the dotted key and the allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.check_sizes()?;
         check_range("duration", self.duration, 0.01, 36_000.0, "s")?;
         check_range("physics_dt", self.physics_dt, 0.0005, 0.05, "s")?;
         self.track.build().map_err(|e| e.within("track"))?;
@@ -182,6 +193,61 @@ impl Scenario {
         for i in 0..self.variants.len() {
             let key = format!("variants[{i}]");
             self.expand_variant(i)?.validate().map_err(|e| e.within(&key))?;
+        }
+        Ok(())
+    }
+
+    /// Every count the file controls, checked before anything is built from it (each check
+    /// constant time or linear in what was parsed): followers, overrides, V2V outages, vehicles, phases,
+    /// trigger groups and conditions, centreline points, road-side objects, storyboard
+    /// elements, variants.
+    fn check_sizes(&self) -> Result<(), ConfigError> {
+        if let Some(p) = &self.platoon {
+            p.validate().map_err(|e| e.within("platoon"))?;
+        }
+        if let TrackSpec::Custom(t) = &self.track {
+            if t.centerline.len() > crate::track::MAX_CENTERLINE_POINTS || t.objects.len() > crate::track::MAX_OBJECTS {
+                t.validate().map_err(|e| e.within("track"))?;
+            }
+        }
+        if self.v2v.outages.len() > crate::v2v::MAX_OUTAGES {
+            self.v2v.validate().map_err(|e| e.within("v2v"))?;
+        }
+        if self.vehicles.len() > MAX_VEHICLES {
+            return Err(ConfigError::new("vehicles", format!("at most {MAX_VEHICLES} scripted vehicles, got {}", self.vehicles.len())));
+        }
+        let phases = |key: &str, phases: &[ScriptedPhase]| -> Result<(), ConfigError> {
+            if phases.len() > MAX_PHASES {
+                return Err(ConfigError::new(key, format!("at most {MAX_PHASES} phases, got {}", phases.len())));
+            }
+            for (k, p) in phases.iter().enumerate() {
+                if let Some(t) = &p.start {
+                    t.check_size(&format!("{key}[{k}].start"))?;
+                }
+            }
+            Ok(())
+        };
+        phases("lead.phases", &self.lead.phases)?;
+        for (i, v) in self.vehicles.iter().enumerate() {
+            phases(&format!("vehicles[{i}].phases"), &v.phases)?;
+        }
+        if let Some(t) = &self.stop.trigger {
+            t.check_size("stop.trigger")?;
+        }
+        if let Some(story) = &self.story {
+            let n = story.size();
+            if n > crate::story::MAX_ELEMENTS {
+                return Err(ConfigError::new(
+                    "story.acts",
+                    format!("{n} storyboard elements, more than the limit of {}", crate::story::MAX_ELEMENTS),
+                ));
+            }
+            for (key, t) in story.triggers() {
+                t.check_size(&key)?;
+            }
+        }
+        if self.variants.len() > MAX_VARIANTS {
+            return Err(ConfigError::new("variants", format!("at most {MAX_VARIANTS} variants, got {}", self.variants.len())));
         }
         Ok(())
     }
@@ -271,6 +337,8 @@ impl Scenario {
         let mut sorted = elements.clone();
         sorted.sort_unstable();
         let known = |e: &str| sorted.binary_search(&e).is_ok();
+        let mut variables: Vec<&str> = story.variables.iter().map(|v| v.name.as_str()).collect();
+        variables.sort_unstable();
         let mut all = story.triggers();
         if let Some(t) = &self.stop.trigger {
             all.push(("stop.trigger".to_string(), t));
@@ -288,7 +356,7 @@ impl Scenario {
                         }
                     }
                     if let crate::trigger::ConditionKind::Variable { variable, .. } = &cond.kind {
-                        if !story.variables.iter().any(|v| v.name == *variable) {
+                        if variables.binary_search(&variable.as_str()).is_err() {
                             return Err(ConfigError::new(
                                 format!("{}.variable", trig.condition_key(&key, g, c)),
                                 format!("no variable `{variable}` in story.variables"),
@@ -506,7 +574,7 @@ impl Scenario {
 }
 
 /// toml's messages span several lines (with a source excerpt); keep the first meaningful line.
-fn one_line(msg: &str) -> String {
+pub(crate) fn one_line(msg: &str) -> String {
     let lines: Vec<&str> = msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
     // toml 1 puts "TOML parse error at line L, column C" first and the problem last.
     match (lines.first(), lines.last()) {

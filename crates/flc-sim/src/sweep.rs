@@ -56,6 +56,12 @@ pub struct Axis {
     pub steps: Option<usize>,
 }
 
+/// Most axes of a sweep.
+pub const MAX_AXES: usize = 32;
+
+/// Most points of a sweep (grid points or random samples), and values of one axis.
+pub const MAX_POINTS: usize = 100_000;
+
 /// How points are chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -118,13 +124,45 @@ impl SweepSpec {
     pub fn from_file(path: &Path) -> Result<(Self, Option<PathBuf>), SimError> {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
-        let de = toml::Deserializer::parse(&text).map_err(|e| SimError::File { path: origin.clone(), message: e.to_string() })?;
+        let de = toml::Deserializer::parse(&text)
+            .map_err(|e| SimError::File { path: origin.clone(), message: crate::scenario::one_line(&e.to_string()) })?;
         let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
-            SimError::File { path: origin.clone(), message: format!("`{key}`: {}", e.into_inner()) }
+            SimError::File { path: origin.clone(), message: format!("`{key}`: {}", crate::scenario::one_line(&e.into_inner().to_string())) }
         })?;
         let dir = path.parent().map(Path::to_path_buf);
         Ok((spec, dir))
+    }
+
+    /// Number of points, checked before any is built: at most [`MAX_AXES`] axes, [`MAX_POINTS`]
+    /// values per axis, samples and grid points.
+    fn check_sizes(&self) -> Result<usize, ConfigError> {
+        if self.axes.len() > MAX_AXES {
+            return Err(ConfigError::new("axes", format!("at most {MAX_AXES} axes, got {}", self.axes.len())));
+        }
+        let mut grid = 1usize;
+        for (i, a) in self.axes.iter().enumerate() {
+            let n = match (&a.values, a.steps) {
+                (Some(v), _) => (v.len(), "values"),
+                (None, Some(n)) => (n, "steps"),
+                (None, None) => (1, "steps"),
+            };
+            if n.0 > MAX_POINTS {
+                return Err(ConfigError::new(format!("axes[{i}].{}", n.1), format!("at most {MAX_POINTS} values, got {}", n.0)));
+            }
+            grid = grid.saturating_mul(n.0);
+        }
+        match self.mode {
+            Mode::Grid if grid > MAX_POINTS => {
+                Err(ConfigError::new("axes", format!("the grid has {grid} points, more than the limit of {MAX_POINTS}")))
+            }
+            Mode::Grid => Ok(grid),
+            Mode::Random => match self.samples {
+                Some(n) if n > MAX_POINTS => Err(ConfigError::new("samples", format!("must be at most {MAX_POINTS}, got {n}"))),
+                Some(n) => Ok(n),
+                None => Ok(0),
+            },
+        }
     }
 
     fn axis_values(&self, i: usize, a: &Axis) -> Result<Vec<Value>, ConfigError> {
@@ -151,6 +189,7 @@ impl SweepSpec {
         if self.axes.is_empty() {
             return Err(ConfigError::new("axes", "give at least one axis").into());
         }
+        self.check_sizes()?;
         let base = match (&self.family, &self.base) {
             (Some(f), None) if f == "paper" => None,
             (Some(f), _) => return Err(ConfigError::new("family", format!("must be \"paper\", got `{f}`")).into()),

@@ -60,6 +60,13 @@ pub struct Projection {
     pub segment: usize,
 }
 
+/// Most centreline points of a track (as many as an imported road may give,
+/// [`crate::openscenario::road::MAX_TRACK_POINTS`]).
+pub const MAX_CENTERLINE_POINTS: usize = crate::openscenario::road::MAX_TRACK_POINTS;
+
+/// Most road-side objects of a track.
+pub const MAX_OBJECTS: usize = 10_000;
+
 /// A track: centreline polyline + lane width + road-side objects.
 ///
 /// Deserialising (e.g. `[track] kind = "custom"` in a scenario file) computes the length table,
@@ -208,6 +215,12 @@ impl Track {
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.centerline.len() < 2 {
             return Err(ConfigError::new("centerline", "needs at least 2 points"));
+        }
+        if self.centerline.len() > MAX_CENTERLINE_POINTS {
+            return Err(ConfigError::new("centerline", format!("at most {MAX_CENTERLINE_POINTS} points, got {}", self.centerline.len())));
+        }
+        if self.objects.len() > MAX_OBJECTS {
+            return Err(ConfigError::new("objects", format!("at most {MAX_OBJECTS} road-side objects, got {}", self.objects.len())));
         }
         for (i, w) in self.centerline.windows(2).enumerate() {
             let (p, q) = (w[0], w[1]);

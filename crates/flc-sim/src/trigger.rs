@@ -62,13 +62,22 @@
 //! finds phases that can never start because they wait on each other (implicit edges included);
 //! [`validate_scripts`] validates every start trigger and then checks the cycles.
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::fmt;
 
 use serde::de::{MapAccess, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::error::{ConfigError, check_range};
+
+/// Most condition groups of one trigger (as many as an imported trigger may expand to,
+/// `openscenario::storyboard::MAX_GROUPS`).
+pub const MAX_TRIGGER_GROUPS: usize = 64;
+
+/// Most conditions of one trigger, all groups together (an imported trigger has up to
+/// `openscenario::storyboard::MAX_CONDITIONS` as written; one expanded past this is rejected
+/// when its twin is validated).
+pub const MAX_TRIGGER_CONDITIONS: usize = 4096;
 
 /// Float slack of comparisons and delays.
 const EPS: f64 = 1e-9;
@@ -750,6 +759,20 @@ impl Trigger {
         })
     }
 
+    /// Checks the trigger's sizes only (at most [`MAX_TRIGGER_GROUPS`] groups and
+    /// [`MAX_TRIGGER_CONDITIONS`] conditions), without allocating: run before anything is built
+    /// from it.
+    pub fn check_size(&self, key: &str) -> Result<(), ConfigError> {
+        if self.groups.len() > MAX_TRIGGER_GROUPS {
+            return Err(ConfigError::new(key, format!("at most {MAX_TRIGGER_GROUPS} condition groups, got {}", self.groups.len())));
+        }
+        let n = self.groups.iter().fold(0usize, |n, g| n.saturating_add(g.conditions.len()));
+        if n > MAX_TRIGGER_CONDITIONS {
+            return Err(ConfigError::new(key, format!("at most {MAX_TRIGGER_CONDITIONS} conditions, got {n}")));
+        }
+        Ok(())
+    }
+
     /// Checks the trigger written at dotted key `key` against `entities` (`(name, number of
     /// phases)` of every entity that conditions may name): at least one group and one condition
     /// per group, known entities (`of` different from `entity`), existing phase indices, ranges
@@ -757,6 +780,7 @@ impl Trigger {
     /// `not_equal_to`). The error names the full key, e.g.
     /// `vehicles[1].phases[2].start[0][1].entity: unknown entity "leed" (known: ego, lead)`.
     pub fn validate(&self, key: &str, entities: &[(&str, usize)]) -> Result<(), ConfigError> {
+        self.check_size(key)?;
         if self.groups.is_empty() {
             return Err(ConfigError::new(key, "a trigger needs at least one condition group"));
         }
@@ -1068,8 +1092,13 @@ pub fn check_phase_cycles(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigE
         offsets.push(nodes.len());
         nodes.extend((0..ent.starts.len()).map(|k| (e, k)));
     }
+    // The first entity of each name (names are distinct once `validate_scripts` passed).
+    let mut index: HashMap<&str, usize> = HashMap::with_capacity(entities.len());
+    for (e, ent) in entities.iter().enumerate() {
+        index.entry(ent.name).or_insert(e);
+    }
     let node_of = |name: &str, phase: usize| -> Option<usize> {
-        let e = entities.iter().position(|x| x.name == name)?;
+        let e = *index.get(name)?;
         (phase < entities[e].starts.len()).then(|| offsets[e] + phase)
     };
     // Per node: the groups of (node waited for, why).
@@ -1089,21 +1118,42 @@ pub fn check_phase_cycles(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigE
         })
         .collect();
     let prev = |v: usize| -> Option<usize> { (nodes[v].1 > 0).then(|| v - 1) };
-    let mut ok = vec![false; nodes.len()];
-    loop {
-        let mut changed = false;
-        for v in 0..nodes.len() {
-            if ok[v] {
-                continue;
-            }
-            let prev_ok = prev(v).is_none_or(|p| ok[p]);
-            if prev_ok && groups[v].iter().any(|g| g.iter().all(|&(u, _)| ok[u])) {
-                ok[v] = true;
-                changed = true;
+    // The startable nodes (least fixpoint of "previous startable and some group of startable
+    // nodes"), by a worklist in time linear in nodes + references: per group the number of its
+    // references not yet startable, per node the (node, group) references to it.
+    let mut pending: Vec<Vec<usize>> = groups.iter().map(|gs| gs.iter().map(Vec::len).collect()).collect();
+    let mut waiting: Vec<Vec<(usize, usize)>> = vec![Vec::new(); nodes.len()];
+    for (v, gs) in groups.iter().enumerate() {
+        for (g, list) in gs.iter().enumerate() {
+            for &(u, _) in list {
+                waiting[u].push((v, g));
             }
         }
-        if !changed {
-            break;
+    }
+    let mut ready: Vec<bool> = pending.iter().map(|p| p.contains(&0)).collect();
+    let mut ok = vec![false; nodes.len()];
+    let mut queue: Vec<usize> = (0..nodes.len()).filter(|&v| ready[v] && prev(v).is_none()).collect();
+    for &v in &queue {
+        ok[v] = true;
+    }
+    while let Some(u) = queue.pop() {
+        let next = u + 1;
+        let mut candidates: Vec<usize> = Vec::new();
+        if next < nodes.len() && nodes[next].0 == nodes[u].0 {
+            candidates.push(next);
+        }
+        for &(v, g) in &waiting[u] {
+            pending[v][g] -= 1;
+            if pending[v][g] == 0 && !ready[v] {
+                ready[v] = true;
+                candidates.push(v);
+            }
+        }
+        for v in candidates {
+            if !ok[v] && ready[v] && prev(v).is_none_or(|p| ok[p]) {
+                ok[v] = true;
+                queue.push(v);
+            }
         }
     }
     let Some(start) = ok.iter().position(|&b| !b) else { return Ok(()) };
@@ -1115,11 +1165,13 @@ pub fn check_phase_cycles(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigE
         groups[v].iter().flatten().find(|&&(u, _)| !ok[u]).map(|&(u, s)| (u, Wait::Ref(s)))
     };
     let mut path: Vec<(usize, Wait)> = Vec::new();
+    let mut on_path: Vec<Option<usize>> = vec![None; nodes.len()];
     let mut v = start;
     let cycle = loop {
-        if let Some(i) = path.iter().position(|&(u, _)| u == v) {
+        if let Some(i) = on_path[v] {
             break path.split_off(i);
         }
+        on_path[v] = Some(path.len());
         let Some((u, why)) = blocking(v) else { break Vec::new() };
         if path.len() > nodes.len() {
             break Vec::new();
@@ -1164,8 +1216,9 @@ pub fn check_phase_cycles(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigE
 /// `{key}[{k}].start...`), then [`check_phase_cycles`].
 pub fn validate_scripts(entities: &[ScriptedEntity<'_>]) -> Result<(), ConfigError> {
     let table: Vec<(&str, usize)> = entities.iter().map(|e| (e.name, e.starts.len())).collect();
-    for (i, e) in entities.iter().enumerate() {
-        if entities[..i].iter().any(|o| o.name == e.name) {
+    let mut seen = HashSet::with_capacity(entities.len());
+    for e in entities {
+        if !seen.insert(e.name) {
             return Err(ConfigError::new(e.key, format!("entity name \"{}\" is used twice", e.name)));
         }
         for (k, start) in e.starts.iter().enumerate() {

@@ -144,9 +144,15 @@ impl Default for V2vParams {
     }
 }
 
+/// Most `outages` of a link (each message is checked against every one).
+pub const MAX_OUTAGES: usize = 1000;
+
 impl V2vParams {
     /// Checks every value; the error names the key (relative to the `v2v` table) and the range.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.outages.len() > MAX_OUTAGES {
+            return Err(ConfigError::new("outages", format!("at most {MAX_OUTAGES} outages, got {}", self.outages.len())));
+        }
         check_range("rate_hz", self.rate_hz, 0.1, 1000.0, "Hz")?;
         check_range("latency", self.latency, 0.0, 10.0, "s")?;
         check_range("jitter", self.jitter, 0.0, 1.0, "s")?;

@@ -523,7 +523,8 @@ impl Story {
                 check_range(&format!("story.variables[{i}].value"), x, -1.0e300, 1.0e300, "")?;
             }
         }
-        let known = |name: &str| entities.contains(&name);
+        let entity_set: std::collections::HashSet<&str> = entities.iter().copied().collect();
+        let known = |name: &str| entity_set.contains(name);
         for (name, r) in &self.references {
             if !known(name) {
                 return Err(ConfigError::new(format!("story.references.{name}"), format!("no entity `{name}`")));
