@@ -34,6 +34,12 @@ cargo test --locked --release -p flc-sim --test golden
 echo "== Rust: detector acceptance tests (release; docs/detector.md, issue 23)"
 cargo test --locked --release -p flc-sim --test detection
 
+echo "== Rust: hostile sizes exit at once, mutated scenario files never hang or panic (release; issue 29)"
+cargo test --locked --release -p flc-sim --test bounds --test mutation
+
+echo "== Rust: robust FLC v2 against missed detections (release; issue 24)"
+cargo test --locked --release -p flc-sim --test robust_flc2
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"

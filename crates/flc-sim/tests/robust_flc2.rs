@@ -44,7 +44,7 @@ fn failures(kind: ControllerKind, patch: &Patch) -> (usize, Vec<String>) {
 }
 
 #[test]
-#[ignore = "issue 24 open: CCRb 40 m / 6 m/s² ends in contact with 6 m/s² brakes (4.4 m/s), 0.3 + 0.3 s actuator delay (7.6 m/s) and the 10 Hz LiDAR (1.4 m/s); one R157 cut-in with the actuator delay at 0.1 m/s"]
+#[ignore = "issue 24 open: CCRb 40 m / 6 m/s² ends in contact with 6 m/s² brakes (4.4 m/s), 0.3 + 0.3 s actuator delay (7.6 m/s) and the 10 Hz LiDAR (1.4 m/s); the R157 4.4_1 cut-in p5 with the actuator delay at 0.1 m/s (docs/robust-flc.md, v2)"]
 fn v2_avoids_what_the_careful_driver_avoids_under_each_impairment() {
     let v2 = ControllerKind::parse("flc-robust-v2").unwrap();
     let mut all = Vec::new();
