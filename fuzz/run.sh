@@ -2,7 +2,7 @@
 # Builds the fuzz targets with libFuzzer's coverage instrumentation on the STABLE toolchain (the
 # flags cargo-fuzz would pass, without the nightly-only sanitizer flags) and runs them.
 #
-#   fuzz/run.sh TARGET [SECONDS]      one target (detector, flc, pid, supervisor, pursuit, scenario, osc)
+#   fuzz/run.sh TARGET [SECONDS]      one target (detector, flc, pid, supervisor, pursuit, scenario, osc, run)
 #   fuzz/run.sh all [SECONDS]         every target, one after the other (default 60 s each)
 #   fuzz/run.sh build                 build only
 #
@@ -14,7 +14,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-TARGETS=(detector flc pid supervisor pursuit scenario osc)
+TARGETS=(detector flc pid supervisor pursuit scenario osc run)
 what="${1:-all}"
 seconds="${2:-60}"
 host="$(rustc -vV | sed -n 's/^host: //p')"
@@ -48,11 +48,14 @@ XML
 run_one() {
   local t="$1"
   mkdir -p "corpus/$t" "artifacts/$t"
-  if [ "$t" = scenario ]; then cp -n ../scenarios/*.toml "corpus/$t/" 2>/dev/null || true; fi
+  if [ "$t" = scenario ] || [ "$t" = run ]; then cp -n ../scenarios/*.toml "corpus/$t/" 2>/dev/null || true; fi
   if [ "$t" = osc ]; then seed_osc "corpus/$t"; fi
+  # Whole runs (issue 29): an input that takes more than 10 s or 2 GiB is a failure.
+  local limits=(-rss_limit_mb=4096)
+  if [ "$t" = run ]; then limits=(-rss_limit_mb=2048 -timeout=10); fi
   echo "== fuzz $t for ${seconds}s"
   "$bin/$t" "corpus/$t" -max_total_time="$seconds" -print_final_stats=1 \
-    -artifact_prefix="artifacts/$t/" -max_len=65536 -rss_limit_mb=4096
+    -artifact_prefix="artifacts/$t/" -max_len=65536 "${limits[@]}"
 }
 
 if [ "$what" = all ]; then
