@@ -60,9 +60,9 @@ pub struct Projection {
     pub segment: usize,
 }
 
-/// Most centreline points of a track (as many as an imported road may give,
-/// [`crate::openscenario::road::MAX_TRACK_POINTS`]).
-pub const MAX_CENTERLINE_POINTS: usize = crate::openscenario::road::MAX_TRACK_POINTS;
+/// Most centreline points of a track (an imported road gives at most as many:
+/// `openscenario::road::MAX_TRACK_POINTS` is this constant).
+pub const MAX_CENTERLINE_POINTS: usize = 4_000_000;
 
 /// Most road-side objects of a track.
 pub const MAX_OBJECTS: usize = 10_000;

@@ -54,8 +54,8 @@ pub const MIN_TRACK_LENGTH: f64 = 50.0;
 pub const TRACK_STEP: f64 = 0.5;
 /// Largest distance between a track chord's midpoint and the lane centre curve's point midway (in road `s`), m.
 pub const TRACK_CHORD_TOLERANCE: f64 = 0.0025;
-/// Most points of a track built by [`to_track`].
-pub const MAX_TRACK_POINTS: usize = 4_000_000;
+/// Most points of a track built by [`to_track`]: the track's own limit.
+pub const MAX_TRACK_POINTS: usize = crate::track::MAX_CENTERLINE_POINTS;
 /// Lane widths that differ by at most this are "equal" for [`LaneMap::uniform`], m.
 pub const WIDTH_TOLERANCE: f64 = 0.01;
 
