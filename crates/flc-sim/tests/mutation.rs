@@ -4,7 +4,10 @@
 //!
 //! A failure is a panic, a mutant past its wall-time limit, an error that is not one line
 //! naming a key, or a finished run with non-finite metrics. The number of mutants is bounded
-//! (`FLC_MUTANTS` per file, default 300); the outcomes are printed by category.
+//! (`FLC_MUTANTS` per file, default 300); the outcomes are printed by category. The first
+//! `FLC_CLI_MUTANTS` mutants of each file (default 20) also go through the `scenario` binary: its
+//! exit status must be 0, 1 or 2, within the wall-time limit, and an exit 2 must print one
+//! `error:` line naming a key; the exit statuses are counted.
 //!
 //! Release only (tests/run_all.sh runs it with --release): the runs are slow in debug.
 
@@ -143,6 +146,50 @@ fn run_mutant(text: String, origin: String, key: String, leaf: String) -> Outcom
     Outcome::Ran(n)
 }
 
+/// The `scenario` binary on a mutant file: `Ok(exit status)` or a failure, described.
+fn run_cli(text: &str, dir: &std::path::Path, n: usize) -> Result<i32, String> {
+    let file = dir.join(format!("mutant-{n}.toml"));
+    std::fs::write(&file, text).map_err(|e| e.to_string())?;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_scenario"))
+        .arg("--config")
+        .arg(&file)
+        .arg("--threads")
+        .arg("1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().map_err(|e| e.to_string())? {
+            break st;
+        }
+        if start.elapsed() > WALL_LIMIT {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("CLI past the wall-time limit of {WALL_LIMIT:?}"));
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    };
+    let mut stderr = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        use std::io::Read;
+        let _ = e.read_to_string(&mut stderr);
+    }
+    let code = status.code().ok_or_else(|| format!("CLI killed by a signal: {status}"))?;
+    match code {
+        0 | 1 => Ok(code),
+        2 => {
+            let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+            match lines.as_slice() {
+                [l] if l.starts_with("error:") && l.contains('`') => Ok(2),
+                _ => Err(format!("CLI exit 2 without one `error:` line naming a key: {stderr:?}")),
+            }
+        }
+        c => Err(format!("CLI exit status {c}: {stderr:?}")),
+    }
+}
+
 fn judge_error(msg: &str, key: &str, leaf: &str) -> Outcome {
     if msg.lines().count() != 1 {
         return Outcome::Failed(format!("error of {} lines: {msg}", msg.lines().count()));
@@ -158,6 +205,10 @@ fn judge_error(msg: &str, key: &str, leaf: &str) -> Outcome {
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn mutated_scenarios_fail_cleanly_or_run() {
     let per_file: usize = std::env::var("FLC_MUTANTS").ok().and_then(|v| v.parse().ok()).unwrap_or(300);
+    let cli_per_file: usize = std::env::var("FLC_CLI_MUTANTS").ok().and_then(|v| v.parse().ok()).unwrap_or(20);
+    let tmp = std::env::temp_dir().join(format!("flc-mutation-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    let mut cli_n = 0;
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .expect("scenarios/")
@@ -218,6 +269,18 @@ fn mutated_scenarios_fail_cleanly_or_run() {
                 *counts.entry("not serialisable (skipped)").or_default() += 1;
                 continue;
             };
+            if m < cli_per_file {
+                cli_n += 1;
+                match run_cli(&mutant_text, &tmp, cli_n) {
+                    Ok(0) => *counts.entry("CLI exit 0").or_default() += 1,
+                    Ok(1) => *counts.entry("CLI exit 1").or_default() += 1,
+                    Ok(_) => *counts.entry("CLI exit 2, one error line naming a key").or_default() += 1,
+                    Err(why) => {
+                        *counts.entry("FAILED").or_default() += 1;
+                        failures.push(format!("{label}: {why}"));
+                    }
+                }
+            }
             let (tx, rx) = mpsc::channel();
             let (origin, k2, l2) = (name.clone(), key.clone(), leaf.clone());
             let start = Instant::now();
@@ -253,7 +316,8 @@ fn mutated_scenarios_fail_cleanly_or_run() {
             }
         }
     }
-    let total: usize = counts.iter().filter(|(k, _)| !k.starts_with('(')).map(|(_, n)| n).sum();
+    let _ = std::fs::remove_dir_all(&tmp);
+    let total: usize = counts.iter().filter(|(k, _)| !k.starts_with('(') && !k.starts_with("CLI")).map(|(_, n)| n).sum();
     println!("{total} mutants of {} files in {:?} (seed {SEED}):", files.len(), t0.elapsed());
     for (k, n) in &counts {
         println!("  {k}: {n}");
