@@ -101,3 +101,26 @@ fn missed_detections_while_following_cause_no_phantom_braking() {
     }
     assert!(bad.is_empty(), "phantom braking: {}", bad.join("; "));
 }
+
+/// Approach: ego and lead at the same speed on a straight, the ego twice v2's desired gap behind;
+/// after 20 s the gap is within 10 % of the desired gap, and the ego never brakes harder than
+/// 0.5 m/s² on the way (no braking merely because the lead is far).
+#[test]
+#[ignore = "issue 24 open: v2 reaches its desired gap within 20 s, but its gap policy closes at up to 10 m/s and then brakes at 7.4-8.4 m/s² (docs/robust-flc.md, v2)"]
+fn v2_closes_in_from_twice_its_gap_within_20_s() {
+    let mut bad = Vec::new();
+    for kmh in [50.0, 100.0, 130.0] {
+        let v = kmh / 3.6;
+        let mut s = steady(ControllerKind::FlcRobust2, kmh, 0.0);
+        s.duration = 20.0;
+        s.follower.initial_gap *= 2.0;
+        let r = flc_sim::run(&s).unwrap();
+        let n = r.series.len() - 1;
+        let (gap, desired) = (r.series.gap[n], r.series.desired_gap[n]);
+        println!("{kmh} km/h: gap {gap:.1} m after 20 s, desired {desired:.1} m, max decel {:.2} m/s²", r.metrics.max_decel);
+        if (gap - desired).abs() > 0.1 * desired || r.metrics.max_decel > 0.5 || r.metrics.collision {
+            bad.push(format!("{kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m (start {:.1}), max decel {:.2} m/s², speed {:.1} km/h", 2.0 * s.flc_robust2.law.desired_gap(v), r.metrics.max_decel, r.series.follower_speed[n] * 3.6));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("; "));
+}
