@@ -11,7 +11,7 @@ DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "openscenario"
 
 
 def test_load_xosc_with_params_and_run_it():
-    s = flc.Scenario.load(DATA / "lead_brakes.xosc", params={"Decel": 2.0}, controller="flc-robust")
+    s = flc.Scenario.load(DATA / "target_brakes.xosc", params={"Decel": 2.0}, controller="flc-robust")
     assert s.controller == "flc-robust"
     # The lead's brake action carries the parameter: 2 m/s² instead of the file's 6.
     actions = [
@@ -57,8 +57,8 @@ def test_bad_files_and_options_name_the_problem(tmp_path):
     with pytest.raises(flc.ScenarioError, match=r"bad\.xosc:\d+"):
         flc.Scenario.load(bad)
     with pytest.raises(flc.ScenarioError, match="ego_mode"):
-        flc.Scenario.load(DATA / "lead_brakes.xosc", ego_mode="autopilot")
+        flc.Scenario.load(DATA / "target_brakes.xosc", ego_mode="autopilot")
     with pytest.raises(flc.ScenarioError, match="Nope"):
-        flc.Scenario.load(DATA / "lead_brakes.xosc", params={"Nope": 1})
+        flc.Scenario.load(DATA / "target_brakes.xosc", params={"Nope": 1})
     with pytest.raises(flc.ScenarioError, match="params"):
         flc.Scenario.load(pathlib.Path(__file__).resolve().parents[2] / "scenarios" / "cut-in.toml", params={"a": 1})

@@ -19,7 +19,7 @@ fn openscenario(c: &mut Criterion) {
     let opts = ImportOptions::default();
     let mut g = c.benchmark_group("openscenario");
     g.sample_size(20);
-    for name in ["lead_brakes.xosc", "merge_in.xosc", "conditions.xosc", "arc_road.xosc", "catalog_refs.xosc", "distribution_2x2.xosc"] {
+    for name in ["target_brakes.xosc", "merge_in.xosc", "conditions.xosc", "arc_road.xosc", "from_catalogs.xosc", "distribution_2x2.xosc"] {
         let path = fixture(name);
         let t0 = Instant::now();
         let n = 10;

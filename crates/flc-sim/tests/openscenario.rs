@@ -89,15 +89,15 @@ fn relative_distance_fires_at_the_step_where_the_freespace_gap_crosses() {
 
 #[test]
 fn a_controller_the_file_names_drives_the_ego_unless_the_command_line_says_otherwise() {
-    // catalog_refs.xosc: the ego's ObjectController is the catalog entry `flc-robust`.
-    let file = data().join("catalog_refs.xosc");
+    // from_catalogs.xosc: the ego's ObjectController is the catalog entry `flc-robust`.
+    let file = data().join("from_catalogs.xosc");
     let own = openscenario::import(&file, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(own.runs[0].scenario.controller, flc_sim::ControllerKind::FlcRobust);
     let opts = ImportOptions { controller: Some(flc_sim::ControllerKind::Idm), ..ImportOptions::default() };
     let idm = openscenario::import(&file, &opts).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(idm.runs[0].scenario.controller, flc_sim::ControllerKind::Idm);
     // Without a controller in the file: flc.
-    let plain = openscenario::import(&data().join("lead_brakes.xosc"), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let plain = openscenario::import(&data().join("target_brakes.xosc"), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(plain.runs[0].scenario.controller, flc_sim::ControllerKind::Flc);
 }
 
@@ -172,16 +172,19 @@ fn cli(dir: &Path, name: &str, text: &str, extra: &[&str]) -> (i32, String) {
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
-/// The fixture `lead_brakes.xosc` with `from` replaced by `to`.
-fn lead_brakes_with(from: &str, to: &str) -> String {
-    let text = std::fs::read_to_string(data().join("lead_brakes.xosc")).unwrap_or_else(|e| panic!("{e}"));
+/// The fixture `target_brakes.xosc` with `from` replaced by `to` (its road and catalog paths made
+/// absolute, so that the text works from any folder).
+fn target_brakes_with(from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(data().join("target_brakes.xosc")).unwrap_or_else(|e| panic!("{e}"));
     assert!(text.contains(from), "fixture lacks {from}");
-    text.replacen(from, to, 1).replace("roads/straight.xodr", &data().join("roads/straight.xodr").display().to_string())
+    text.replacen(from, to, 1)
+        .replace("roads/straight.xodr", &data().join("roads/straight.xodr").display().to_string())
+        .replace(r#"<Directory path="catalogs"/>"#, &format!(r#"<Directory path="{}"/>"#, data().join("catalogs").display()))
 }
 
-/// `lead_brakes.xosc` with the target's `<Vehicle>` element replaced by `with`.
+/// `target_brakes.xosc` with the target's `<Vehicle>` element replaced by `with`.
 fn target_replaced_by(with: &str) -> String {
-    let text = lead_brakes_with("x", "x");
+    let text = target_brakes_with("x", "x");
     let a = text.find("<Vehicle name=\"lead\"").unwrap_or_else(|| panic!("no lead vehicle"));
     let b = a + text[a..].find("</Vehicle>").unwrap_or_else(|| panic!("no end")) + "</Vehicle>".len();
     format!("{}{with}{}", &text[..a], &text[b..])
@@ -191,25 +194,25 @@ fn target_replaced_by(with: &str) -> String {
 fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element() {
     let dir = tempdir("bad");
     let speed = r#"<AbsoluteTargetSpeed value="0.0"/>"#;
-    let text = std::fs::read_to_string(data().join("lead_brakes.xosc")).unwrap_or_default();
+    let text = std::fs::read_to_string(data().join("target_brakes.xosc")).unwrap_or_default();
     assert!(text.contains("<Init>"));
     let routing = r#"<Init><Actions><Private entityRef="Ego"><PrivateAction><RoutingAction><AssignRouteAction><Route name="r" closed="false"/></AssignRouteAction></RoutingAction></PrivateAction></Private>"#;
     let cases: Vec<(&str, String, &str)> = vec![
         // Unsupported elements that would change motion.
-        ("routing.xosc", lead_brakes_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
+        ("routing.xosc", target_brakes_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
         ("pedestrian.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "<Pedestrian>"),
-        ("stochastic.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"lead_brakes.xosc\"/><Stochastic numberOfTestRuns=\"3\"/></ParameterValueDistribution></OpenSCENARIO>".into(), "<Stochastic>"),
+        ("stochastic.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"target_brakes.xosc\"/><Stochastic numberOfTestRuns=\"3\"/></ParameterValueDistribution></OpenSCENARIO>".into(), "<Stochastic>"),
         // Hostile inputs.
         ("dtd.xosc", "<?xml version=\"1.0\"?>\n<!DOCTYPE x [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;\">]>\n<OpenSCENARIO>&b;</OpenSCENARIO>".into(), "DTD"),
         ("external.xosc", "<?xml version=\"1.0\"?>\n<!DOCTYPE x [<!ENTITY e SYSTEM \"file:///etc/passwd\">]>\n<OpenSCENARIO>&e;</OpenSCENARIO>".into(), "DTD"),
         ("deep.xosc", format!("<?xml version=\"1.0\"?>\n{}{}", "<a>".repeat(200), "</a>".repeat(200)), "nested deeper"),
         ("broken.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO>\n<FileHeader>\n</OpenSCENARIO>".into(), "not well-formed"),
-        ("nan.xosc", lead_brakes_with(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#).replace(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#), "NaN"),
-        ("negative.xosc", lead_brakes_with(r#"dynamicsDimension="rate" value="$Decel""#, r#"dynamicsDimension="time" value="-2""#), "value"),
-        ("selfref.xosc", lead_brakes_with(r#"name="Gap" parameterType="double" value="12.0""#, r#"name="Gap" parameterType="double" value="${$Gap + 1}""#), "Gap"),
-        ("unknownparam.xosc", lead_brakes_with(r#"value="$Decel""#, r#"value="$Nope""#), "Nope"),
-        ("million.xosc", format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"{}\"/><Deterministic>{}</Deterministic></ParameterValueDistribution></OpenSCENARIO>", data().join("lead_brakes.xosc").display(), ["Gap", "Decel", "BrakeTime"].map(|p| format!("<DeterministicSingleParameterDistribution parameterName=\"{p}\"><DistributionRange stepWidth=\"0.001\"><Range lowerLimit=\"1\" upperLimit=\"100\"/></DistributionRange></DeterministicSingleParameterDistribution>")).join("")), "combinations"),
-        ("noroad.xosc", lead_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
+        ("nan.xosc", target_brakes_with(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#).replace(speed, r#"<AbsoluteTargetSpeed value="NaN"/>"#), "NaN"),
+        ("negative.xosc", target_brakes_with(r#"dynamicsDimension="rate" value="$Decel""#, r#"dynamicsDimension="time" value="-2""#), "value"),
+        ("selfref.xosc", target_brakes_with(r#"name="Gap" parameterType="double" value="12.0""#, r#"name="Gap" parameterType="double" value="${$Gap + 1}""#), "Gap"),
+        ("unknownparam.xosc", target_brakes_with(r#"value="$Decel""#, r#"value="$Nope""#), "Nope"),
+        ("million.xosc", format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"{}\"/><Deterministic>{}</Deterministic></ParameterValueDistribution></OpenSCENARIO>", data().join("target_brakes.xosc").display(), ["Gap", "Decel", "BrakeTime"].map(|p| format!("<DeterministicSingleParameterDistribution parameterName=\"{p}\"><DistributionRange stepWidth=\"0.001\"><Range lowerLimit=\"1\" upperLimit=\"100\"/></DistributionRange></DeterministicSingleParameterDistribution>")).join("")), "combinations"),
+        ("noroad.xosc", target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
     ];
     for (name, text, needle) in &cases {
         let (code, err) = cli(&dir, name, text, &[]);
@@ -231,9 +234,9 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("huge.xosc") && err.contains("limit"), "{err}");
     // A missing road runs with --road straight; an unknown --param is an error.
-    let (code, err) = cli(&dir, "noroad.xosc", &lead_brakes_with("roads/straight.xodr", "roads/missing.xodr"), &["--road", "straight"]);
+    let (code, err) = cli(&dir, "noroad.xosc", &target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), &["--road", "straight"]);
     assert_eq!(code, 0, "{err}");
-    let (code, err) = cli(&dir, "lead_brakes.xosc", &lead_brakes_with("x", "x"), &["--param", "Nope=1"]);
+    let (code, err) = cli(&dir, "target_brakes.xosc", &target_brakes_with("x", "x"), &["--param", "Nope=1"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("Nope"), "{err}");
     // Catalog cycles.

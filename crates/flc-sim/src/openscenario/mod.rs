@@ -929,7 +929,7 @@ mod tests {
 
     #[test]
     fn catalog_vehicles_with_parameter_assignments_and_controller() {
-        let imp = fixture("catalog_refs.xosc", &ImportOptions::default());
+        let imp = fixture("from_catalogs.xosc", &ImportOptions::default());
         let run = &imp.runs[0];
         let s = &run.scenario;
         let info = |n: &str| run.entities.iter().find(|e| e.osc_name == n).cloned().expect("entity");
@@ -951,10 +951,10 @@ mod tests {
         assert!(story_of(&imp).acts.iter().all(|a| a.name != "init"));
         assert!(imp.warnings.iter().any(|w| w.contains("<Init/ActivateControllerAction>")), "{:?}", imp.warnings);
         // --controllers wins; V2V follows the controller.
-        let imp = fixture("catalog_refs.xosc", &ImportOptions { controller: Some(ControllerKind::Pipeline), ..ImportOptions::default() });
+        let imp = fixture("from_catalogs.xosc", &ImportOptions { controller: Some(ControllerKind::Pipeline), ..ImportOptions::default() });
         assert_eq!(imp.runs[0].scenario.controller, ControllerKind::Pipeline);
         assert!(imp.runs[0].scenario.v2v.enabled);
-        let imp = fixture("catalog_refs.xosc", &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() });
+        let imp = fixture("from_catalogs.xosc", &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() });
         assert_eq!(story_of(&imp).ego, EgoMode::Scripted);
     }
 
