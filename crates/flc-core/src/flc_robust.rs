@@ -168,6 +168,19 @@ impl RobustFlcParams {
         if x > 0.0 { b * (libm::sqrt(t * t + 2.0 * x / b) - t) } else { 0.0 }
     }
 
+    /// (R5) the acceleration toward `target_speed` from `own_speed`: `k_a` or `k_b` by the sign
+    /// of the speed error, clamped to `[-b_max, a_max]`, m/s².
+    pub fn acceleration(&self, target_speed: f64, own_speed: f64) -> f64 {
+        let error = target_speed - own_speed;
+        let gain = if error >= 0.0 { self.accel_gain } else { self.brake_gain };
+        clamp(gain * error, -self.max_decel, self.max_accel)
+    }
+
+    /// (R6) the speed command `clamp(v + G a, 0, v_max)`, m/s.
+    pub fn speed_command(&self, own_speed: f64, a: f64) -> f64 {
+        clamp(own_speed + self.command_gain * a, 0.0, self.max_speed)
+    }
+
     /// The inverse of (R3): the distance needed to stop from `own_speed` before a standing object,
     /// `d_s + T_s v + v² / (2 b_s)`, m.
     pub fn envelope_distance(&self, own_speed: f64) -> f64 {
@@ -290,10 +303,8 @@ impl RobustFallbackController {
         let gap_speed = p.gap_speed(d);
         let envelope_speed = p.envelope_speed(d);
         let target_speed = if latched { gap_speed.min(envelope_speed) } else { gap_speed };
-        let error = target_speed - v;
-        let gain = if error >= 0.0 { p.accel_gain } else { p.brake_gain };
-        let a = clamp(gain * error, -p.max_decel, p.max_accel);
-        let speed = clamp(v + p.command_gain * a, 0.0, p.max_speed);
+        let a = p.acceleration(target_speed, v);
+        let speed = p.speed_command(v, a);
         self.terms = RobustFlcTerms {
             desired_gap,
             gap_error: d - desired_gap,

@@ -33,7 +33,7 @@
 //! None of the rules counts frames or reads a clock; "the next frame" is the next measurement
 //! event.
 
-use crate::command::{LongitudinalCommand, Status, clamp, safe_brake, valid_speed};
+use crate::command::{LongitudinalCommand, Status, safe_brake, valid_speed};
 use crate::flc_robust::{FirstObject, RobustFlcParams};
 use crate::longitudinal::ActiveController;
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
@@ -215,9 +215,7 @@ impl RobustFallbackController2 {
             (false, true) => gap_speed.min(envelope_speed),
             (false, false) => gap_speed,
         };
-        let error = target_speed - v;
-        let gain = if error >= 0.0 { law.accel_gain } else { law.brake_gain };
-        let a = clamp(gain * error, -law.max_decel, law.max_accel);
+        let a = law.acceleration(target_speed, v);
         self.terms = RobustFlc2Terms { distance: d, gap_speed, envelope_speed, target_speed, held: false, pending: false, revealed, latched, a };
         self.command(v, a, Status::Ok)
     }
@@ -234,7 +232,7 @@ impl RobustFallbackController2 {
 
     fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
         let law = self.params.law;
-        let speed = clamp(v + law.command_gain * a, 0.0, law.max_speed);
+        let speed = law.speed_command(v, a);
         if !(a.is_finite() && speed.is_finite()) {
             return safe_brake(v, true, law.fault_brake_step, Status::InvalidDistance);
         }
