@@ -2,7 +2,7 @@
 
 use flc_core::{ActiveController, Frame, LeadDetector, Point2, PurePursuit, SwitchReason, V2vMessage};
 
-use super::geometry::{Road, centreline_steer, wrap_angle};
+use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
 use super::traffic::centreline_pursuit;
 use crate::controllers::BoxedLaw;
@@ -46,6 +46,8 @@ pub(super) struct Follower {
     /// Its longitudinal law (the registry builds it from `cfg`).
     pub(super) longitudinal: BoxedLaw,
     pub(super) distance_offset: f64,
+    /// The scan's points that can fall into the detector's grid (reused buffer).
+    pub(super) grid_buf: Vec<[f64; 2]>,
     pub(super) mailbox: Option<V2vMessage>,
     /// `both`: the lead's last speed and the control ticks since it arrived.
     pub(super) lead_info: Option<(f64, u32)>,
@@ -94,6 +96,7 @@ impl Follower {
             last_lead_x: None,
             longitudinal,
             distance_offset,
+            grid_buf: Vec::new(),
             mailbox: None,
             lead_info: None,
             relay_pending: None,
@@ -125,7 +128,7 @@ impl Follower {
         (source, lead_weight): (V2vSource, f64),
         truth: Option<(f64, f64)>,
     ) {
-        let det = self.detector.detect(points, self.path_curvature);
+        let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
         // Ideal perception (validation only): the true gap and speed of the vehicle in front; a
         // controller that sees the scene as a human does (the R157 careful driver): those of the
         // vehicle in front as it sees it (`human_front`; `None` when there is none).
