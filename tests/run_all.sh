@@ -35,7 +35,9 @@ echo "== Rust: detector acceptance tests (release; docs/detector.md, issue 23)"
 cargo test --locked --release -p flc-sim --test detection
 
 echo "== Rust: hostile sizes exit at once, mutated scenario files never hang or panic (release; issue 29)"
-cargo test --locked --release -p flc-sim --test bounds --test mutation
+# The size tests time the CLI: one at a time, so that they do not compete with each other.
+cargo test --locked --release -p flc-sim --test bounds -- --test-threads=1
+cargo test --locked --release -p flc-sim --test mutation
 
 echo "== Rust: robust FLC v2 against missed detections (release; issue 24)"
 cargo test --locked --release -p flc-sim --test robust_flc2

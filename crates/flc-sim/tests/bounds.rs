@@ -20,7 +20,7 @@ fn tmpdir(tag: &str) -> std::path::PathBuf {
 }
 
 /// Runs `scenario <args> FILE` on `text`; asserts exit 2, one `error:` line naming `key`, and
-/// a wall time under [`BUDGET`] plus the time the TOML text alone takes to parse (for the files
+/// a wall time under [`BUDGET`] plus four times the time the TOML text alone takes to parse (for the files
 /// whose size is the count: a list of 4 million points takes its time to read, whatever follows).
 fn rejects(tag: &str, args: &[&str], text: &str, key: &str) {
     let d = tmpdir(tag);
@@ -39,7 +39,8 @@ fn rejects(tag: &str, args: &[&str], text: &str, key: &str) {
     assert_eq!(err.trim_end().lines().count(), 1, "{tag}: {err}");
     assert!(err.starts_with("error:"), "{tag}: {err}");
     assert!(err.contains(&format!("`{key}`")), "{tag}: expected key `{key}` in {err}");
-    let limit = BUDGET + parse * 2;
+    // Typed deserialisation (field paths tracked) costs a few times the plain parse.
+    let limit = BUDGET + parse * 4;
     assert!(took < limit, "{tag}: {took:?} (limit {limit:?}, parse alone {parse:?}): {err}");
     println!("{tag}: exit 2 in {took:?} (parse {parse:?}): {}", err.trim_end());
     let _ = std::fs::remove_dir_all(&d);
