@@ -128,18 +128,83 @@ impl Patch {
     pub fn apply<T: Serialize + DeserializeOwned>(&self, base: &T) -> Result<T, ConfigError> {
         let mut value = toml::Value::try_from(base).map_err(|e| ConfigError::new("", e.to_string()))?;
         self.apply_value(&mut value)?;
-        serde_path_to_error::deserialize(value).map_err(|e| {
+        serde_path_to_error::deserialize(value.clone()).map_err(|e| {
             let path = e.path().to_string();
             let msg = e.into_inner().to_string();
             let msg = msg.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or_default().to_string();
+            let path = entry_path(&value, &path, &msg).unwrap_or(path);
             ConfigError::new(if path == "." { String::new() } else { path }, msg)
         })
+    }
+}
+
+/// The path of an error inside an internally tagged table (`kind = ...`: tracks, phases,
+/// conditions, story elements), made to name the entry. serde buffers such a table before it
+/// knows the variant, so `serde_path_to_error` reports the table (`track`) for a bad entry
+/// (`track.lanes = inf`). When `msg` quotes the offending value (`invalid type: floating point
+/// `inf``) and exactly one entry of the table at `path` in `root` holds it, that entry's path is
+/// returned; otherwise `None` (the table's path stays, with toml's line and column).
+pub(crate) fn entry_path(root: &toml::Value, path: &str, msg: &str) -> Option<String> {
+    let mut node = root;
+    for part in path.split('.').filter(|p| !p.is_empty()) {
+        let (name, mut rest) = part.split_once('[').map_or((part, ""), |(n, r)| (n, r));
+        node = node.as_table()?.get(name)?;
+        while !rest.is_empty() {
+            let (i, tail) = rest.split_once(']')?;
+            node = node.as_array()?.get(i.parse::<usize>().ok()?)?;
+            rest = tail.strip_prefix('[').unwrap_or(tail);
+        }
+    }
+    let table = node.as_table()?;
+    let detail = msg.split_once("invalid type: ").or_else(|| msg.split_once("invalid value: "))?.1;
+    let quoted = |open: char, close: char| detail.split_once(open).and_then(|(_, r)| r.split_once(close)).map(|(q, _)| q);
+    let matches = |v: &toml::Value| -> bool {
+        if detail.starts_with("floating point ") {
+            let Some(x) = quoted('`', '`').and_then(|q| q.parse::<f64>().ok()) else { return false };
+            v.as_float().is_some_and(|f| f == x || (f.is_nan() && x.is_nan()))
+        } else if detail.starts_with("integer ") {
+            quoted('`', '`').and_then(|q| q.parse::<i64>().ok()).is_some_and(|x| v.as_integer() == Some(x))
+        } else if detail.starts_with("boolean ") {
+            quoted('`', '`').and_then(|q| q.parse::<bool>().ok()).is_some_and(|x| v.as_bool() == Some(x))
+        } else if detail.starts_with("string ") {
+            quoted('"', '"').is_some_and(|x| v.as_str() == Some(x))
+        } else {
+            false
+        }
+    };
+    let mut hits = table.iter().filter(|(_, v)| matches(v));
+    match (hits.next(), hits.next()) {
+        (Some((k, _)), None) => Some(if path.is_empty() || path == "." { k.clone() } else { format!("{path}.{k}") }),
+        _ => None,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn errors_inside_tagged_tables_name_the_entry() {
+        let root: toml::Value = toml::from_str(
+            "[track]\nkind = \"straight\"\nlanes = inf\nlength = 2.0\n[[lead.phases]]\nkind = \"hold\"\nlane = 5\nduration = 5\n",
+        )
+        .unwrap();
+        let found = |path: &str, msg: &str| entry_path(&root, path, msg);
+        assert_eq!(found("track", "invalid type: floating point `inf`, expected u32"), Some("track.lanes".into()));
+        assert_eq!(found("track", "invalid value: floating point `2.0`, expected u32"), Some("track.length".into()));
+        assert_eq!(found("track", "invalid value: string \"straight\", expected x"), Some("track.kind".into()));
+        // Two entries hold 5: ambiguous, the table's path stays.
+        assert_eq!(found("lead.phases[0]", "invalid type: integer `5`, expected f64"), None);
+        assert_eq!(found("lead.phases[0]", "invalid type: integer `6`, expected f64"), None);
+        assert_eq!(found("track", "missing field `kind`"), None);
+        assert_eq!(found("nowhere[3]", "invalid type: integer `5`, expected f64"), None);
+    }
+
+    #[test]
+    fn a_scenario_file_error_in_a_tagged_table_names_the_entry() {
+        let e = crate::Scenario::from_toml_str("[track]\nkind = \"custom\"\nname = \"r\"\ncenterline = [[0.0, 0.0], [100.0, 0.0]]\nlane_width = 3.5\nlanes = 1.5\n", "f.toml").unwrap_err();
+        assert!(e.to_string().contains("`track.lanes`"), "{e}");
+    }
 
     #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
     #[serde(default, deny_unknown_fields)]

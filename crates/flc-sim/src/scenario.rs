@@ -550,6 +550,7 @@ impl Scenario {
         let scenario: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = one_line(&e.into_inner().to_string());
+            let path = toml::from_str(text).ok().and_then(|root| crate::patch::entry_path(&root, &path, &inner)).unwrap_or(path);
             file_err(if path.is_empty() || path == "." { inner } else { format!("`{path}`: {inner}") })
         })?;
         scenario.validate().map_err(|e| file_err(e.to_string()))?;

@@ -128,7 +128,9 @@ impl SweepSpec {
             .map_err(|e| SimError::File { path: origin.clone(), message: crate::scenario::one_line(&e.to_string()) })?;
         let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
-            SimError::File { path: origin.clone(), message: format!("`{key}`: {}", crate::scenario::one_line(&e.into_inner().to_string())) }
+            let inner = crate::scenario::one_line(&e.into_inner().to_string());
+            let key = toml::from_str(&text).ok().and_then(|root| crate::patch::entry_path(&root, &key, &inner)).unwrap_or(key);
+            SimError::File { path: origin.clone(), message: format!("`{key}`: {inner}") }
         })?;
         let dir = path.parent().map(Path::to_path_buf);
         Ok((spec, dir))

@@ -225,7 +225,8 @@ impl Track {
         for (i, w) in self.centerline.windows(2).enumerate() {
             let (p, q) = (w[0], w[1]);
             if !(p[0].is_finite() && p[1].is_finite() && q[0].is_finite() && q[1].is_finite()) {
-                return Err(ConfigError::new(format!("centerline[{}]", i + 1), "coordinates must be finite"));
+                let bad = if p[0].is_finite() && p[1].is_finite() { i + 1 } else { i };
+                return Err(ConfigError::new(format!("centerline[{bad}]"), "coordinates must be finite"));
             }
             if (q[0] - p[0]).hypot(q[1] - p[1]) < 1e-6 {
                 return Err(ConfigError::new(format!("centerline[{}]", i + 1), "repeats the previous point (zero-length segment)"));
@@ -605,6 +606,8 @@ mod tests {
         assert_eq!(t.validate().unwrap_err().key, "centerline");
         let t = Track::new("bad", vec![[0.0, 0.0], [f64::NAN, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
+        let t = Track::new("bad", vec![[f64::INFINITY, 0.0], [1.0, 0.0]], 3.5, vec![]);
+        assert_eq!(t.validate().unwrap_err().key, "centerline[0]");
         let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 9.0, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "lane_width");
     }
