@@ -2,7 +2,7 @@
 # Builds the fuzz targets with libFuzzer's coverage instrumentation on the STABLE toolchain (the
 # flags cargo-fuzz would pass, without the nightly-only sanitizer flags) and runs them.
 #
-#   fuzz/run.sh TARGET [SECONDS]      one target (detector, flc, pid, supervisor, pursuit, scenario, osc, run)
+#   fuzz/run.sh TARGET [SECONDS]      one target (detector, flc, robust, pid, supervisor, pursuit, scenario, osc, run)
 #   fuzz/run.sh all [SECONDS]         every target, one after the other (default 60 s each)
 #   fuzz/run.sh build                 build only
 #
@@ -14,7 +14,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-TARGETS=(detector flc pid supervisor pursuit scenario osc run)
+TARGETS=(detector flc robust pid supervisor pursuit scenario osc run)
 what="${1:-all}"
 seconds="${2:-60}"
 host="$(rustc -vV | sed -n 's/^host: //p')"

@@ -17,6 +17,8 @@ count() { # workload, function, calls
   printf "%-14s %10d instructions per call (%d calls, %d in all)\n" "$1" $((ir / $3)) "$3" "$ir"
 }
 count flc flc_steps 10000
+count robust robust_steps 10000
+count robust2 robust2_steps 10000
 count pid pid_steps 10000
 count supervisor supervisor_steps 10000
 count pursuit pursuit_steps 10000

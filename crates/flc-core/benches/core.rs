@@ -14,7 +14,7 @@ use common::{Lcg, scan};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use flc_core::{
     DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
-    Supervisor, SupervisorParams, V2vMessage,
+    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
 };
 use std::hint::black_box;
 
@@ -43,6 +43,22 @@ fn controllers(c: &mut Criterion) {
             k = (k + 1) & 1023;
             let (d, v, _) = inputs[k];
             flc.step(Some(black_box(d)), black_box(v))
+        })
+    });
+    let mut robust = RobustFallbackController::new(RobustFlcParams::default()).unwrap();
+    c.bench_function("robust_flc_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & 1023;
+            let (d, v, _) = inputs[k];
+            robust.step(Some(black_box(d)), black_box(v))
+        })
+    });
+    let mut robust2 = RobustFallbackController2::new(RobustFlc2Params::default()).unwrap();
+    c.bench_function("robust_flc2_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & 1023;
+            let (d, v, _) = inputs[k];
+            robust2.step(Some(black_box(d)), black_box(v))
         })
     });
     let mut pid = PidController::new(PidParams::default()).unwrap();

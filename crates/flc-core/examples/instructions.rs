@@ -9,7 +9,7 @@ mod common;
 use common::{Lcg, scan};
 use flc_core::{
     DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
-    Supervisor, SupervisorParams, V2vMessage,
+    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
 };
 use std::hint::black_box;
 
@@ -34,6 +34,16 @@ fn inputs() -> Vec<(f64, f64, f64)> {
 
 #[inline(never)]
 fn flc_steps(c: &mut FallbackController, inputs: &[(f64, f64, f64)]) -> f64 {
+    inputs.iter().map(|&(d, v, _)| black_box(c.step(Some(d), v)).speed).sum()
+}
+
+#[inline(never)]
+fn robust_steps(c: &mut RobustFallbackController, inputs: &[(f64, f64, f64)]) -> f64 {
+    inputs.iter().map(|&(d, v, _)| black_box(c.step(Some(d), v)).speed).sum()
+}
+
+#[inline(never)]
+fn robust2_steps(c: &mut RobustFallbackController2, inputs: &[(f64, f64, f64)]) -> f64 {
     inputs.iter().map(|&(d, v, _)| black_box(c.step(Some(d), v)).speed).sum()
 }
 
@@ -65,7 +75,7 @@ fn detector_scans(det: &mut LeadDetector, pts: &[[f64; 2]]) -> f64 {
     (0..SCANS).map(|_| black_box(det.detect(black_box(pts), 0.0)).detection.map_or(0.0, |d| d.distance)).sum()
 }
 
-/// `instructions [flc|pid|supervisor|pursuit|detector900|detector1800|all]`: runs one workload
+/// `instructions [flc|robust|robust2|pid|supervisor|pursuit|detector900|detector1800|all]`: runs one workload
 /// (so that callgrind only has to count that one) or all of them.
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_else(|| "all".into());
@@ -74,6 +84,12 @@ fn main() {
     let mut total = 0.0;
     if run("flc") {
         total += flc_steps(&mut FallbackController::new(FlcParams::default()).unwrap(), &inputs);
+    }
+    if run("robust") {
+        total += robust_steps(&mut RobustFallbackController::new(RobustFlcParams::default()).unwrap(), &inputs);
+    }
+    if run("robust2") {
+        total += robust2_steps(&mut RobustFallbackController2::new(RobustFlc2Params::default()).unwrap(), &inputs);
     }
     if run("pid") {
         total += pid_steps(&mut PidController::new(PidParams::default()).unwrap(), &inputs);

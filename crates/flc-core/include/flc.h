@@ -1,9 +1,9 @@
 /*
- * flc.h - C interface of flc-core (fallback longitudinal controller, PID gap controller,
- * supervisor, pure pursuit, LiDAR lead detector). See docs/firmware.md.
+ * flc.h - C interface of flc-core (fallback longitudinal controller, robust FLC v1 and v2, PID
+ * gap controller, supervisor, pure pursuit, LiDAR lead detector). See docs/firmware.md.
  *
- * All memory is caller-owned: declare the storage structs (FlcFallback, FlcPid, FlcSupervisor,
- * FlcPursuit, FlcDetector) yourself, initialise them with the *_init functions and pass pointers.
+ * All memory is caller-owned: declare the storage structs (FlcFallback, FlcRobust, FlcRobust2,
+ * FlcPid, FlcSupervisor, FlcPursuit, FlcDetector) yourself, initialise them with the *_init functions and pass pointers.
  * Nothing is allocated, no pointer is kept across calls, no function panics or aborts: every
  * function returns an FlcResult.
  */
@@ -21,6 +21,16 @@
  * Words (8 bytes each) of `FlcFallback::storage`.
  */
 #define FLC_FALLBACK_WORDS 28
+
+/**
+ * Words (8 bytes each) of `FlcRobust::storage`.
+ */
+#define FLC_ROBUST_WORDS 29
+
+/**
+ * Words (8 bytes each) of `FlcRobust2::storage`.
+ */
+#define FLC_ROBUST2_WORDS 32
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.
@@ -531,6 +541,203 @@ typedef struct FlcFallbackTerms {
 } FlcFallbackTerms;
 
 /**
+ * Mirror of the Rust `RobustFlcParams` (laws (R1)-(R6)). Fill with
+ * `flc_robust_params_default()`; units and meaning as documented on the Rust struct.
+ */
+typedef struct FlcRobustParams {
+    /**
+     * `d_0`, m.
+     */
+    double standstill_gap;
+    /**
+     * `h`, s.
+     */
+    double time_gap;
+    /**
+     * `k_a`, 1/s.
+     */
+    double accel_gain;
+    /**
+     * `k_b`, 1/s.
+     */
+    double brake_gain;
+    /**
+     * `a_max`, m/s².
+     */
+    double max_accel;
+    /**
+     * `b_max`, m/s².
+     */
+    double max_decel;
+    /**
+     * `b_s`, m/s².
+     */
+    double envelope_decel;
+    /**
+     * `T_s`, s.
+     */
+    double envelope_reaction;
+    /**
+     * `d_s`, m.
+     */
+    double envelope_margin;
+    /**
+     * Distance jump that is a reveal, m.
+     */
+    double reveal_jump;
+    /**
+     * Growth of the distance that releases the latch, m.
+     */
+    double reveal_release;
+    /**
+     * `G`, s.
+     */
+    double command_gain;
+    /**
+     * Highest plausible own speed and highest command, m/s.
+     */
+    double max_speed;
+    /**
+     * Highest plausible distance, m.
+     */
+    double max_distance;
+    /**
+     * Safe command: `v_cmd = v - fault_brake_step`, m/s.
+     */
+    double fault_brake_step;
+    /**
+     * One of `FlcFirstObject`.
+     */
+    uint8_t first_object;
+} FlcRobustParams;
+
+/**
+ * Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
+ */
+typedef struct FlcRobust {
+    uint64_t magic;
+    uint64_t storage[FLC_ROBUST_WORDS];
+} FlcRobust;
+
+/**
+ * Mirror of the Rust `RobustFlcTerms` (v1's terms of the last step).
+ */
+typedef struct FlcRobustTerms {
+    /**
+     * (R1) desired gap, m.
+     */
+    double desired_gap;
+    /**
+     * `d - D_r(v)`, m.
+     */
+    double gap_error;
+    /**
+     * (R2) gap speed, m/s.
+     */
+    double gap_speed;
+    /**
+     * (R3) stop-envelope speed, m/s.
+     */
+    double envelope_speed;
+    /**
+     * (R4) target speed, m/s.
+     */
+    double target_speed;
+    /**
+     * Smallest distance since the latch was set, m (0 while not latched).
+     */
+    double latch_min_distance;
+    /**
+     * (R5) acceleration, m/s².
+     */
+    double a;
+    /**
+     * This frame set the latch.
+     */
+    bool revealed;
+    /**
+     * The latch is set after this frame.
+     */
+    bool latched;
+} FlcRobustTerms;
+
+/**
+ * Mirror of the Rust `RobustFlc2Params`: v1's laws plus v2's event rules.
+ */
+typedef struct FlcRobust2Params {
+    /**
+     * (R1)-(R6), as in v1.
+     */
+    struct FlcRobustParams law;
+    /**
+     * Distance within which a standing car on the path is detected, m.
+     */
+    double sight_distance;
+    /**
+     * Deceleration without a detection above `V_e(sight_distance)`, m/s².
+     */
+    double sight_decel;
+    /**
+     * Smallest own speed of the "not closing" release, m/s.
+     */
+    double release_speed;
+    /**
+     * Largest decrease of the distance that still counts as "not closing", m.
+     */
+    double release_closing;
+} FlcRobust2Params;
+
+/**
+ * Caller-owned storage of one robust FLC v2. Initialise with `flc_robust2_init`.
+ */
+typedef struct FlcRobust2 {
+    uint64_t magic;
+    uint64_t storage[FLC_ROBUST2_WORDS];
+} FlcRobust2;
+
+/**
+ * Mirror of the Rust `RobustFlc2Terms` (v2's terms of the last step).
+ */
+typedef struct FlcRobust2Terms {
+    /**
+     * The accepted distance the law used, m (0 on a frame handled as missed).
+     */
+    double distance;
+    /**
+     * (R2) gap speed, m/s.
+     */
+    double gap_speed;
+    /**
+     * (R3) stop-envelope speed, m/s.
+     */
+    double envelope_speed;
+    /**
+     * (R4) target speed, m/s.
+     */
+    double target_speed;
+    /**
+     * (R5) acceleration, m/s².
+     */
+    double a;
+    /**
+     * This frame was handled as missed.
+     */
+    bool held;
+    /**
+     * A jump is pending confirmation after this frame.
+     */
+    bool pending;
+    /**
+     * This frame set the latch.
+     */
+    bool revealed;
+    /**
+     * The latch is set after this frame.
+     */
+    bool latched;
+} FlcRobust2Terms;
+
+/**
  * Mirror of the Rust `PidGains`.
  */
 typedef struct FlcPidGains {
@@ -1035,6 +1242,94 @@ FlcResult flc_fallback_reset(struct FlcFallback *flc);
  * `flc` is NULL or points to an `FlcFallback`; `out` is NULL or valid for writes.
  */
 FlcResult flc_fallback_terms(const struct FlcFallback *flc, struct FlcFallbackTerms *out);
+
+/**
+ * The robust FLC v1's documented parameters.
+ */
+struct FlcRobustParams flc_robust_params_default(void);
+
+/**
+ * Validates `*params` and initialises `*flc`. On `FLC_RESULT_INVALID_PARAMS`, `*error` (may be
+ * NULL) names the field and `*flc` is unchanged.
+ *
+ * # Safety
+ * Each pointer is NULL or valid for reads (`params`) / writes (`flc`, `error`) of its type.
+ */
+FlcResult flc_robust_init(struct FlcRobust *flc,
+                          const struct FlcRobustParams *params,
+                          struct FlcParamError *error);
+
+/**
+ * One frame: `distance` in m (ignored unless `has_distance`), `own_speed` in m/s.
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust` (initialised or not); `out` is NULL or valid for writes.
+ */
+FlcResult flc_robust_step(struct FlcRobust *flc,
+                          bool has_distance,
+                          double distance,
+                          double own_speed,
+                          struct FlcLongitudinalCommand *out);
+
+/**
+ * Forgets everything (the next detection is a first detection).
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust`.
+ */
+FlcResult flc_robust_reset(struct FlcRobust *flc);
+
+/**
+ * v1's terms of the last step.
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust`; `out` is NULL or valid for writes.
+ */
+FlcResult flc_robust_terms(const struct FlcRobust *flc, struct FlcRobustTerms *out);
+
+/**
+ * The robust FLC v2's documented parameters.
+ */
+struct FlcRobust2Params flc_robust2_params_default(void);
+
+/**
+ * Validates `*params` and initialises `*flc`. On `FLC_RESULT_INVALID_PARAMS`, `*error` (may be
+ * NULL) names the field and `*flc` is unchanged.
+ *
+ * # Safety
+ * Each pointer is NULL or valid for reads (`params`) / writes (`flc`, `error`) of its type.
+ */
+FlcResult flc_robust2_init(struct FlcRobust2 *flc,
+                           const struct FlcRobust2Params *params,
+                           struct FlcParamError *error);
+
+/**
+ * One frame: `distance` in m (ignored unless `has_distance`), `own_speed` in m/s.
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust2` (initialised or not); `out` is NULL or valid for writes.
+ */
+FlcResult flc_robust2_step(struct FlcRobust2 *flc,
+                           bool has_distance,
+                           double distance,
+                           double own_speed,
+                           struct FlcLongitudinalCommand *out);
+
+/**
+ * Forgets everything (the next detection is a first detection).
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust2`.
+ */
+FlcResult flc_robust2_reset(struct FlcRobust2 *flc);
+
+/**
+ * v2's terms of the last step.
+ *
+ * # Safety
+ * `flc` is NULL or points to an `FlcRobust2`; `out` is NULL or valid for writes.
+ */
+FlcResult flc_robust2_terms(const struct FlcRobust2 *flc, struct FlcRobust2Terms *out);
 
 /**
  * The PID's default parameters.

@@ -18,7 +18,8 @@ mod common;
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
     ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidCore,
-    PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
+    PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController, RobustFallbackController2, RobustFlc2Params,
+    RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -139,6 +140,65 @@ fn expected() -> Vec<String> {
         );
     }
     let _ = writeln!(o, "hash flc {h:016x}");
+
+    // Robust FLC v1 and v2, same frames
+    let mut r1 = RobustFallbackController::new(RobustFlcParams::default()).unwrap();
+    let mut r2 = RobustFallbackController2::new(RobustFlc2Params::default()).unwrap();
+    let (mut rng, mut dist) = (Lcg(7), 30.0);
+    for k in 0..400 {
+        let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
+        let has = u1 >= 0.08;
+        dist += (u2 - 0.5) * 0.8;
+        if u2 >= 0.96 {
+            dist += 8.0;
+        }
+        if u2 < 0.03 {
+            dist -= 8.0;
+        }
+        if dist < 3.0 {
+            dist = 40.0;
+        }
+        let d = if (0.08..0.1).contains(&u1) { special(k) } else { dist };
+        let v = if u3 >= 0.98 { special(k + 1) } else { 5.0 + 25.0 * u3 };
+        if k == 250 {
+            r1.reset();
+            r2.reset();
+        }
+        let c = r1.step(has.then_some(d), v);
+        let _ = write!(o, "rob {k}");
+        cmd(&mut o, c);
+        let t = r1.terms();
+        let _ = writeln!(
+            o,
+            "\nrobt {k} {} {} {} {} {} {} {} {} {}",
+            x(t.desired_gap),
+            x(t.gap_error),
+            x(t.gap_speed),
+            x(t.envelope_speed),
+            x(t.target_speed),
+            x(t.latch_min_distance),
+            x(t.a),
+            u8::from(t.revealed),
+            u8::from(t.latched)
+        );
+        let c = r2.step(has.then_some(d), v);
+        let _ = write!(o, "rob2 {k}");
+        cmd(&mut o, c);
+        let t = r2.terms();
+        let _ = writeln!(
+            o,
+            "\nrob2t {k} {} {} {} {} {} {} {} {} {}",
+            x(t.distance),
+            x(t.gap_speed),
+            x(t.envelope_speed),
+            x(t.target_speed),
+            x(t.a),
+            u8::from(t.held),
+            u8::from(t.pending),
+            u8::from(t.revealed),
+            u8::from(t.latched)
+        );
+    }
 
     // PID
     let mut c = PidController::new(PidParams::default()).unwrap();
@@ -310,6 +370,10 @@ fn expected() -> Vec<String> {
         ("fallback_init_no_error_struct", 4, ""),
         ("fallback_init_null_params", 1, ""),
         ("fallback_still_uninitialised", 3, ""),
+        ("robust_step_wrong_type", 3, ""),
+        ("robust2_step_uninitialised", 3, ""),
+        ("robust2_init_sight_decel", 4, "sight_decel"),
+        ("robust2_init_first_object", 4, "first_object"),
         ("pid_init_near_kd", 4, "near.kd"),
         ("pid_step_after_failed_init", 0, ""),
         ("supervisor_init_return_after", 4, "return_after"),
@@ -349,7 +413,10 @@ fn c_example_outputs_equal_rust() {
         size_of::<Supervisor>(),
         size_of::<PurePursuit>(),
         size_of::<LeadDetector>(),
+        size_of::<RobustFallbackController>(),
+        size_of::<RobustFallbackController2>(),
     ];
+    assert_eq!(sizes.len(), rust.len());
     for (c, r) in sizes.iter().zip(rust) {
         assert!(*c >= r + 8 && *c <= r + 8 + 8, "C storage {c} bytes for a {r}-byte controller");
     }
@@ -363,6 +430,10 @@ fn c_example_outputs_equal_rust() {
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(2) == Some("1")), "the PID never drove");
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(4) == Some("1")), "the supervisor never switched");
     assert!(got.iter().filter(|l| l.starts_with("det ") && l.split(' ').nth(4) == Some("1")).count() >= 4, "too few detections");
+    // The robust sequences hold for missed frames, confirm jumps and latch on reveals.
+    let flag = |prefix: &str, i: usize| got.iter().filter(|l| l.starts_with(prefix) && l.split(' ').nth(i) == Some("1")).count();
+    assert!(flag("robt ", 9) > 0 && flag("robt ", 10) > 0, "v1 never revealed / latched");
+    assert!(flag("rob2t ", 7) > 0 && flag("rob2t ", 8) > 0 && flag("rob2t ", 9) > 0, "v2 never held / pending / revealed");
     for status in 0..=5 {
         assert!(
             got.iter().any(|l| (l.starts_with("flc ") || l.starts_with("pid ")) && l.split(' ').nth(2) == Some(&status.to_string())),
@@ -386,6 +457,14 @@ fn linked_c_program_contains_no_panic_path() {
         "flc_fallback_step",
         "flc_fallback_reset",
         "flc_fallback_terms",
+        "flc_robust_init",
+        "flc_robust_step",
+        "flc_robust_reset",
+        "flc_robust_terms",
+        "flc_robust2_init",
+        "flc_robust2_step",
+        "flc_robust2_reset",
+        "flc_robust2_terms",
         "flc_pid_init",
         "flc_pid_step",
         "flc_pid_reset",
@@ -460,6 +539,10 @@ fn stack_use_of_every_c_function_is_bounded() {
     let bounds = [
         ("flc_fallback_init", 1024),
         ("flc_fallback_step", 1024),
+        ("flc_robust_init", 1024),
+        ("flc_robust_step", 1024),
+        ("flc_robust2_init", 1024),
+        ("flc_robust2_step", 1024),
         ("flc_pid_init", 1024),
         ("flc_pid_step", 1024),
         ("flc_supervisor_init", 4096),

@@ -8,7 +8,7 @@
 use flc_core::capi::*;
 use flc_core::{
     DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams,
-    Supervisor, SupervisorParams, V2vMessage,
+    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
 };
 use proptest::prelude::*;
 use std::mem::MaybeUninit;
@@ -42,8 +42,38 @@ fn c_flc_params() -> impl Strategy<Value = FlcFallbackParams> {
     )
 }
 
+/// A C robust-FLC v1 parameter struct near the defaults with a few fields perturbed.
+fn c_robust_params() -> impl Strategy<Value = FlcRobustParams> {
+    (num(-0.5, 11.0), num(-1.0, 12.0), num(-1.0, 5.0), 0u8..3, num(-1.0, 110.0)).prop_map(
+        |(time_gap, envelope_decel, reveal_jump, first_object, max_speed)| FlcRobustParams {
+            time_gap,
+            envelope_decel,
+            reveal_jump,
+            first_object,
+            max_speed,
+            ..flc_robust_params_default()
+        },
+    )
+}
+
+/// A C robust-FLC v2 parameter struct: perturbed law and event-rule fields.
+fn c_robust2_params() -> impl Strategy<Value = FlcRobust2Params> {
+    (c_robust_params(), num(-1.0, 300.0), num(-1.0, 5.0), num(-1.0, 20.0), num(-0.1, 1.0)).prop_map(
+        |(law, sight_distance, sight_decel, release_speed, release_closing)| FlcRobust2Params {
+            law,
+            sight_distance,
+            sight_decel,
+            release_speed,
+            release_closing,
+        },
+    )
+}
+
 #[test]
 fn defaults_mirror_rust() {
+    assert_eq!(flc_robust_params_default(), RobustFlcParams::default().into());
+    assert_eq!(flc_robust2_params_default(), RobustFlc2Params::default().into());
+    assert_eq!(RobustFlc2Params::try_from(flc_robust2_params_default()), Ok(RobustFlc2Params::default()));
     assert_eq!(flc_fallback_params_default(), FlcParams::default().into());
     assert_eq!(flc_pid_params_default(), PidParams::default().into());
     assert_eq!(flc_supervisor_params_default(), SupervisorParams::default().into());
@@ -56,6 +86,8 @@ fn defaults_mirror_rust() {
 #[test]
 fn storage_sizes_and_alignment() {
     assert!(size_of::<FlcFallback>() >= 8 + size_of::<FallbackController>());
+    assert!(size_of::<FlcRobust>() >= 8 + size_of::<RobustFallbackController>());
+    assert!(size_of::<FlcRobust2>() >= 8 + size_of::<RobustFallbackController2>());
     assert!(size_of::<FlcPid>() >= 8 + size_of::<PidCore>());
     assert!(size_of::<FlcSupervisor>() >= 8 + size_of::<Supervisor>());
     assert!(size_of::<FlcPursuit>() >= 8 + size_of::<PurePursuit>());
@@ -125,6 +157,75 @@ proptest! {
             // SAFETY: written on Ok.
             let got = unsafe { out.assume_init() };
             prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
+        }
+    }
+
+    #[test]
+    fn robust_c_equals_rust(
+        cp in c_robust_params(),
+        seq in prop::collection::vec((any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0)), 0..48),
+    ) {
+        let mut s = MaybeUninit::<FlcRobust>::uninit();
+        let mut err = MaybeUninit::<FlcParamError>::uninit();
+        // SAFETY: valid pointers to local memory.
+        let r = unsafe { flc_robust_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
+        let mut c = match RobustFlcParams::try_from(cp).and_then(RobustFallbackController::new) {
+            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
+            Err(e) => {
+                prop_assert_eq!(r, FlcResult::InvalidParams);
+                // SAFETY: written on InvalidParams; NUL-terminated by construction.
+                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
+                prop_assert_eq!(field, e.field);
+                return Ok(());
+            }
+        };
+        for (has, d, v) in seq {
+            let (mut out, mut terms) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+            // SAFETY: initialised storage, valid outputs.
+            prop_assert_eq!(unsafe { flc_robust_step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
+            prop_assert_eq!(unsafe { flc_robust_terms(s.as_ptr(), terms.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let (got, terms) = unsafe { (out.assume_init(), terms.assume_init()) };
+            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
+            let want: FlcRobustTerms = (*c.terms()).into();
+            prop_assert!(same(terms.a, want.a) && same(terms.target_speed, want.target_speed) && terms.latched == want.latched);
+        }
+    }
+
+    #[test]
+    fn robust2_c_equals_rust(
+        cp in c_robust2_params(),
+        seq in prop::collection::vec((any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0)), 0..48),
+    ) {
+        let mut s = MaybeUninit::<FlcRobust2>::uninit();
+        let mut err = MaybeUninit::<FlcParamError>::uninit();
+        // SAFETY: valid pointers to local memory.
+        let r = unsafe { flc_robust2_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
+        let mut c = match RobustFlc2Params::try_from(cp).and_then(RobustFallbackController2::new) {
+            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
+            Err(e) => {
+                prop_assert_eq!(r, FlcResult::InvalidParams);
+                // SAFETY: written on InvalidParams; NUL-terminated by construction.
+                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
+                prop_assert_eq!(field, e.field);
+                return Ok(());
+            }
+        };
+        for (k, (has, d, v)) in seq.into_iter().enumerate() {
+            if k == 20 {
+                // SAFETY: initialised storage.
+                prop_assert_eq!(unsafe { flc_robust2_reset(s.as_mut_ptr()) }, FlcResult::Ok);
+                c.reset();
+            }
+            let (mut out, mut terms) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+            // SAFETY: initialised storage, valid outputs.
+            prop_assert_eq!(unsafe { flc_robust2_step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
+            prop_assert_eq!(unsafe { flc_robust2_terms(s.as_ptr(), terms.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let (got, terms) = unsafe { (out.assume_init(), terms.assume_init()) };
+            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
+            let want: FlcRobust2Terms = (*c.terms()).into();
+            prop_assert!(same(terms.a, want.a) && same(terms.distance, want.distance) && terms.held == want.held && terms.pending == want.pending);
         }
     }
 

@@ -1,7 +1,7 @@
 /*
  * C example and conformance program for the flc-core C interface (include/flc.h).
  *
- * Runs fixed, deterministic input sequences through the FLC, the PID, the supervisor, the
+ * Runs fixed, deterministic input sequences through the FLC, the robust FLC v1 and v2, the PID, the supervisor, the
  * pure-pursuit controller and the lead detector, and prints every output as exact IEEE-754 bit
  * patterns. tests/c_api.rs builds the static library, compiles this file with the system C
  * compiler, runs it and compares every line with the Rust API on the same inputs (the input
@@ -114,6 +114,8 @@ static void check(const char *what, FlcResult r) {
 /* ---- the sequences ------------------------------------------------------------------------------ */
 
 static FlcFallback flc_storage;
+static FlcRobust rob_storage;
+static FlcRobust2 rob2_storage;
 static FlcPid pid_storage;
 static FlcSupervisor sup_storage;
 static FlcPursuit pp_storage;
@@ -151,6 +153,51 @@ static void run_fallback(void) {
                X(t.a_law), X(t.a), (int)t.braking_branch, (int)t.overridden);
     }
     printf("hash flc %016llx\n", (unsigned long long)h);
+}
+
+/* The robust FLC v1 and v2 on the same frames: a drifting distance with jumps up (reveals) and
+ * down (cut-ins), missed frames and special values. */
+static void run_robust(void) {
+    FlcRobustParams p1 = flc_robust_params_default();
+    FlcRobust2Params p2 = flc_robust2_params_default();
+    check("flc_robust_init", flc_robust_init(&rob_storage, &p1, NULL));
+    check("flc_robust2_init", flc_robust2_init(&rob2_storage, &p2, NULL));
+    Lcg rng = {7};
+    double dist = 30.0;
+    for (size_t k = 0; k < 400; k++) {
+        double u1 = uniform(&rng), u2 = uniform(&rng), u3 = uniform(&rng);
+        int has = u1 >= 0.08;
+        dist += (u2 - 0.5) * 0.8;
+        if (u2 >= 0.96) dist += 8.0;
+        if (u2 < 0.03) dist -= 8.0;
+        if (dist < 3.0) dist = 40.0;
+        double d = dist;
+        if (u1 >= 0.08 && u1 < 0.1) d = special(k);
+        double v = 5.0 + 25.0 * u3;
+        if (u3 >= 0.98) v = special(k + 1);
+        if (k == 250) {
+            check("flc_robust_reset", flc_robust_reset(&rob_storage));
+            check("flc_robust2_reset", flc_robust2_reset(&rob2_storage));
+        }
+        FlcLongitudinalCommand c;
+        check("flc_robust_step", flc_robust_step(&rob_storage, has, d, v, &c));
+        printf("rob %zu", k);
+        print_cmd(&c);
+        printf("\n");
+        FlcRobustTerms t1;
+        check("flc_robust_terms", flc_robust_terms(&rob_storage, &t1));
+        printf("robt %zu %016llx %016llx %016llx %016llx %016llx %016llx %016llx %d %d\n", k, X(t1.desired_gap), X(t1.gap_error),
+               X(t1.gap_speed), X(t1.envelope_speed), X(t1.target_speed), X(t1.latch_min_distance), X(t1.a), (int)t1.revealed,
+               (int)t1.latched);
+        check("flc_robust2_step", flc_robust2_step(&rob2_storage, has, d, v, &c));
+        printf("rob2 %zu", k);
+        print_cmd(&c);
+        printf("\n");
+        FlcRobust2Terms t2;
+        check("flc_robust2_terms", flc_robust2_terms(&rob2_storage, &t2));
+        printf("rob2t %zu %016llx %016llx %016llx %016llx %016llx %d %d %d %d\n", k, X(t2.distance), X(t2.gap_speed),
+               X(t2.envelope_speed), X(t2.target_speed), X(t2.a), (int)t2.held, (int)t2.pending, (int)t2.revealed, (int)t2.latched);
+    }
 }
 
 static void run_pid(void) {
@@ -317,6 +364,16 @@ static void run_errors(void) {
     err_line("fallback_init_null_params", flc_fallback_init(&zeroed, NULL, &e), NULL);
     err_line("fallback_still_uninitialised", flc_fallback_step(&zeroed, true, 20.0, 10.0, &c), NULL);
 
+    static FlcRobust2 zeroed2;
+    err_line("robust_step_wrong_type", flc_robust_step((FlcRobust *)(void *)&rob2_storage, true, 20.0, 10.0, &c), NULL);
+    err_line("robust2_step_uninitialised", flc_robust2_step(&zeroed2, true, 20.0, 10.0, &c), NULL);
+    FlcRobust2Params rp = flc_robust2_params_default();
+    rp.sight_decel = 0.0;
+    err_line("robust2_init_sight_decel", flc_robust2_init(&zeroed2, &rp, &e), &e);
+    rp = flc_robust2_params_default();
+    rp.law.first_object = 2;
+    err_line("robust2_init_first_object", flc_robust2_init(&zeroed2, &rp, &e), &e);
+
     FlcPidParams pp = flc_pid_params_default();
     pp.near.kd = -1.0;
     err_line("pid_init_near_kd", flc_pid_init(&pid_storage, &pp, &e), &e);
@@ -364,9 +421,10 @@ static void run_errors(void) {
 }
 
 int main(void) {
-    printf("sizes %zu %zu %zu %zu %zu\n", sizeof(FlcFallback), sizeof(FlcPid), sizeof(FlcSupervisor), sizeof(FlcPursuit),
-           sizeof(FlcDetector));
+    printf("sizes %zu %zu %zu %zu %zu %zu %zu\n", sizeof(FlcFallback), sizeof(FlcPid), sizeof(FlcSupervisor), sizeof(FlcPursuit),
+           sizeof(FlcDetector), sizeof(FlcRobust), sizeof(FlcRobust2));
     run_fallback();
+    run_robust();
     run_pid();
     run_supervisor();
     run_pursuit();

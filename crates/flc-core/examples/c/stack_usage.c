@@ -38,6 +38,10 @@ static size_t measure(void (*f)(void)) {
 
 static FlcFallback flc;
 static FlcPid pid;
+static FlcRobust rob;
+static FlcRobust2 rob2;
+static FlcRobustParams rob_p;
+static FlcRobust2Params rob2_p;
 static FlcSupervisor sup;
 static FlcPursuit pp;
 static FlcDetector det;
@@ -56,6 +60,19 @@ static void fallback_step(void) {
     FlcLongitudinalCommand c;
     sink = flc_fallback_step(&flc, true, 18.0, 10.0, &c);
     sink = flc_fallback_step(&flc, true, 17.5, 10.0, &c);
+}
+static void robust_init(void) { sink = flc_robust_init(&rob, &rob_p, NULL); }
+static void robust_step(void) {
+    FlcLongitudinalCommand c;
+    sink = flc_robust_step(&rob, true, 18.0, 10.0, &c);
+    sink = flc_robust_step(&rob, true, 27.5, 10.0, &c);
+}
+static void robust2_init(void) { sink = flc_robust2_init(&rob2, &rob2_p, NULL); }
+static void robust2_step(void) {
+    FlcLongitudinalCommand c;
+    sink = flc_robust2_step(&rob2, true, 18.0, 10.0, &c);
+    sink = flc_robust2_step(&rob2, true, 27.5, 10.0, &c);
+    sink = flc_robust2_step(&rob2, false, 0.0, 10.0, &c);
 }
 static void pid_init(void) { sink = flc_pid_init(&pid, &pid_p, NULL); }
 static void pid_step(void) {
@@ -86,6 +103,8 @@ static void detector_detect(void) {
 int main(void) {
     flc_p = flc_fallback_params_default();
     pid_p = flc_pid_params_default();
+    rob_p = flc_robust_params_default();
+    rob2_p = flc_robust2_params_default();
     sup_p = flc_supervisor_params_default();
     pp_p = flc_pursuit_params_default();
     det_p = flc_detector_params_default();
@@ -111,6 +130,8 @@ int main(void) {
         void (*f)(void);
     } cases[] = {
         {"flc_fallback_init", fallback_init},       {"flc_fallback_step", fallback_step},
+        {"flc_robust_init", robust_init},           {"flc_robust_step", robust_step},
+        {"flc_robust2_init", robust2_init},         {"flc_robust2_step", robust2_step},
         {"flc_pid_init", pid_init},                 {"flc_pid_step", pid_step},
         {"flc_supervisor_init", supervisor_init},   {"flc_supervisor_step", supervisor_step},
         {"flc_pursuit_init", pursuit_init},         {"flc_pursuit_step", pursuit_step},

@@ -1,10 +1,10 @@
-//! C interface (feature `capi`): create / step / reset for the FLC, the PID, the supervisor, the
-//! pure-pursuit lateral controller and the lead detector.
+//! C interface (feature `capi`): create / step / reset for the FLC, the robust FLC v1 and v2, the
+//! PID, the supervisor, the pure-pursuit lateral controller and the lead detector.
 //!
 //! Design (see `docs/firmware.md`):
 //!
 //! * **Caller-owned memory.** Every controller lives in a fixed-size, 8-byte aligned *storage
-//!   struct* (`FlcFallback`, `FlcPid`, `FlcSupervisor`, `FlcPursuit`, `FlcDetector`) that the
+//!   struct* (`FlcFallback`, `FlcRobust`, `FlcRobust2`, `FlcPid`, `FlcSupervisor`, `FlcPursuit`, `FlcDetector`) that the
 //!   caller declares (static, stack or inside its own structs). Nothing is ever allocated and no
 //!   pointer is kept across calls; a storage struct may be copied with `memcpy`.
 //! * **Status codes, never panics.** Every function returns an [`FlcResult`]; every pointer is
@@ -16,7 +16,7 @@
 //!   caller passes in are plain `uint8_t` fields validated by `*_init` (an out-of-range value from C
 //!   can then never become an invalid Rust enum); `flc_*_params_default()` return the Rust defaults.
 //!
-//! One file per controller ([`flc`], [`pid`], [`supervisor`], [`pure_pursuit`], [`detector`]: its
+//! One file per controller ([`flc`], [`flc_robust`] (v1 and v2), [`pid`], [`supervisor`], [`pure_pursuit`], [`detector`]: its
 //! `#[repr(C)]` mirrors, storage struct, conversions and functions); this file holds what they
 //! share (result codes, status, the parameter error, the command, library information) and
 //! [`storage`] the caller-owned-storage machinery, including the one `init` helper behind every
@@ -39,6 +39,8 @@ mod storage;
 // constants: keep it (blank lines keep rustfmt from sorting them).
 pub mod flc;
 
+pub mod flc_robust;
+
 pub mod pid;
 
 pub mod supervisor;
@@ -49,6 +51,7 @@ pub mod detector;
 
 pub use detector::*;
 pub use flc::*;
+pub use flc_robust::*;
 pub use pid::*;
 pub use pure_pursuit::*;
 pub use supervisor::*;
