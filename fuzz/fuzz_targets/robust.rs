@@ -10,7 +10,9 @@ use common::{Num, Param, same};
 use flc_core::capi::{
     FlcLongitudinalCommand, FlcResult, FlcRobust, FlcRobust2, flc_robust_init, flc_robust_step, flc_robust2_init, flc_robust2_step,
 };
-use flc_core::{FirstObject, LongitudinalCommand, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Status};
+use flc_core::{
+    FirstObject, LongitudinalCommand, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Status,
+};
 use libfuzzer_sys::fuzz_target;
 use std::mem::MaybeUninit;
 
@@ -67,7 +69,9 @@ fuzz_target!(|inp: Input| {
     let (mut s1, mut s2) = (MaybeUninit::<FlcRobust>::uninit(), MaybeUninit::<FlcRobust2>::uninit());
     let (c1, c2) = (law.into(), p2.into());
     // SAFETY: valid pointers to local memory.
-    let (i1, i2) = unsafe { (flc_robust_init(s1.as_mut_ptr(), &c1, std::ptr::null_mut()), flc_robust2_init(s2.as_mut_ptr(), &c2, std::ptr::null_mut())) };
+    let (i1, i2) = unsafe {
+        (flc_robust_init(s1.as_mut_ptr(), &c1, std::ptr::null_mut()), flc_robust2_init(s2.as_mut_ptr(), &c2, std::ptr::null_mut()))
+    };
     let mut r1 = RobustFallbackController::new(law).ok();
     let mut r2 = RobustFallbackController2::new(p2).ok();
     assert_eq!(i1 == FlcResult::Ok, r1.is_some());
@@ -107,7 +111,10 @@ fuzz_target!(|inp: Input| {
                 assert!(out.accel >= -limit - 1e-9, "{out:?} {:?}", c.terms());
             }
             // SAFETY: initialised above, valid output pointer.
-            assert_eq!(unsafe { flc_robust2_step(s2.as_mut_ptr(), dist.is_some(), dist.unwrap_or(0.0), v, co.as_mut_ptr()) }, FlcResult::Ok);
+            assert_eq!(
+                unsafe { flc_robust2_step(s2.as_mut_ptr(), dist.is_some(), dist.unwrap_or(0.0), v, co.as_mut_ptr()) },
+                FlcResult::Ok
+            );
             // SAFETY: written on FlcResult::Ok.
             assert!(same_cmd(unsafe { co.assume_init() }, out));
         }

@@ -202,7 +202,11 @@ mod tests {
 
     #[test]
     fn a_scenario_file_error_in_a_tagged_table_names_the_entry() {
-        let e = crate::Scenario::from_toml_str("[track]\nkind = \"custom\"\nname = \"r\"\ncenterline = [[0.0, 0.0], [100.0, 0.0]]\nlane_width = 3.5\nlanes = 1.5\n", "f.toml").unwrap_err();
+        let e = crate::Scenario::from_toml_str(
+            "[track]\nkind = \"custom\"\nname = \"r\"\ncenterline = [[0.0, 0.0], [100.0, 0.0]]\nlane_width = 3.5\nlanes = 1.5\n",
+            "f.toml",
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("`track.lanes`"), "{e}");
     }
 
