@@ -15,6 +15,9 @@ use flc_sim::{Vehicle, VehicleParams, VehicleState};
 
 const KMH: f64 = 1.0 / 3.6;
 const ROBUST: ControllerKind = ControllerKind::FlcRobust;
+/// The robust FLC v2 (issue 24), held to v1's rate-invariance target and to the issue's stricter
+/// comfort figures.
+const ROBUST2: ControllerKind = ControllerKind::FlcRobust2;
 const PAPER: ControllerKind = ControllerKind::Flc;
 /// Farthest bumper-to-bumper gap the default detector reports: its grid ends 70.5 m ahead of the
 /// sensor (350 cells of 0.2 m from 0.5 m), the sensor sits 0.45 m behind the front bumper, and the
@@ -30,6 +33,7 @@ fn batch(scenarios: &[Scenario]) -> Vec<RunResult> {
 fn own_gap(s: &Scenario, v: f64) -> f64 {
     match s.controller {
         ControllerKind::FlcRobust => s.flc_robust.desired_gap(v),
+        ControllerKind::FlcRobust2 => s.flc_robust2.law.desired_gap(v),
         ControllerKind::Flc => s.flc.desired_distance(v) + s.flc.f_shift(v),
         other => panic!("no own gap for {}", other.as_str()),
     }
@@ -185,8 +189,8 @@ const VARIANTS: [(&str, f64, f64, u32); 7] = [
     ("40 Hz + 100 ms", 40.0, 0.0, 4),
 ];
 
-/// Target 3 (rate invariance): the same outcome (collision or not, clearance within 0.5 m) at 10,
-/// 20 and 40 Hz, with +-30 % frame-interval jitter and with 100 ms LiDAR latency (at each rate).
+/// Target 3 (rate invariance), for v1 and v2: the same outcome (collision or not, clearance
+/// within 0.5 m) at 10, 20 and 40 Hz, with +-30 % frame-interval jitter and with 100 ms LiDAR latency (at each rate).
 /// "Clearance" is the paper's: the gap at standstill. The paper's FLC changes its clearance by
 /// several metres with the rate and collides at 40 Hz + 100 ms (130 km/h, lead -9).
 #[test]
@@ -207,17 +211,20 @@ fn rate_invariance() {
             .collect()
     };
     let robust = batch(&make(ROBUST));
+    let robust2 = batch(&make(ROBUST2));
     let paper = batch(&make(PAPER));
     let mut paper_spread: f64 = 0.0;
     let mut paper_collided = false;
     for (i, &(v, b)) in cases.iter().enumerate() {
         let rows = &robust[i * VARIANTS.len()..(i + 1) * VARIANTS.len()];
-        let reference = rows[0].metrics.final_clearance.expect("reference stops");
-        for (row, (name, ..)) in rows.iter().zip(VARIANTS) {
-            let m = &row.metrics;
-            assert!(!m.collision, "flc-robust {v} km/h, lead -{b}, {name}: collided");
-            let c = m.final_clearance.expect("stops");
-            assert!((c - reference).abs() <= 0.5, "flc-robust {v} km/h, lead -{b}, {name}: clearance {c:.2} vs {reference:.2}");
+        for (label, rows) in [("flc-robust", rows), ("flc-robust-v2", &robust2[i * VARIANTS.len()..(i + 1) * VARIANTS.len()])] {
+            let reference = rows[0].metrics.final_clearance.expect("reference stops");
+            for (row, (name, ..)) in rows.iter().zip(VARIANTS) {
+                let m = &row.metrics;
+                assert!(!m.collision, "{label} {v} km/h, lead -{b}, {name}: collided");
+                let c = m.final_clearance.expect("stops");
+                assert!((c - reference).abs() <= 0.5, "{label} {v} km/h, lead -{b}, {name}: clearance {c:.2} vs {reference:.2}");
+            }
         }
         let prow = &paper[i * VARIANTS.len()..(i + 1) * VARIANTS.len()];
         let clear: Vec<f64> = prow.iter().filter_map(|r| r.metrics.final_clearance).collect();
@@ -277,7 +284,11 @@ fn comfort_scenarios(c: ControllerKind) -> Vec<(String, Scenario)> {
     s.lead.phases = [hold(3.0), go(50.0), hold(10.0), stop(), hold(5.0), go(30.0), hold(5.0), stop(), hold(5.0), go(20.0), stop()]
         .map(Into::into)
         .to_vec();
-    s.follower.initial_gap = if c == ROBUST { s.flc_robust.standstill_gap } else { 7.0 };
+    s.follower.initial_gap = match c {
+        ROBUST => s.flc_robust.standstill_gap,
+        ROBUST2 => s.flc_robust2.law.standstill_gap,
+        _ => 7.0,
+    };
     s.duration = 150.0;
     out.push(("stop and go".to_string(), s));
     out
@@ -318,6 +329,34 @@ fn comfort_in_normal_following() {
     // The stops end at standstill (gap checked above) in the four stopping scenarios.
     assert_eq!(r.iter().filter(|x| x.metrics.final_clearance.is_some()).count(), 4);
     assert!(paper_worst_decel > 4.0, "paper FLC max decel {paper_worst_decel}");
+}
+
+/// Issue 24's comfort target for v2 (ISO 15622 / 22179 figures), on target 4's scenarios: max
+/// deceleration <= 3.5 m/s², 1-second mean jerk <= 2.5 m/s³, standstill gap 2-5 m, never reversing.
+#[test]
+fn comfort_in_normal_following_v2() {
+    let cases = comfort_scenarios(ROBUST2);
+    let r = batch(&cases.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
+    for ((name, _), a) in cases.iter().zip(&r) {
+        let m = &a.metrics;
+        let jerk = jerk_1s(a);
+        eprintln!("{name}: v2 max decel {:.2}, 1-s jerk {jerk:.2}, standstill gap {:?}", m.max_decel, m.final_clearance);
+        if std::env::var("DBG").is_ok() {
+            let se = &a.series;
+            for i in 0..se.t.len() {
+                if i % 10 == 0 { eprintln!("t {:.2} v {:.2} a {:.2} gap {:.2} det {:.2} cmd {:.2} lead {:.2}", se.t[i], se.follower_speed[i], se.follower_accel[i], se.gap[i], se.detected_distance[i], se.speed_command[i], se.lead_speed[i]); }
+            }
+        }
+        assert!(!m.collision, "{name}");
+        assert!(m.max_decel <= 3.5, "{name}: max decel {}", m.max_decel);
+        assert!(jerk <= 2.5, "{name}: 1-s jerk {jerk}");
+        assert!(a.series.speed_command.iter().all(|&v| v >= 0.0), "{name}: negative speed command");
+        assert!(a.series.follower_speed.iter().all(|&v| v >= 0.0), "{name}: reversing");
+        if let Some(c) = m.final_clearance {
+            assert!((2.0..=5.0).contains(&c), "{name}: standstill gap {c}");
+        }
+    }
+    assert_eq!(r.iter().filter(|x| x.metrics.final_clearance.is_some()).count(), 4);
 }
 
 /// A car cuts in at `gap` m, `dv_kmh` slower than the follower, and holds its speed. Modelled as
