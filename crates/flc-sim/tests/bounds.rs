@@ -262,3 +262,75 @@ fn phase_checks_are_linear() {
     let msg = e.to_string();
     assert!(msg.lines().count() == 1 && msg.contains("lead.phases[0]"), "{}", &msg[..msg.len().min(300)]);
 }
+
+/// The fixture `target_brakes.xosc` with `from` replaced by `to`, its road and catalog paths made
+/// absolute (the file is written elsewhere).
+fn xosc_with(from: &str, to: &str) -> String {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/openscenario");
+    let text = std::fs::read_to_string(data.join("target_brakes.xosc")).expect("fixture");
+    assert!(text.contains(from), "fixture lacks {from}");
+    text.replacen(from, to, 1)
+        .replace("roads/straight.xodr", &data.join("roads/straight.xodr").display().to_string())
+        .replace(r#"<Directory path="catalogs"/>"#, &format!(r#"<Directory path="{}"/>"#, data.join("catalogs").display()))
+}
+
+/// Runs `scenario --config FILE.xosc` on `text`: exit 2 with one `error:` line naming the file, a
+/// line number and `needle`, within [`BUDGET`] plus four times the time the XML alone takes to parse.
+fn rejects_xosc(tag: &str, text: &str, needle: &str) {
+    let d = tmpdir(tag);
+    let f = d.join(format!("{tag}.xosc"));
+    std::fs::write(&f, text).expect("write");
+    let t = Instant::now();
+    let doc = roxmltree::Document::parse(text).expect("well-formed XML");
+    let parse = t.elapsed();
+    drop(doc);
+    let _ = Command::new(env!("CARGO_BIN_EXE_scenario")).arg("--version").output();
+    let t = Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).arg("--config").arg(&f).arg("--threads").arg("1").output().expect("run");
+    let took = t.elapsed();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{tag}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{tag}: {err}");
+    let name = format!("{tag}.xosc:");
+    let after = err.split(&name).nth(1).unwrap_or("");
+    assert!(err.starts_with("error:") && after.split(':').next().is_some_and(|n| n.parse::<u32>().is_ok()), "{tag}: no file:line in {err}");
+    assert!(err.contains(needle), "{tag}: expected `{needle}` in {err}");
+    let limit = BUDGET + parse * 4;
+    assert!(took < limit, "{tag}: {took:?} (limit {limit:?}, XML parse alone {parse:?}): {err}");
+    println!("{tag}: exit 2 in {took:?} (XML parse {parse:?}): {}", err.trim_end());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// OpenSCENARIO entities (issue 29, "once the importer lands"): 100,000 `ScenarioObject`s.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn xosc_entities() {
+    let car = r#"<ScenarioObject name="Ego">"#;
+    let many: String = (0..LIST)
+        .map(|i| {
+            format!("<ScenarioObject name=\"x{i}\"><CatalogReference catalogName=\"VehicleCatalog\" entryName=\"car\"/></ScenarioObject>\n")
+        })
+        .collect();
+    rejects_xosc("entities", &xosc_with(car, &format!("{many}{car}")), "<Entities>: 100002 entities, more than the limit");
+}
+
+/// OpenSCENARIO events: 20,000 `Event`s in one maneuver (twice the story's element limit; more
+/// would pass the importer's 32 MiB file limit first).
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn xosc_events() {
+    let start = r#"<Event name="TargetStops""#;
+    let event = r#"<Event name="E{i}" priority="parallel" maximumExecutionCount="1"><Action name="A"><PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape="step" dynamicsDimension="time" value="0"/><SpeedActionTarget><AbsoluteTargetSpeed value="1.0"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Action><StartTrigger><ConditionGroup><Condition name="C" delay="0" conditionEdge="none"><ByValueCondition><SimulationTimeCondition value="1" rule="greaterThan"/></ByValueCondition></Condition></ConditionGroup></StartTrigger></Event>"#;
+    let many: String = (0..20_000).map(|i| event.replace("{i}", &i.to_string())).collect();
+    rejects_xosc("events", &xosc_with(start, &format!("{many}{start}")), "storyboard elements, more than the limit");
+}
+
+/// OpenSCENARIO trigger conditions: 100,000 conditions in one group.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn xosc_conditions() {
+    let start = r#"<Condition name="AfterBrakeTime""#;
+    let cond = r#"<Condition name="C{i}" delay="0" conditionEdge="none"><ByValueCondition><SimulationTimeCondition value="1" rule="greaterThan"/></ByValueCondition></Condition>"#;
+    let many: String = (0..LIST).map(|i| cond.replace("{i}", &i.to_string())).collect();
+    rejects_xosc("conditions", &xosc_with(start, &format!("{many}{start}")), "100001 conditions, more than the limit");
+}
