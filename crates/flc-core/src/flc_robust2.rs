@@ -74,7 +74,6 @@ impl RobustFlc2Params {
     pub const fn documented() -> Self {
         let mut law = RobustFlcParams::documented();
         law.envelope_decel = 4.0;
-        law.brake_gain = 2.5;
         law.first_object = FirstObject::Unknown;
         Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1 }
     }
