@@ -125,6 +125,50 @@ fn detector_init_in_place_equals_new() {
     assert!(!out.has_detection);
 }
 
+/// One C-equals-Rust case of a robust FLC (v1 or v2): `*_init` accepts exactly what the Rust
+/// constructor accepts (naming the same field), then every step (a reset after 20) gives the same
+/// command and the same terms (`key` picks the compared terms, compared by their exact `Debug`
+/// text, which round-trips every float).
+macro_rules! robust_case {
+    ($storage:ty, $params:ty, $ctrl:ty, $init:ident, $step:ident, $reset:ident, $terms:ident, $cterms:ty, $cp:expr, $seq:expr, $key:expr) => {{
+        let mut s = MaybeUninit::<$storage>::uninit();
+        let mut err = MaybeUninit::<FlcParamError>::uninit();
+        // SAFETY: valid pointers to local memory.
+        let r = unsafe { $init(s.as_mut_ptr(), &$cp, err.as_mut_ptr()) };
+        let mut c = match <$params>::try_from($cp).and_then(<$ctrl>::new) {
+            Ok(c) => {
+                prop_assert_eq!(r, FlcResult::Ok);
+                c
+            }
+            Err(e) => {
+                prop_assert_eq!(r, FlcResult::InvalidParams);
+                // SAFETY: written on InvalidParams; NUL-terminated by construction.
+                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
+                prop_assert_eq!(field, e.field);
+                return Ok(());
+            }
+        };
+        let key = $key;
+        let bits = |t: $cterms| format!("{:?}", key(t)).replace("NaN", "nan");
+        for (k, (has, d, v)) in $seq.into_iter().enumerate() {
+            if k == 20 {
+                // SAFETY: initialised storage.
+                prop_assert_eq!(unsafe { $reset(s.as_mut_ptr()) }, FlcResult::Ok);
+                c.reset();
+            }
+            let (mut out, mut terms) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+            // SAFETY: initialised storage, valid outputs.
+            prop_assert_eq!(unsafe { $step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: initialised storage, valid output.
+            prop_assert_eq!(unsafe { $terms(s.as_ptr(), terms.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let (got, terms) = unsafe { (out.assume_init(), terms.assume_init()) };
+            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
+            prop_assert_eq!(bits(terms), bits((*c.terms()).into()));
+        }
+    }};
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(1024))]
 
@@ -165,31 +209,8 @@ proptest! {
         cp in c_robust_params(),
         seq in prop::collection::vec((any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0)), 0..48),
     ) {
-        let mut s = MaybeUninit::<FlcRobust>::uninit();
-        let mut err = MaybeUninit::<FlcParamError>::uninit();
-        // SAFETY: valid pointers to local memory.
-        let r = unsafe { flc_robust_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
-        let mut c = match RobustFlcParams::try_from(cp).and_then(RobustFallbackController::new) {
-            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
-            Err(e) => {
-                prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams; NUL-terminated by construction.
-                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
-                prop_assert_eq!(field, e.field);
-                return Ok(());
-            }
-        };
-        for (has, d, v) in seq {
-            let (mut out, mut terms) = (MaybeUninit::uninit(), MaybeUninit::uninit());
-            // SAFETY: initialised storage, valid outputs.
-            prop_assert_eq!(unsafe { flc_robust_step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
-            prop_assert_eq!(unsafe { flc_robust_terms(s.as_ptr(), terms.as_mut_ptr()) }, FlcResult::Ok);
-            // SAFETY: written on Ok.
-            let (got, terms) = unsafe { (out.assume_init(), terms.assume_init()) };
-            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
-            let want: FlcRobustTerms = (*c.terms()).into();
-            prop_assert!(same(terms.a, want.a) && same(terms.target_speed, want.target_speed) && terms.latched == want.latched);
-        }
+        robust_case!(FlcRobust, RobustFlcParams, RobustFallbackController, flc_robust_init, flc_robust_step, flc_robust_reset,
+            flc_robust_terms, FlcRobustTerms, cp, seq, |t: FlcRobustTerms| (t.a, t.target_speed, t.latched));
     }
 
     #[test]
@@ -197,36 +218,8 @@ proptest! {
         cp in c_robust2_params(),
         seq in prop::collection::vec((any::<bool>(), num(0.0, 80.0), num(-2.0, 40.0)), 0..48),
     ) {
-        let mut s = MaybeUninit::<FlcRobust2>::uninit();
-        let mut err = MaybeUninit::<FlcParamError>::uninit();
-        // SAFETY: valid pointers to local memory.
-        let r = unsafe { flc_robust2_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
-        let mut c = match RobustFlc2Params::try_from(cp).and_then(RobustFallbackController2::new) {
-            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
-            Err(e) => {
-                prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams; NUL-terminated by construction.
-                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
-                prop_assert_eq!(field, e.field);
-                return Ok(());
-            }
-        };
-        for (k, (has, d, v)) in seq.into_iter().enumerate() {
-            if k == 20 {
-                // SAFETY: initialised storage.
-                prop_assert_eq!(unsafe { flc_robust2_reset(s.as_mut_ptr()) }, FlcResult::Ok);
-                c.reset();
-            }
-            let (mut out, mut terms) = (MaybeUninit::uninit(), MaybeUninit::uninit());
-            // SAFETY: initialised storage, valid outputs.
-            prop_assert_eq!(unsafe { flc_robust2_step(s.as_mut_ptr(), has, d, v, out.as_mut_ptr()) }, FlcResult::Ok);
-            prop_assert_eq!(unsafe { flc_robust2_terms(s.as_ptr(), terms.as_mut_ptr()) }, FlcResult::Ok);
-            // SAFETY: written on Ok.
-            let (got, terms) = unsafe { (out.assume_init(), terms.assume_init()) };
-            prop_assert!(same_cmd(got, c.step(has.then_some(d), v)));
-            let want: FlcRobust2Terms = (*c.terms()).into();
-            prop_assert!(same(terms.a, want.a) && same(terms.distance, want.distance) && terms.held == want.held && terms.pending == want.pending);
-        }
+        robust_case!(FlcRobust2, RobustFlc2Params, RobustFallbackController2, flc_robust2_init, flc_robust2_step, flc_robust2_reset,
+            flc_robust2_terms, FlcRobust2Terms, cp, seq, |t: FlcRobust2Terms| (t.a, t.distance, t.held, t.pending, t.latched));
     }
 
     #[test]
