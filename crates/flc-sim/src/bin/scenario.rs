@@ -200,21 +200,12 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
 /// combination with its parameter values.
 fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
-    use flc_sim::sweep::{SweepPoint, run_points};
+    use flc_sim::sweep::{distribution_points, run_points};
     let runs = match import_xosc(file, cli) {
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
-    let keys: Vec<String> = runs.first().map(|r| r.params.iter().map(|(k, _)| k.clone()).collect()).unwrap_or_default();
-    let points: Vec<SweepPoint> = runs
-        .into_iter()
-        .enumerate()
-        .map(|(id, r)| SweepPoint {
-            id,
-            values: r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect(),
-            scenario: r.scenario,
-        })
-        .collect();
+    let (keys, points) = distribution_points(runs);
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
     match run_points(&keys, &points, &out, true) {
         Ok(n) => {

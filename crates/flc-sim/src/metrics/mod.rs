@@ -100,6 +100,34 @@ fn field_names<T: Serialize>(v: &T) -> Vec<String> {
 }
 
 impl Metrics {
+    /// Every metric with its unit (`""` for a flag or a count), in [`Metrics::names`] order: the
+    /// one list of metric units (Parquet column metadata, `docs/v2v-and-metrics.md`); a test
+    /// keeps it equal to the struct's fields.
+    pub const UNITS: &'static [(&'static str, &'static str)] = &[
+        ("collision", ""),
+        ("impact_speed", "m/s"),
+        ("collision_time", "s"),
+        ("min_gap", "m"),
+        ("final_clearance", "m"),
+        ("min_ttc", "s"),
+        ("max_decel", "m/s²"),
+        ("max_drac", "m/s²"),
+        ("tet", "s"),
+        ("tit", "s²"),
+        ("min_time_headway", "s"),
+        ("pet", "s"),
+        ("time_hard_braking", "s"),
+        ("max_jerk", "m/s³"),
+        ("gap_error_rms", "m"),
+        ("steady_time", "s"),
+        ("rot_error_deg", "deg"),
+        ("trans_error_m", "m"),
+        ("time_pid", "s"),
+        ("time_flc", "s"),
+        ("switches", ""),
+        ("duration", "s"),
+    ];
+
     /// The metric names, in the order of `scenario --json` and of the sweep CSV's metric
     /// columns: the struct's fields (derived, not listed).
     pub fn names() -> &'static [String] {
@@ -240,6 +268,12 @@ impl Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn units_name_every_metric_in_order() {
+        let names: Vec<&str> = Metrics::UNITS.iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, Metrics::names().iter().map(String::as_str).collect::<Vec<_>>());
+    }
 
     /// A contact with the vehicle in front (as a run reports it).
     fn crash(time: f64, impact_speed: f64, lead_speed: f64, follower_speed: f64) -> CollisionInfo {
