@@ -353,6 +353,44 @@ pub fn header_of(keys: &[String]) -> String {
     columns_of(keys).join(",")
 }
 
+/// The type (`"u64"`, `"i64"`, `"f64"`, `"bool"`, `"str"`) and unit of every column of
+/// [`columns_of`]`(keys)`, in order: an axis is `i64`, `f64` or `bool` if every point's value is
+/// one, else `str` (units: km/h for `speed_kmh`, m/s² for `lead_decel`, else none); the
+/// metrics as [`Metrics::COLUMNS`].
+pub fn schema_of(keys: &[String], points: &[SweepPoint]) -> Vec<(String, &'static str, &'static str)> {
+    let axis_type = |key: &str| {
+        let vals = || points.iter().filter_map(|p| p.values.iter().find(|(k, _)| k == key).map(|(_, v)| v));
+        if vals().all(|v| v.is_i64()) {
+            "i64"
+        } else if vals().all(Value::is_number) {
+            "f64"
+        } else if vals().all(Value::is_boolean) {
+            "bool"
+        } else {
+            "str"
+        }
+    };
+    columns_of(keys)
+        .into_iter()
+        .map(|name| {
+            let (ty, unit) = match name.as_str() {
+                "run_id" | "seed" => ("u64", ""),
+                "controller" | "error" if !keys.contains(&name) => ("str", ""),
+                k if keys.iter().any(|x| x == k) => {
+                    let unit = match k {
+                        "speed_kmh" => "km/h",
+                        crate::scenario::LEAD_DECEL_KEY => "m/s²",
+                        _ => "",
+                    };
+                    (axis_type(k), unit)
+                }
+                k => Metrics::COLUMNS.iter().find(|(n, _, _)| *n == k).map_or(("str", ""), |(_, t, u)| (*t, *u)),
+            };
+            (name, ty, unit)
+        })
+        .collect()
+}
+
 /// The points of an OpenSCENARIO distribution's runs: ids in file order, the parameter values as
 /// strings. Returns the keys (the first run's parameter names) and the points.
 pub fn distribution_points(runs: Vec<crate::openscenario::Imported>) -> (Vec<String>, Vec<SweepPoint>) {

@@ -100,32 +100,33 @@ fn field_names<T: Serialize>(v: &T) -> Vec<String> {
 }
 
 impl Metrics {
-    /// Every metric with its unit (`""` for a flag or a count), in [`Metrics::names`] order: the
-    /// one list of metric units (Parquet column metadata, `docs/v2v-and-metrics.md`); a test
-    /// keeps it equal to the struct's fields.
-    pub const UNITS: &'static [(&'static str, &'static str)] = &[
-        ("collision", ""),
-        ("impact_speed", "m/s"),
-        ("collision_time", "s"),
-        ("min_gap", "m"),
-        ("final_clearance", "m"),
-        ("min_ttc", "s"),
-        ("max_decel", "m/s²"),
-        ("max_drac", "m/s²"),
-        ("tet", "s"),
-        ("tit", "s²"),
-        ("min_time_headway", "s"),
-        ("pet", "s"),
-        ("time_hard_braking", "s"),
-        ("max_jerk", "m/s³"),
-        ("gap_error_rms", "m"),
-        ("steady_time", "s"),
-        ("rot_error_deg", "deg"),
-        ("trans_error_m", "m"),
-        ("time_pid", "s"),
-        ("time_flc", "s"),
-        ("switches", ""),
-        ("duration", "s"),
+    /// Every metric as `(name, type, unit)`, in [`Metrics::names`] order: the one list of metric
+    /// types and units (the sweep's Parquet schema; definitions in `docs/v2v-and-metrics.md`).
+    /// Types are `"bool"`, `"u32"` or `"f64"` (an `Option` is a nullable `f64`); unit `""` is a
+    /// flag or a count. A test keeps it equal to the struct's fields.
+    pub const COLUMNS: &'static [(&'static str, &'static str, &'static str)] = &[
+        ("collision", "bool", ""),
+        ("impact_speed", "f64", "m/s"),
+        ("collision_time", "f64", "s"),
+        ("min_gap", "f64", "m"),
+        ("final_clearance", "f64", "m"),
+        ("min_ttc", "f64", "s"),
+        ("max_decel", "f64", "m/s²"),
+        ("max_drac", "f64", "m/s²"),
+        ("tet", "f64", "s"),
+        ("tit", "f64", "s²"),
+        ("min_time_headway", "f64", "s"),
+        ("pet", "f64", "s"),
+        ("time_hard_braking", "f64", "s"),
+        ("max_jerk", "f64", "m/s³"),
+        ("gap_error_rms", "f64", "m"),
+        ("steady_time", "f64", "s"),
+        ("rot_error_deg", "f64", "deg"),
+        ("trans_error_m", "f64", "m"),
+        ("time_pid", "f64", "s"),
+        ("time_flc", "f64", "s"),
+        ("switches", "u32", ""),
+        ("duration", "f64", "s"),
     ];
 
     /// The metric names, in the order of `scenario --json` and of the sweep CSV's metric
@@ -270,9 +271,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn units_name_every_metric_in_order() {
-        let names: Vec<&str> = Metrics::UNITS.iter().map(|(n, _)| *n).collect();
+    fn columns_name_every_metric_in_order_with_its_json_type() {
+        let names: Vec<&str> = Metrics::COLUMNS.iter().map(|(n, _, _)| *n).collect();
         assert_eq!(names, Metrics::names().iter().map(String::as_str).collect::<Vec<_>>());
+        let s = crate::series::Series::default();
+        let v = serde_json::to_value(Metrics::compute(&s, None)).expect("json");
+        for (name, ty, _) in Metrics::COLUMNS {
+            let x = &v[*name];
+            let ok = match *ty {
+                "bool" => x.is_boolean(),
+                "u32" => x.is_u64(),
+                "f64" => x.is_f64() || x.is_null(),
+                _ => false,
+            };
+            assert!(ok, "{name}: {ty} vs {x}");
+        }
     }
 
     /// A contact with the vehicle in front (as a run reports it).
