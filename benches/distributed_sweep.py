@@ -39,7 +39,7 @@ def main() -> None:
     times: dict[str, list[float]] = {"local": []}
     info: dict[str, str] = {}
     with tempfile.TemporaryDirectory() as tmp, distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0"
     ) as cluster, distributed.Client(cluster) as client:
         reference = None
         for rep in range(args.repeats):

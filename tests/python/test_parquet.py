@@ -25,7 +25,7 @@ def test_run_result_round_trips_with_units(tmp_path, result):
     for name, arr in result.series.items():
         assert np.array_equal(series[name], arr, equal_nan=True), name
     assert units == {n: u for n, _, u in cols}
-    assert (units["t"], units["gap"], units["follower_speed"], units["follower_accel"]) == ("s", "m", "m/s", "m/s²")
+    assert (units["t"], units["gap"], units["follower_speed"], units["follower_accel"]) == ("s", "m", "m/s", "m/s^2")
     assert metrics == result.metrics
     assert flc.Scenario.from_dict(json.loads(scenario_json)) == result.scenario
 

@@ -56,7 +56,7 @@ def _lines(path):
 
 
 def _cluster():
-    return distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
+    return distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0")
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +106,7 @@ def test_parquet_output_holds_the_local_rows_with_units(tmp_path, client, local_
         assert table.column_names == header.split(",")
         assert [list(r.values()) for r in table.to_pylist()] == expected
         u = parquet.units(table.schema)
-        assert (u["min_gap"], u["max_decel"], u["tit"], u["max_jerk"], u["speed_kmh"], u["lead_decel"]) == ("m", "m/s²", "s²", "m/s³", "km/h", "m/s²")
+        assert (u["min_gap"], u["max_decel"], u["tit"], u["max_jerk"], u["speed_kmh"], u["lead_decel"]) == ("m", "m/s^2", "s^2", "m/s^3", "km/h", "m/s^2")
         assert u["collision"] == u["controller"] == u["switches"] == ""
         types = {fld.name: str(fld.type) for fld in table.schema}
         assert (types["run_id"], types["collision"], types["switches"], types["lidar.latency_frames"], types["error"]) == ("uint64", "bool", "uint32", "int64", "string")

@@ -355,7 +355,7 @@ pub fn header_of(keys: &[String]) -> String {
 
 /// The type (`"u64"`, `"i64"`, `"f64"`, `"bool"`, `"str"`) and unit of every column of
 /// [`columns_of`]`(keys)`, in order: an axis is `i64`, `f64` or `bool` if every point's value is
-/// one, else `str` (units: km/h for `speed_kmh`, m/s² for `lead_decel`, else none); the
+/// one, else `str` (units: km/h for `speed_kmh`, m/s^2 for `lead_decel`, else none); the
 /// metrics as [`Metrics::COLUMNS`].
 pub fn schema_of(keys: &[String], points: &[SweepPoint]) -> Vec<(String, &'static str, &'static str)> {
     let axis_type = |key: &str| {
@@ -379,7 +379,7 @@ pub fn schema_of(keys: &[String], points: &[SweepPoint]) -> Vec<(String, &'stati
                 k if keys.iter().any(|x| x == k) => {
                     let unit = match k {
                         "speed_kmh" => "km/h",
-                        crate::scenario::LEAD_DECEL_KEY => "m/s²",
+                        crate::scenario::LEAD_DECEL_KEY => "m/s^2",
                         _ => "",
                     };
                     (axis_type(k), unit)

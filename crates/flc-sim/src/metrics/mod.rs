@@ -103,7 +103,7 @@ impl Metrics {
     /// Every metric as `(name, type, unit)`, in [`Metrics::names`] order: the one list of metric
     /// types and units (the sweep's Parquet schema; definitions in `docs/v2v-and-metrics.md`).
     /// Types are `"bool"`, `"u32"` or `"f64"` (an `Option` is a nullable `f64`); unit `""` is a
-    /// flag or a count. A test keeps it equal to the struct's fields.
+    /// flag or a count; ASCII as the series units (`m/s^2`). A test keeps it equal to the struct's fields.
     pub const COLUMNS: &'static [(&'static str, &'static str, &'static str)] = &[
         ("collision", "bool", ""),
         ("impact_speed", "f64", "m/s"),
@@ -111,14 +111,14 @@ impl Metrics {
         ("min_gap", "f64", "m"),
         ("final_clearance", "f64", "m"),
         ("min_ttc", "f64", "s"),
-        ("max_decel", "f64", "m/s²"),
-        ("max_drac", "f64", "m/s²"),
+        ("max_decel", "f64", "m/s^2"),
+        ("max_drac", "f64", "m/s^2"),
         ("tet", "f64", "s"),
-        ("tit", "f64", "s²"),
+        ("tit", "f64", "s^2"),
         ("min_time_headway", "f64", "s"),
         ("pet", "f64", "s"),
         ("time_hard_braking", "f64", "s"),
-        ("max_jerk", "f64", "m/s³"),
+        ("max_jerk", "f64", "m/s^3"),
         ("gap_error_rms", "f64", "m"),
         ("steady_time", "f64", "s"),
         ("rot_error_deg", "f64", "deg"),
