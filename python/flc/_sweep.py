@@ -14,7 +14,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, Optional, Sequence, Union
+from typing import Any, Callable, Generator, Optional, Sequence, Union
 
 import numpy as np
 
@@ -77,7 +77,7 @@ def _series_dir(out: Path) -> Path:
     return out.with_name(out.stem + "-series")
 
 
-def _completed(executor: Any, client: Any, chunks: list[list[str]], series: bool) -> Iterator[Any]:
+def _completed(executor: Any, client: Any, chunks: list[list[str]], series: bool) -> Generator[Any, None, None]:
     """Submits one task per chunk and yields the results as tasks finish (cancels the rest if the
     caller stops early)."""
     if client is not None:

@@ -225,3 +225,17 @@ def test_command_line(tmp_path):
     bad.write_text('family = "paper"\n[[axes]]\nkey = "lidar.rate_hzz"\nvalues = [10.0]\n')
     p = subprocess.run([sys.executable, "-m", "flc", "sweep", str(bad)], capture_output=True, text=True)
     assert p.returncode == 2 and "lidar.rate_hzz" in p.stderr, p.stderr
+
+
+def test_an_openscenario_distribution_runs_the_same_way(tmp_path, client):
+    from pathlib import Path
+
+    xosc = Path(__file__).resolve().parents[1] / "data" / "openscenario" / "distribution_2x2.xosc"
+    local = tmp_path / "local.csv"
+    s = flc.sweep_file(xosc, out=local)
+    assert (s.total, s.done) == (4, 4)
+    header, rows = _lines(local)
+    assert header.startswith("run_id,EgoSpeed_kmh,TargetSpeed_kmh,controller,seed,")
+    dask = tmp_path / "dask.csv"
+    flc.sweep_file(xosc, executor=client, out=dask, chunk_size=3)
+    assert _lines(dask) == (header, rows)

@@ -103,7 +103,8 @@ enum Command {
     Sweep {
         /// The sweep file (TOML).
         file: PathBuf,
-        /// Output CSV (default: the sweep file's name with `.csv`).
+        /// Output CSV (default: the sweep file's name with `.csv`). Parquet output and Dask
+        /// clusters: `python -m flc sweep FILE` (docs/distributed.md), same rows.
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
     },
@@ -388,6 +389,12 @@ fn main() -> ExitCode {
         Some(Command::Sweep { file, out }) => {
             if cli.record.is_some() {
                 return bad_input("`--record` does not apply to `sweep`");
+            }
+            if let Some(o) = out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet"))) {
+                return bad_input(format!(
+                    "`--out` {}: `scenario sweep` writes CSV; Parquet (and Dask) is `python -m flc sweep FILE --out X.parquet` (docs/distributed.md)",
+                    o.display()
+                ));
             }
             if is_xosc(file) {
                 return sweep_xosc(&cli, file, out.as_deref());
