@@ -22,6 +22,7 @@ from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
 from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
+from ._sweep import SweepSummary, sweep_file
 
 __all__ = [
     "Command",
@@ -37,6 +38,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "SimulationError",
+    "SweepSummary",
     "Steering",
     "Supervisor",
     "frequency_response",
@@ -45,4 +47,5 @@ __all__ = [
     "read_mcap",
     "run",
     "sweep",
+    "sweep_file",
 ]

@@ -1,6 +1,9 @@
-"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``.
+"""``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``,
+``python -m flc reproduction --out DIR``,
+``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``.
 
-Exit status 0 on success, 2 on bad arguments (argparse), 1 if matplotlib is missing.
+Exit status 0 on success, 2 on bad arguments (argparse) or a bad sweep file, 1 if an optional
+dependency (matplotlib, pyarrow, distributed) is missing.
 """
 from __future__ import annotations
 
@@ -49,6 +52,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     rep.add_argument("--out", required=True, help="figure directory (created if needed)")
     rep.add_argument("--data", default=None, help="CSV directory (default: the repository's sweeps/)")
     rep.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores); results do not depend on it")
+    sw = sub.add_parser(
+        "sweep",
+        help="run a sweep file (TOML) or OpenSCENARIO distribution with the Rust sweep engine, here or on a Dask cluster (docs/distributed.md)",
+    )
+    sw.add_argument("file", help="the sweep file (.toml) or distribution (.xosc)")
+    sw.add_argument("--out", default=None, help="output: X.csv (default: FILE with .csv) or X.parquet (a directory of Parquet parts)")
+    sw.add_argument("--dask", metavar="SCHEDULER_ADDRESS", default=None, help="run on the Dask cluster of this scheduler (tcp://host:8786)")
+    sw.add_argument("--chunk-size", type=int, default=None, help="runs per task (default: automatic, flc.sweep_file)")
+    sw.add_argument("--threads", type=int, default=None, help="local threads without --dask (default: all cores); results do not depend on it")
+    sw.add_argument("--series", action="store_true", help="also write every run's series as <out stem>-series/<run_id>.parquet")
     fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov), the safety-envelope maps and the platoon figures as PNG")
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
@@ -76,6 +89,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser.parse_args(argv)
     if args.threads is not None and args.threads < 1:
         parser.error("--threads: expected a positive number")
+    if args.command == "sweep":
+        return _sweep(parser, args)
     if args.command == "reproduction":
         try:
             from . import reproduction
@@ -105,6 +120,35 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return 1
     for p in paths:
         print(p)
+    return 0
+
+
+def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from ._flc import FlcError, ParameterError, ScenarioError
+    from ._sweep import sweep_file
+
+    if args.chunk_size is not None and args.chunk_size < 1:
+        parser.error("--chunk-size: expected a positive number")
+    client = None
+    try:
+        if args.dask is not None:
+            import distributed
+
+            client = distributed.Client(args.dask)
+        s = sweep_file(args.file, executor=client, out=args.out, chunk_size=args.chunk_size, series=args.series, threads=args.threads)
+    except ImportError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    except (ScenarioError, ParameterError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except (FlcError, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    finally:
+        if client is not None:
+            client.close()
+    print(f"{s.done} runs done ({s.total} in the sweep, {s.skipped} already there), rows in {s.out}", file=sys.stderr)
     return 0
 
 

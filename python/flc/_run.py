@@ -116,6 +116,16 @@ class RunResult:
             raise ImportError("RunResult.to_pandas() needs pandas: pip install 'flc[pandas]'") from e
         return pd.DataFrame(self.series)
 
+    def to_parquet(self, path: Union[str, "os.PathLike[str]"]) -> Any:
+        """Writes the time series as one Parquet file (needs pyarrow: ``pip install
+        'flc[parquet]'``): one column per series column, in the simulator's order, with its unit
+        in the column metadata (``unit``), the metrics and the scenario in the file metadata
+        (:func:`flc.parquet.write_series`; read back with :func:`flc.parquet.read_series`). For
+        a platoon these are follower 1's series. Returns the path."""
+        from .parquet import write_series
+
+        return write_series(path, self.series, self.metrics, self.scenario.to_json())
+
     def __repr__(self) -> str:
         m = self.metrics
         extra = "" if self.platoon is None else f", followers={self.platoon.n_followers}"

@@ -53,14 +53,15 @@ def _num(v: str) -> float:
 
 def load_sweep(path: PathLike) -> dict[str, np.ndarray]:
     """Columns of a sweep CSV: numbers as float arrays (``collision`` as 0/1, empty as NaN),
-    text columns (``controller``) as string arrays; rows sorted by ``run_id``."""
+    text columns (``controller``, ``error``: empty or the message of a run that failed) as string
+    arrays; rows sorted by ``run_id``."""
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     rows.sort(key=lambda r: int(r["run_id"]))
     cols: dict[str, np.ndarray] = {}
     for k in rows[0].keys() if rows else []:
         vals = [r[k] for r in rows]
-        if k == "controller":
+        if k in ("controller", "error"):
             cols[k] = np.array(vals, dtype=str)
         else:
             cols[k] = np.array([_num(v) for v in vals])

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use crate::{ScenarioError, SimulationError, array, from_json, to_json};
 
-fn scenario_err(e: SimError) -> PyErr {
+pub(crate) fn scenario_err(e: SimError) -> PyErr {
     match e {
         SimError::Config(_) | SimError::File { .. } | SimError::Param(_) | SimError::Input(_) => ScenarioError::new_err(e.to_string()),
         other => SimulationError::new_err(other.to_string()),

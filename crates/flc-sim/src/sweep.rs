@@ -1,6 +1,12 @@
 //! The sweep engine: a grid or a random sample over any scenario fields, run in parallel
 //! (rayon), deterministic per run, streamed to CSV as runs finish, resumable.
 //!
+//! The pieces are public so that a distributed driver (`flc.sweep_file` on Dask,
+//! `docs/distributed.md`) runs exactly this engine: [`SweepSpec::points`] expands the runs (ids,
+//! seeds), [`SweepPoint`] crosses to a worker as JSON, [`run_point`] runs one and formats its
+//! row (a run that fails becomes a row with its `error`), [`open_output`] prepares a CSV for
+//! appending and says which ids it already holds.
+//!
 //! A sweep file (TOML, `docs/safety-envelope.md`):
 //!
 //! ```toml
@@ -22,7 +28,7 @@
 //! ```
 
 use std::collections::HashSet;
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -109,7 +115,7 @@ fn default_seed() -> u64 {
 }
 
 /// One point of a sweep: its index, the axis values and the scenario.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SweepPoint {
     /// Index in the expanded sweep (stable: the row key for resuming).
     pub id: usize,
@@ -287,17 +293,41 @@ pub fn run_seed(sweep_seed: u64, run_id: usize) -> u64 {
     crate::sim::sub_seed(sweep_seed, run_id as u64 + 1000)
 }
 
-/// One finished row: `run_id, <axes...>, controller, seed, <metrics...>`.
-fn row(point: &SweepPoint, metrics: &Metrics) -> String {
-    let m = serde_json::to_value(metrics).unwrap_or(Value::Null);
+/// A CSV field: as it is, or quoted (RFC 4180) if it holds a comma or a quote; line breaks
+/// become spaces (one row = one line, which resuming relies on).
+fn csv_text(s: &str) -> String {
+    let s = s.replace(['\n', '\r'], " ");
+    if s.contains([',', '"']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s }
+}
+
+/// One finished row: `run_id, <axes...>, controller, seed, <metrics...>, error`. Without metrics
+/// (a run that failed) the metric fields are empty and `error` holds the message.
+fn row(point: &SweepPoint, metrics: Option<&Metrics>, error: Option<&str>) -> String {
+    let m = metrics.map_or(Value::Null, |m| serde_json::to_value(m).unwrap_or(Value::Null));
     let mut f = vec![point.id.to_string()];
-    f.extend(point.values.iter().map(|(_, v)| csv_field(v)));
+    f.extend(point.values.iter().map(|(_, v)| csv_text(&csv_field(v))));
     if !point.values.iter().any(|(k, _)| k == "controller") {
         f.push(point.scenario.controller.as_str().to_string());
     }
     f.push(point.scenario.seed.to_string());
     f.extend(Metrics::names().iter().map(|k| m.get(k.as_str()).map(csv_field).unwrap_or_default()));
+    f.push(error.map(csv_text).unwrap_or_default());
     f.join(",")
+}
+
+/// Runs one point and returns its CSV row (no line break) and, if the run succeeded, its result.
+/// A run that fails (an error, or a panic caught here) gives a row with empty metrics and the
+/// message in `error`: the sweep goes on.
+pub fn run_point(point: &SweepPoint) -> (String, Option<crate::RunResult>) {
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| crate::runner::run(&point.scenario)));
+    match outcome {
+        Ok(Ok(r)) => (row(point, Some(&r.metrics), None), Some(r)),
+        Ok(Err(e)) => (row(point, None, Some(&e.to_string())), None),
+        Err(panic) => {
+            let msg = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned());
+            (row(point, None, Some(&format!("panic: {}", msg.unwrap_or_default()))), None)
+        }
+    }
 }
 
 /// The CSV header for a sweep.
@@ -306,8 +336,9 @@ pub fn header(spec: &SweepSpec) -> String {
     header_of(&keys)
 }
 
-/// The CSV header for points whose values are named `keys`.
-fn header_of(keys: &[String]) -> String {
+/// The CSV columns for points whose values are named `keys`: `run_id`, the keys, `controller`
+/// (unless a key), `seed`, the metrics ([`Metrics::names`]) and `error`.
+pub fn columns_of(keys: &[String]) -> Vec<String> {
     let mut h = vec!["run_id".to_string()];
     h.extend(keys.iter().cloned());
     if !keys.iter().any(|k| k == "controller") {
@@ -315,20 +346,95 @@ fn header_of(keys: &[String]) -> String {
     }
     h.push("seed".into());
     h.extend(Metrics::names().iter().cloned());
-    h.join(",")
+    h.push("error".into());
+    h
 }
 
-/// Ids already present in an existing output file (for resuming).
+/// The CSV header for points whose values are named `keys` ([`columns_of`]).
+pub fn header_of(keys: &[String]) -> String {
+    columns_of(keys).join(",")
+}
+
+/// The type (`"u64"`, `"i64"`, `"f64"`, `"bool"`, `"str"`) and unit of every column of
+/// [`columns_of`]`(keys)`, in order: an axis is `i64`, `f64` or `bool` if every point's value is
+/// one, else `str` (units: km/h for `speed_kmh`, m/s^2 for `lead_decel`, else none); the
+/// metrics as [`Metrics::COLUMNS`].
+pub fn schema_of(keys: &[String], points: &[SweepPoint]) -> Vec<(String, &'static str, &'static str)> {
+    let axis_type = |key: &str| {
+        let vals = || points.iter().filter_map(|p| p.values.iter().find(|(k, _)| k == key).map(|(_, v)| v));
+        if vals().all(|v| v.is_i64()) {
+            "i64"
+        } else if vals().all(Value::is_number) {
+            "f64"
+        } else if vals().all(Value::is_boolean) {
+            "bool"
+        } else {
+            "str"
+        }
+    };
+    columns_of(keys)
+        .into_iter()
+        .map(|name| {
+            let (ty, unit) = match name.as_str() {
+                "run_id" | "seed" => ("u64", ""),
+                "controller" | "error" if !keys.contains(&name) => ("str", ""),
+                k if keys.iter().any(|x| x == k) => {
+                    let unit = match k {
+                        "speed_kmh" => "km/h",
+                        crate::scenario::LEAD_DECEL_KEY => "m/s^2",
+                        _ => "",
+                    };
+                    (axis_type(k), unit)
+                }
+                k => Metrics::COLUMNS.iter().find(|(n, _, _)| *n == k).map_or(("str", ""), |(_, t, u)| (*t, *u)),
+            };
+            (name, ty, unit)
+        })
+        .collect()
+}
+
+/// The points of an OpenSCENARIO distribution's runs: ids in file order, the parameter values as
+/// strings. Returns the keys (the first run's parameter names) and the points.
+pub fn distribution_points(runs: Vec<crate::openscenario::Imported>) -> (Vec<String>, Vec<SweepPoint>) {
+    let keys: Vec<String> = runs.first().map(|r| r.params.iter().map(|(k, _)| k.clone()).collect()).unwrap_or_default();
+    let points = runs
+        .into_iter()
+        .enumerate()
+        .map(|(id, r)| SweepPoint { id, values: r.params.into_iter().map(|(k, v)| (k, Value::String(v))).collect(), scenario: r.scenario })
+        .collect();
+    (keys, points)
+}
+
+/// Ids already present in an existing output file (for resuming): the rows that end with a line
+/// break and hold every field (a row cut by an interrupted write is redone).
 pub fn finished_ids(out: &Path) -> HashSet<usize> {
-    let Ok(f) = std::fs::File::open(out) else { return HashSet::new() };
-    std::io::BufReader::new(f)
-        .lines()
+    let Ok(text) = std::fs::read_to_string(out) else { return HashSet::new() };
+    text.split_inclusive('\n')
         .skip(1)
-        .map_while(Result::ok)
-        // A line is complete only if it ends with all its fields (interrupted writes are redone).
+        .filter_map(|l| l.strip_suffix('\n'))
         .filter(|l| l.split(',').count() >= 2 + Metrics::names().len())
         .filter_map(|l| l.split(',').next().and_then(|id| id.parse().ok()))
         .collect()
+}
+
+/// Prepares `out` for appending the rows of points named `keys` and returns the ids it already
+/// holds ([`finished_ids`]): a missing file, or one without finished rows, is written anew with
+/// the header; a cut last line (an interrupted write) is dropped. The file is not locked: one
+/// writer per output.
+pub fn open_output(out: &Path, keys: &[String]) -> Result<(std::fs::File, HashSet<usize>), SimError> {
+    let done = finished_ids(out);
+    if done.is_empty() {
+        let mut file = std::fs::File::create(out)?;
+        writeln!(file, "{}", header_of(keys))?;
+        return Ok((file, done));
+    }
+    let text = std::fs::read(out)?;
+    let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let file = std::fs::OpenOptions::new().append(true).open(out)?;
+    if keep < text.len() {
+        file.set_len(keep as u64)?;
+    }
+    Ok((file, done))
 }
 
 /// Runs the points not yet in `out`, appending one CSV row per finished run (flushed as it
@@ -341,25 +447,18 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
 /// Runs `points` (their values named `keys`, the CSV's columns after `run_id`) in parallel,
 /// streaming one row per finished run into `out` and skipping the ids already there, as
 /// [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
-/// (the keys are their parameters). Returns the number of runs done.
+/// (the keys are their parameters). A run that fails is a row with its `error`. Returns the
+/// number of runs done.
 pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
     use rayon::prelude::*;
-    let done = finished_ids(out);
+    let (file, done) = open_output(out, keys)?;
     let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
-    let fresh = done.is_empty() || !out.exists();
-    let mut file = std::fs::OpenOptions::new().create(true).append(true).open(out)?;
-    if fresh {
-        // Rewrite from scratch (an existing file without finished rows is replaced).
-        file = std::fs::File::create(out)?;
-        writeln!(file, "{}", header_of(keys))?;
-    }
     let writer = Mutex::new(std::io::BufWriter::new(file));
     let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));
     let results: Vec<Result<(), SimError>> = todo
         .par_iter()
         .map(|p| {
-            let r = crate::runner::run(&p.scenario)?;
-            let line = row(p, &r.metrics);
+            let (line, _) = run_point(p);
             let mut w = writer.lock().map_err(|_| SimError::File { path: out.display().to_string(), message: "writer poisoned".into() })?;
             writeln!(w, "{line}")?;
             w.flush()?;

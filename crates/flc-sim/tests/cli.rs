@@ -77,3 +77,15 @@ fn json_records_have_the_documented_fields_and_collision_exit_code() {
     let out = scenario().args(["--json", "--config"]).arg(&f).output().expect("run");
     assert_eq!(out.status.code(), Some(0));
 }
+
+#[test]
+fn sweep_to_parquet_points_to_the_python_command() {
+    let d = tmpdir("parquet");
+    let f = write(&d, "s.toml", "family = \"paper\"\n[[axes]]\nkey = \"speed_kmh\"\nvalues = [30.0]\n");
+    let out = scenario().arg("sweep").arg(&f).arg("--out").arg(d.join("x.parquet")).output().expect("run");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--out") && err.contains("python -m flc sweep"), "{err}");
+    assert!(!d.join("x.parquet").exists());
+}

@@ -53,7 +53,55 @@ fn rows_equal_individual_runs_and_rerun_does_no_work() {
     let cut: String = text.lines().take(5).map(|l| format!("{l}\n")).collect::<String>() + "7,flc";
     std::fs::write(&out, cut).expect("write");
     assert_eq!(run_sweep(&s, &points, &out, false).expect("sweep"), 4);
+    // The cut line is gone, not glued to the next row: the same rows as the first pass.
+    let sorted = |t: &str| {
+        let mut rows: Vec<String> = t.lines().skip(1).map(str::to_string).collect();
+        rows.sort();
+        rows
+    };
+    assert_eq!(sorted(&std::fs::read_to_string(&out).expect("csv")), sorted(&text));
     let _ = std::fs::remove_file(&out);
+}
+
+#[test]
+fn a_failing_run_is_a_row_with_its_error_and_the_others_finish() {
+    let s = spec(GRID);
+    let mut points = s.points(None).expect("points");
+    // Made invalid after expansion (the runner validates again): this run fails.
+    points[3].scenario.lidar.rate_hz = 0.0;
+    let out = std::env::temp_dir().join(format!("flc-sweep-err-{}.csv", std::process::id()));
+    let _ = std::fs::remove_file(&out);
+    assert_eq!(run_sweep(&s, &points, &out, false).expect("sweep"), 8);
+    let text = std::fs::read_to_string(&out).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    assert_eq!(header.last(), Some(&"error"));
+    let rows: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 8);
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    for r in &rows {
+        if r[0] == "3" {
+            assert_eq!(r[col("min_gap")], "");
+            assert_eq!(r[col("collision")], "");
+            let error = r[col("error")..].join(",");
+            assert!(error.contains("lidar.rate_hz"), "{error}");
+        } else {
+            assert_eq!(r[col("error")], "", "{r:?}");
+            assert!(r[col("min_gap")].parse::<f64>().is_ok(), "{r:?}");
+        }
+    }
+    // The failed run counts as finished: re-running does nothing.
+    assert_eq!(run_sweep(&s, &points, &out, false).expect("sweep"), 0);
+    let _ = std::fs::remove_file(&out);
+}
+
+#[test]
+fn points_cross_as_json_unchanged() {
+    let points = spec(GRID).points(None).expect("points");
+    for p in &points {
+        let back: flc_sim::sweep::SweepPoint = serde_json::from_str(&serde_json::to_string(p).expect("json")).expect("parse");
+        assert_eq!(&back, p);
+        assert_eq!(flc_sim::sweep::run_point(&back).0, flc_sim::sweep::run_point(p).0);
+    }
 }
 
 #[test]

@@ -103,7 +103,8 @@ enum Command {
     Sweep {
         /// The sweep file (TOML).
         file: PathBuf,
-        /// Output CSV (default: the sweep file's name with `.csv`).
+        /// Output CSV (default: the sweep file's name with `.csv`). Parquet output and Dask
+        /// clusters: `python -m flc sweep FILE` (docs/distributed.md), same rows.
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
     },
@@ -200,21 +201,12 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
 /// combination with its parameter values.
 fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
-    use flc_sim::sweep::{SweepPoint, run_points};
+    use flc_sim::sweep::{distribution_points, run_points};
     let runs = match import_xosc(file, cli) {
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
-    let keys: Vec<String> = runs.first().map(|r| r.params.iter().map(|(k, _)| k.clone()).collect()).unwrap_or_default();
-    let points: Vec<SweepPoint> = runs
-        .into_iter()
-        .enumerate()
-        .map(|(id, r)| SweepPoint {
-            id,
-            values: r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect(),
-            scenario: r.scenario,
-        })
-        .collect();
+    let (keys, points) = distribution_points(runs);
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
     match run_points(&keys, &points, &out, true) {
         Ok(n) => {
@@ -397,6 +389,12 @@ fn main() -> ExitCode {
         Some(Command::Sweep { file, out }) => {
             if cli.record.is_some() {
                 return bad_input("`--record` does not apply to `sweep`");
+            }
+            if let Some(o) = out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet"))) {
+                return bad_input(format!(
+                    "`--out` {}: `scenario sweep` writes CSV; Parquet (and Dask) is `python -m flc sweep FILE --out X.parquet` (docs/distributed.md)",
+                    o.display()
+                ));
             }
             if is_xosc(file) {
                 return sweep_xosc(&cli, file, out.as_deref());

@@ -100,6 +100,35 @@ fn field_names<T: Serialize>(v: &T) -> Vec<String> {
 }
 
 impl Metrics {
+    /// Every metric as `(name, type, unit)`, in [`Metrics::names`] order: the one list of metric
+    /// types and units (the sweep's Parquet schema; definitions in `docs/v2v-and-metrics.md`).
+    /// Types are `"bool"`, `"u32"` or `"f64"` (an `Option` is a nullable `f64`); unit `""` is a
+    /// flag or a count; ASCII as the series units (`m/s^2`). A test keeps it equal to the struct's fields.
+    pub const COLUMNS: &'static [(&'static str, &'static str, &'static str)] = &[
+        ("collision", "bool", ""),
+        ("impact_speed", "f64", "m/s"),
+        ("collision_time", "f64", "s"),
+        ("min_gap", "f64", "m"),
+        ("final_clearance", "f64", "m"),
+        ("min_ttc", "f64", "s"),
+        ("max_decel", "f64", "m/s^2"),
+        ("max_drac", "f64", "m/s^2"),
+        ("tet", "f64", "s"),
+        ("tit", "f64", "s^2"),
+        ("min_time_headway", "f64", "s"),
+        ("pet", "f64", "s"),
+        ("time_hard_braking", "f64", "s"),
+        ("max_jerk", "f64", "m/s^3"),
+        ("gap_error_rms", "f64", "m"),
+        ("steady_time", "f64", "s"),
+        ("rot_error_deg", "f64", "deg"),
+        ("trans_error_m", "f64", "m"),
+        ("time_pid", "f64", "s"),
+        ("time_flc", "f64", "s"),
+        ("switches", "u32", ""),
+        ("duration", "f64", "s"),
+    ];
+
     /// The metric names, in the order of `scenario --json` and of the sweep CSV's metric
     /// columns: the struct's fields (derived, not listed).
     pub fn names() -> &'static [String] {
@@ -240,6 +269,24 @@ impl Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn columns_name_every_metric_in_order_with_its_json_type() {
+        let names: Vec<&str> = Metrics::COLUMNS.iter().map(|(n, _, _)| *n).collect();
+        assert_eq!(names, Metrics::names().iter().map(String::as_str).collect::<Vec<_>>());
+        let s = crate::series::Series::default();
+        let v = serde_json::to_value(Metrics::compute(&s, None)).expect("json");
+        for (name, ty, _) in Metrics::COLUMNS {
+            let x = &v[*name];
+            let ok = match *ty {
+                "bool" => x.is_boolean(),
+                "u32" => x.is_u64(),
+                "f64" => x.is_f64() || x.is_null(),
+                _ => false,
+            };
+            assert!(ok, "{name}: {ty} vs {x}");
+        }
+    }
 
     /// A contact with the vehicle in front (as a run reports it).
     fn crash(time: f64, impact_speed: f64, lead_speed: f64, follower_speed: f64) -> CollisionInfo {

@@ -1,0 +1,132 @@
+//! Bindings of the sweep engine (`flc_sim::sweep`) for `flc.sweep_file`: the expansion of a sweep
+//! file or OpenSCENARIO distribution into points (run ids, seeds), one chunk of points run in
+//! Rust with the GIL released (rows only, series on request), the CSV output's resume logic, and
+//! the column schema. Python only distributes the chunks and writes what comes back.
+
+use std::path::{Path, PathBuf};
+
+use flc_sim::sweep::{self, SweepPoint, SweepSpec};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::sim::scenario_err;
+use crate::{ScenarioError, SimulationError, array, from_json, to_json};
+
+/// What a plan gives Python: the value keys, the column schema `(name, type, unit)` and the
+/// points as JSON.
+type Plan = (Vec<String>, Vec<(String, &'static str, &'static str)>, Vec<(usize, String)>);
+
+fn is_xosc(path: &Path) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("xosc"))
+}
+
+/// The keys and points of a sweep file (TOML, `flc_sim::sweep::SweepSpec`) or an OpenSCENARIO
+/// file (`.xosc`, a `ParameterValueDistribution` gives one point per combination; default import
+/// options), exactly as `scenario sweep FILE` expands them.
+fn points_of(path: &Path) -> PyResult<(Vec<String>, Vec<SweepPoint>)> {
+    if is_xosc(path) {
+        let opts = flc_sim::openscenario::ImportOptions::from_words(Vec::new(), None, "controller", "file", "kinematic", None)
+            .map_err(|e| ScenarioError::new_err(e.to_string()))?;
+        let import = flc_sim::openscenario::import(path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+        return Ok(sweep::distribution_points(import.runs));
+    }
+    let (spec, dir) = SweepSpec::from_file(path).map_err(scenario_err)?;
+    let points = spec.points(dir.as_deref()).map_err(|e| ScenarioError::new_err(format!("{}: {e}", path.display())))?;
+    Ok((spec.axes.iter().map(|a| a.key.clone()).collect(), points))
+}
+
+/// Expands a sweep file or OpenSCENARIO distribution: `(keys, schema, [(run_id, point JSON)])`,
+/// the schema one `(column, type, unit)` per CSV column (`flc_sim::sweep::schema_of`). Bad files
+/// raise `ScenarioError` naming the file and key.
+#[pyfunction]
+fn sweep_plan(py: Python<'_>, path: PathBuf) -> PyResult<Plan> {
+    let (keys, points) = py.detach(|| points_of(&path))?;
+    let schema = sweep::schema_of(&keys, &points);
+    let json = points.iter().map(|p| Ok((p.id, to_json(p)?))).collect::<PyResult<Vec<_>>>()?;
+    Ok((keys, schema, json))
+}
+
+/// Runs a sweep file locally exactly as `scenario sweep FILE --out CSV` does (the same engine,
+/// rayon on `threads` or all cores, GIL released): rows streamed into `out`, finished ids
+/// skipped. Returns `(runs done now, runs in the sweep)`.
+#[pyfunction]
+#[pyo3(signature = (path, out, threads=None))]
+fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>) -> PyResult<(usize, usize)> {
+    let (keys, points) = py.detach(|| points_of(&path))?;
+    let go = || sweep::run_points(&keys, &points, &out, false);
+    let done = py
+        .detach(|| match threads {
+            Some(n) if n > 0 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
+                Ok(pool) => pool.install(go),
+                Err(_) => go(),
+            },
+            _ => go(),
+        })
+        .map_err(|e| SimulationError::new_err(e.to_string()))?;
+    Ok((done, points.len()))
+}
+
+/// One finished point as Python gets it: run id, CSV row (no line break) and, on request, the
+/// run's series (`{column: 1-D array}`; `None` for a run that failed).
+type ChunkRow<'py> = (usize, String, Option<Bound<'py, PyDict>>);
+
+/// Runs a chunk of points (JSON from `sweep_plan`) one after the other in Rust with the GIL
+/// released (`flc_sim::sweep::run_point`: a failing run is a row with its error). Returns one
+/// `ChunkRow` per point, in input order; series only with `series=True`.
+#[pyfunction]
+#[pyo3(signature = (points_json, series=false))]
+fn sweep_run_chunk<'py>(py: Python<'py>, points_json: Vec<String>, series: bool) -> PyResult<Vec<ChunkRow<'py>>> {
+    let points = points_json.iter().map(|j| from_json::<SweepPoint>(j, "sweep point")).collect::<PyResult<Vec<_>>>()?;
+    let done = py.detach(|| points.iter().map(sweep::run_point).collect::<Vec<_>>());
+    points
+        .iter()
+        .zip(done)
+        .map(|(p, (row, result))| {
+            let cols = match (series, result) {
+                (true, Some(r)) => {
+                    let d = PyDict::new(py);
+                    for (name, col) in r.series.columns() {
+                        d.set_item(name, array(py, col))?;
+                    }
+                    Some(d)
+                }
+                _ => None,
+            };
+            Ok((p.id, row, cols))
+        })
+        .collect()
+}
+
+/// Prepares a sweep CSV for appending rows of points named `keys`
+/// (`flc_sim::sweep::open_output`: header written if there are no finished rows, a cut last
+/// line dropped) and returns the run ids it already holds, sorted.
+#[pyfunction]
+fn sweep_open_csv(out: PathBuf, keys: Vec<String>) -> PyResult<Vec<usize>> {
+    let (_, done) = sweep::open_output(&out, &keys).map_err(|e| SimulationError::new_err(format!("{}: {e}", out.display())))?;
+    let mut ids: Vec<usize> = done.into_iter().collect();
+    ids.sort_unstable();
+    Ok(ids)
+}
+
+/// The per-step series columns `(name, type, unit)` (`flc_sim::Series::COLUMNS`, types `f64` or
+/// `u8` for codes): the one list of series columns.
+#[pyfunction]
+fn series_columns() -> Vec<(&'static str, &'static str, &'static str)> {
+    flc_sim::Series::COLUMNS.iter().zip(flc_sim::Series::COLUMN_TYPES).map(|((n, u), t)| (*n, *t, *u)).collect()
+}
+
+/// The metrics `(name, type, unit)` (`flc_sim::Metrics::COLUMNS`).
+#[pyfunction]
+fn metric_columns() -> Vec<(&'static str, &'static str, &'static str)> {
+    flc_sim::Metrics::COLUMNS.to_vec()
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(sweep_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_local_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_run_chunk, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_open_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(series_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(metric_columns, m)?)?;
+    Ok(())
+}
