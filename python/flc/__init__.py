@@ -22,12 +22,16 @@ from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
 from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
+from ._simulation import AccelCommand, GroundTruth, Observation, Simulation, SpeedCommand
 
 __all__ = [
+    "AccelCommand",
     "Command",
     "FallbackController",
     "FlcError",
+    "GroundTruth",
     "LeadDetector",
+    "Observation",
     "ParameterError",
     "PlatoonResult",
     "PidController",
@@ -36,7 +40,9 @@ __all__ = [
     "RunResult",
     "Scenario",
     "ScenarioError",
+    "Simulation",
     "SimulationError",
+    "SpeedCommand",
     "Steering",
     "Supervisor",
     "frequency_response",

@@ -16,6 +16,7 @@ use serde::de::DeserializeOwned;
 
 mod laws;
 mod sim;
+mod step;
 
 create_exception!(_flc, FlcError, PyException, "Base class of every error raised by flc.");
 create_exception!(_flc, ParameterError, FlcError, "A parameter is out of range, of the wrong type or unknown; the message names it.");

@@ -37,15 +37,17 @@ fn an_flc_outside_the_loop_reproduces_the_run_bit_for_bit() {
     sim.drive(&[1], DriveOptions { points: true, beams: 16 }).expect("follower 1 exists");
     let mut law = FallbackController::new(s.flc).expect("valid");
     let mut ticks = 0;
+    let mut seen_points = false;
     while sim.advance().expect("steps") {
         let (m, fresh, _) = sim.measurement(1).expect("driven");
         assert!(fresh, "one driven follower: every pause is its scan");
         assert_eq!(m.ranges.len(), 16);
-        assert!(!m.points.is_empty());
+        seen_points |= !m.points.is_empty();
         let cmd = FallbackController::step(&mut law, m.distance, m.own_speed);
         sim.command(1, DriveCommand::Speed(cmd.speed)).expect("driven");
         ticks += 1;
     }
+    assert!(seen_points);
     // 20 Hz scans over the run's duration.
     let expected = (reference.series.t.last().copied().unwrap_or(0.0) * 20.0) as i64;
     assert!((ticks - expected).abs() <= 2, "{ticks} scans, about {expected} expected");
@@ -83,9 +85,10 @@ fn an_acceleration_command_bypasses_the_speed_controller() {
         sim.command(1, DriveCommand::Accel(1.0)).expect("driven");
     }
     let r = sim.finish();
-    // After the actuator's dead time and lag the follower accelerates at the demand.
+    // After the actuator's dead time and lag the follower accelerates at the demand less the
+    // driving resistance (rolling, drag: no speed controller compensates it).
     let last = r.series.follower_accel.last().copied().unwrap_or(f64::NAN);
-    assert!((last - 1.0).abs() < 0.05, "accel {last}");
+    assert!(last > 0.8 && last < 1.0, "accel {last}");
     assert!(r.series.speed_command.iter().skip(1).all(|v| v.is_nan()), "no speed command while accel-commanded");
     let v = r.series.follower_speed.last().copied().unwrap_or(0.0);
     assert!(v > 1.5 && v < 3.0, "speed after 3 s at 1 m/s² (with the actuator's lag): {v}");

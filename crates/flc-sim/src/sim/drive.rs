@@ -19,8 +19,9 @@ pub enum DriveCommand {
     /// A speed command, m/s, held until the next command like the law's (the low-level speed
     /// controller and the vehicle model turn it into motion).
     Speed(f64),
-    /// An acceleration demand, m/s², held until the next command; it bypasses the low-level
-    /// speed controller (the vehicle model's dead time, lag and limits still apply).
+    /// An acceleration demand, m/s², held until the next command: it replaces the low-level
+    /// speed controller's output (drive / brake demand), so the vehicle model's dead time, lag,
+    /// limits and driving resistance still apply.
     Accel(f64),
 }
 
