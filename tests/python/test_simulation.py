@@ -68,9 +68,10 @@ def test_the_observation_separates_measurement_and_truth() -> None:
     assert obs.distance is not None and abs(obs.distance - 7.0) < 0.5
     assert obs.points is not None and obs.points.shape[1] == 2 and len(obs.points) > 100
     assert obs.ranges is not None and obs.ranges.shape == (32,)
-    # The nearest beam return is the lead's rear face from the sensor (the bumper gap plus the
-    # LiDAR's distance behind the front bumper).
-    assert obs.ranges.min() == pytest.approx(obs.detection["distance"], abs=0.3)
+    # The beams straight ahead (sectors 15 and 16 of 32 over the field of view) see the lead's
+    # rear face where the detector puts it (the guard rails are nearer, to the sides).
+    assert min(obs.ranges[15], obs.ranges[16]) == pytest.approx(obs.detection["distance"], abs=0.3)
+    assert obs.ranges.min() < obs.detection["distance"]
     # V2V (the pipeline listens to the lead): a message arrives within the first 0.2 s.
     while obs.t < 0.5:
         obs = sim.step(flc.SpeedCommand(0.0))
