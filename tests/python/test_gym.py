@@ -164,3 +164,23 @@ def test_bad_arguments_name_the_argument() -> None:
         fg.FollowingEnv(policy_frequency=50.0)
     with pytest.raises(flc.ParameterError, match="families"):
         fg.ScenarioSampler(families=("cut-in",))
+
+
+def test_pettingzoo_platoon_env_passes_the_parallel_api_test() -> None:
+    pytest.importorskip("pettingzoo")
+    from pettingzoo.test import parallel_api_test
+
+    from flc.marl import PlatoonEnv
+
+    env = PlatoonEnv(flc.Scenario.brakedemo(platoon_followers=3), time_limit=30.0)
+    parallel_api_test(env, num_cycles=200)
+    obs, _ = env.reset(seed=2)
+    assert set(obs) == {"follower_1", "follower_2", "follower_3"}
+    # Every agent at -2 m/s² for 1 s: each slows, each reward has the documented terms.
+    for _ in range(10):
+        obs, rewards, terms, truncs, infos = env.step({a: np.array([-2.0], dtype=np.float32) for a in env.agents})
+    for a, info in infos.items():
+        assert set(info["reward_terms"]) == {"collision", "headway", "comfort", "progress"}
+        assert rewards[a] == pytest.approx(sum(info["reward_terms"].values()))
+    speeds = [infos[a]["speed"] for a in ("follower_1", "follower_2", "follower_3")]
+    assert all(v < 120 / 3.6 - 1.0 for v in speeds), speeds
