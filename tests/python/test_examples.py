@@ -46,3 +46,15 @@ def test_every_example_a_doc_names_exists() -> None:
     assert "examples/sumo_platoon.py" in named
     missing = [n for n in sorted(named) if not (ROOT / n).exists() and not any((c / n).exists() for c in (ROOT / "crates").iterdir())]
     assert not missing, missing
+
+
+def test_the_readme_gym_example_runs() -> None:
+    pytest.importorskip("gymnasium")
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, re.S) if "flc/Following-v0" in b)
+    assert len(block.strip().splitlines()) == 3
+    ns: dict = {}
+    exec(block, ns)
+    env = ns["env"]
+    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+    assert env.observation_space.contains(obs) and set(info["reward_terms"]) == {"collision", "headway", "comfort", "progress"}
