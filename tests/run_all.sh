@@ -54,3 +54,13 @@ echo "== Python: stubs match the built module"
 
 echo "== Python: tests"
 "$VENV/bin/python" -m pytest -q tests/python
+
+echo "== Python: the sdist builds and installs in a fresh venv (the way users install from source)"
+# The build reuses the target directory of the install above (same profile: dependencies cached).
+"$VENV/bin/python" -m pip install --quiet "maturin>=1.9.4,<2"
+SDIST_DIR="target/sdist"
+rm -rf "$SDIST_DIR" target/sdist-venv
+"$VENV/bin/maturin" sdist -o "$SDIST_DIR"
+python3 -m venv target/sdist-venv
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" target/sdist-venv/bin/python -m pip install --quiet "$SDIST_DIR"/flc-*.tar.gz
+(cd target && sdist-venv/bin/python "$OLDPWD/tests/sdist_smoke.py")
