@@ -237,9 +237,10 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
             raise ParameterError(f"`policy_frequency`: at most the LiDAR's rate ({lidar_rate} Hz), got {policy_frequency}")
         veh = d["follower"]["vehicle"]
         if action == "acceleration":
-            self.action_space = spaces.Box(np.float32(-veh["max_brake"]), np.float32(veh["max_accel"]), shape=(1,), dtype=np.float32)
+            self._act_box = spaces.Box(np.float32(-veh["max_brake"]), np.float32(veh["max_accel"]), shape=(1,), dtype=np.float32)
         else:
-            self.action_space = spaces.Box(np.float32(0.0), np.float32(max_speed), shape=(1,), dtype=np.float32)
+            self._act_box = spaces.Box(np.float32(0.0), np.float32(max_speed), shape=(1,), dtype=np.float32)
+        self.action_space = self._act_box
         inf = np.float32(np.inf)
         if observation == "kinematics":
             low = np.array([0, 0, 0, 0, 0, 0], dtype=np.float32)
@@ -252,7 +253,8 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
         else:
             low = np.array([-inf, 0, -inf, -inf, 0, 0, 0, 0, 0], dtype=np.float32)
             high = np.array([inf, 1, inf, inf, inf, inf, 1.0e4, 1, inf], dtype=np.float32)
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._obs_box = spaces.Box(low, high, dtype=np.float32)
+        self.observation_space = self._obs_box
         self._sim: Optional[Simulation] = None
         self._obs: Optional[Observation] = None
         self._prev_accel = 0.0
@@ -269,7 +271,7 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
 
     def _vector(self, o: Observation) -> np.ndarray:
         v = observe(self.observation_type, o, self.max_range)
-        return np.clip(v, self.observation_space.low, self.observation_space.high).astype(np.float32)
+        return np.clip(v, self._obs_box.low, self._obs_box.high).astype(np.float32)
 
     def _info(self, o: Observation) -> dict[str, Any]:
         t = o.truth
@@ -300,7 +302,7 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None or self._obs is None:
             raise RuntimeError("FollowingEnv.step: call reset() first")
-        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], self.action_space.low[0], self.action_space.high[0]))
+        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], self._act_box.low[0], self._act_box.high[0]))
         cmd: Union[SpeedCommand, AccelCommand] = AccelCommand(a) if self.action_type == "acceleration" else SpeedCommand(a)
         t0 = self._obs.t
         period = 1.0 / self.policy_frequency

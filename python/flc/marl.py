@@ -78,7 +78,7 @@ class PlatoonEnv(ParallelEnv):  # type: ignore[misc]
         from .gym import FollowingEnv
 
         probe = FollowingEnv(self.scenario, observation=observation, action=action, beams=beams, policy_frequency=policy_frequency)
-        self._observation_space = probe.observation_space
+        self._observation_space = probe._obs_box
         self._sim = Simulation(self.scenario, drive="all", command="accel" if action == "acceleration" else "speed", beams=beams if observation == "lidar" else 0)
         self._obs: dict[int, Observation] = {}
         self._prev_accel: dict[int, float] = {}
