@@ -2,10 +2,11 @@
 in one process, both with a LiDAR-like observation (issue 26; results in docs/benchmarks.md).
 
 * ``flc/Following-v0``: the paper experiment at 70 km/h (fixed scenario), observation ``"lidar"``
-  (``--beams`` range beams from flc's 961-ray ray-cast LiDAR at 20 Hz, 100 Hz physics, the
-  detector, V2V and actuator models), constant acceleration actions;
+  (``--beams`` range beams from flc's 1201-ray ray-cast LiDAR at 20 Hz, 100 Hz physics, the
+  detector, V2V and actuator models), speed actions from the paper's FLC (``flc.FallbackController``);
 * ``highway-v0`` (highway-env, installed for the benchmark only: ``pip install highway-env``):
-  ``LidarObservation`` with ``--beams`` cells, its default 15 Hz simulation, random actions.
+  ``LidarObservation`` with ``--beams`` cells, its default 15 Hz simulation, random actions,
+  ``vehicles_count`` from ``--highway-vehicles`` (its default 50, and 1 as in flc's scenario).
 
 Both at the same policy frequency (``--policy-hz``, default 1 Hz: highway-v0's default; an env
 step is then the same simulated time in both), each reset when its episode ends, best of
@@ -43,6 +44,8 @@ def main() -> None:
     ap.add_argument("--beams", type=int, default=180)
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--highway-vehicles", type=int, nargs="+", default=[50, 1],
+                    help="highway-v0's vehicles_count (50: its default; 1: one other car, as flc's scenario)")
     args = ap.parse_args()
 
     import flc
@@ -51,28 +54,41 @@ def main() -> None:
 
     print(f"flc {flc.__name__}; highway-env {getattr(highway_env, '__version__', '?')}; gymnasium {gym.__version__}; "
           f"Python {platform.python_version()}; {platform.machine()} {platform.processor() or ''}")
-    print(f"{'policy Hz':>9} {'flc steps/s':>12} {'highway steps/s':>16} {'ratio':>7}")
+    print(f"{'policy Hz':>9} {'flc steps/s':>12} {'highway vehicles':>17} {'highway steps/s':>16} {'ratio':>7}")
     for hz in args.policy_hz:
         fenv = gym.make(
             "flc/Following-v0",
             scenario=flc.Scenario.paper(70, "flc"),
             observation="lidar",
+            action="speed",
             beams=args.beams,
             policy_frequency=hz,
             time_limit=150.0,
         )
-        a = np.array([0.5], dtype=np.float32)
-        f = rate(fenv, lambda: a, args.steps, args.repeats)
-        henv = gym.make(
-            "highway-v0",
-            config={
-                "observation": {"type": "LidarObservation", "cells": args.beams, "maximum_range": 200},
-                "policy_frequency": hz,
-                "duration": 10_000,
-            },
-        )
-        h = rate(henv, henv.action_space.sample, args.steps, args.repeats)
-        print(f"{hz:>9g} {f:>12.0f} {h:>16.1f} {f / h:>7.1f}")
+        # The policy: the paper's FLC on the detected gap (the simulation's measurement), so that
+        # the ego follows the lead as in the paper's run.
+        law = flc.FallbackController()
+        sim = fenv.unwrapped
+
+        def flc_policy() -> np.ndarray:
+            o = sim._obs
+            return np.array([law.step(o.distance, o.own_speed).speed], dtype=np.float32)
+
+        f = rate(fenv, flc_policy, args.steps, args.repeats)
+        for n in args.highway_vehicles:
+            henv = gym.make(
+                "highway-v0",
+                config={
+                    "observation": {"type": "LidarObservation", "cells": args.beams, "maximum_range": 200},
+                    "policy_frequency": hz,
+                    "duration": 10_000,
+                    "vehicles_count": n,
+                },
+            )
+            henv.action_space.seed(0)
+            h = rate(henv, henv.action_space.sample, args.steps, args.repeats)
+            henv.close()
+            print(f"{hz:>9g} {f:>12.0f} {n:>17} {h:>16.1f} {f / h:>7.1f}")
 
 
 if __name__ == "__main__":

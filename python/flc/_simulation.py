@@ -227,9 +227,12 @@ class Simulation:
         self._done = not self._inner.advance()
         return self._observe()
 
-    def step(self, command: Union[Command, Mapping[int, Command]] = None) -> Any:
+    def step(self, command: Union[Command, Mapping[int, Command]] = None, *, hold_until: Optional[float] = None) -> Any:
         """Apply ``command`` for the period paused at and run to the next scan of a driven
-        follower (or the end: :attr:`Observation.done`). Returns the observation(s)."""
+        follower (or the end: :attr:`Observation.done`). Returns the observation(s). With
+        ``hold_until`` (s), the same command is applied again at every scan before that time (one
+        decision held over several scans, in Rust): the observation is that of the first scan at
+        or after ``hold_until``."""
         if not self._started:
             raise _flc.SimulationError("Simulation.step: call reset() first")
         if self._done:
@@ -238,26 +241,29 @@ class Simulation:
             unknown = [k for k in command if k not in self._drive]
             if unknown:
                 raise ParameterError(f"`command`: followers {unknown} are not driven (driven: {self._drive})")
-            for k, c in command.items():
-                self._set(int(k), c)
+            cmds = [self._command(int(k), c) for k, c in command.items()]
         else:
             if len(self._drive) > 1 and command is not None:
                 raise ParameterError("`command`: several followers are driven: give a dict {follower: command}")
-            self._set(self._drive[0], command)
-        self._done = not self._inner.advance()
+            cmds = [self._command(self._drive[0], command)]
+        if hold_until is None:
+            for c in cmds:
+                self._inner.command(*c)
+            self._done = not self._inner.advance()
+        else:
+            self._done = not self._inner.hold(cmds, float(hold_until))
         return self._observe()
 
-    def _set(self, k: int, c: Command) -> None:
+    def _command(self, k: int, c: Command) -> tuple[int, str, float]:
         if c is None:
-            self._inner.command(k, "law", 0.0)
-        elif isinstance(c, SpeedCommand):
-            self._inner.command(k, "speed", float(c.speed))
-        elif isinstance(c, AccelCommand):
-            self._inner.command(k, "accel", float(c.accel))
-        elif isinstance(c, (int, float, np.floating, np.integer)) and not isinstance(c, bool):
-            self._inner.command(k, self._mode, float(c))
-        else:
-            raise ParameterError(f"`command`: None, a number, SpeedCommand or AccelCommand, got {type(c).__name__}")
+            return (k, "law", 0.0)
+        if isinstance(c, SpeedCommand):
+            return (k, "speed", float(c.speed))
+        if isinstance(c, AccelCommand):
+            return (k, "accel", float(c.accel))
+        if isinstance(c, (int, float, np.floating, np.integer)) and not isinstance(c, bool):
+            return (k, self._mode, float(c))
+        raise ParameterError(f"`command`: None, a number, SpeedCommand or AccelCommand, got {type(c).__name__}")
 
     def _observe(self) -> Any:
         obs = {k: _observation(k, self._inner.measurement(k), self._inner.ground_truth(k), self._done) for k in self._drive}

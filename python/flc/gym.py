@@ -304,12 +304,8 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
             raise RuntimeError("FollowingEnv.step: call reset() first")
         a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], self._act_box.low[0], self._act_box.high[0]))
         cmd: Union[SpeedCommand, AccelCommand] = AccelCommand(a) if self.action_type == "acceleration" else SpeedCommand(a)
-        t0 = self._obs.t
-        period = 1.0 / self.policy_frequency
-        obs = self._sim.step(cmd)
-        # Hold the decision over the scans of the policy period.
-        while not obs.done and obs.t < t0 + period - 1e-9:
-            obs = self._sim.step(cmd)
+        # The decision is held over the scans of the policy period (in Rust).
+        obs = self._sim.step(cmd, hold_until=self._obs.t + 1.0 / self.policy_frequency)
         dt = max(obs.truth.t - self._obs.truth.t, 1e-9)
         collided_now = obs.truth.collision is not None and not self._collided
         self._collided |= collided_now

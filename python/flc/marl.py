@@ -119,10 +119,7 @@ class PlatoonEnv(ParallelEnv):  # type: ignore[misc]
             box = self._action_space
             v = float(np.clip(np.asarray(a, dtype=np.float64).reshape(-1)[0], box.low[0], box.high[0]))
             cmds[k] = AccelCommand(v) if self.action_type == "acceleration" else SpeedCommand(v)
-        t0 = self._obs[1].t
-        obs = self._sim.step(cmds)
-        while not obs[1].done and obs[1].t < t0 + 1.0 / self.policy_frequency - 1e-9:
-            obs = self._sim.step(cmds)
+        obs = self._sim.step(cmds, hold_until=self._obs[1].t + 1.0 / self.policy_frequency)
         done = obs[1].done
         truncated_all = done and obs[1].truth.t >= self.time_limit - 0.5 / self.simulation_frequency
         out_obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}

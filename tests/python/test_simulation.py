@@ -127,3 +127,18 @@ def test_bad_use_is_an_error_naming_it() -> None:
         sim.step("fast")  # type: ignore[arg-type]
     with pytest.raises(flc.ParameterError, match="seed"):
         sim.reset(seed=-1)
+
+
+def test_hold_until_is_the_same_command_at_every_scan_before_that_time() -> None:
+    sc = flc.Scenario.paper(50, "flc")
+    a, b = flc.Simulation(sc, command="accel"), flc.Simulation(sc, command="accel")
+    oa, ob = a.reset(), b.reset()
+    for k in range(40):
+        cmd = 1.0 if k < 20 else -2.0
+        until = oa.t + 0.25
+        oa = a.step(cmd, hold_until=until)
+        ob = b.step(cmd)
+        while not ob.done and ob.t < until - 1e-9:
+            ob = b.step(cmd)
+        assert oa.t == ob.t and oa.truth == ob.truth
+    same_result(a.result(), b.result())

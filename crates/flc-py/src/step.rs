@@ -18,6 +18,15 @@ pub(crate) struct Simulation {
     sim: Option<flc_sim::Simulation>,
 }
 
+fn parse_command(kind: &str, value: f64) -> PyResult<DriveCommand> {
+    match kind {
+        "law" => Ok(DriveCommand::Law),
+        "speed" => Ok(DriveCommand::Speed(value)),
+        "accel" => Ok(DriveCommand::Accel(value)),
+        other => Err(ParameterError::new_err(format!("`command`: must be law, speed or accel, got `{other}`"))),
+    }
+}
+
 impl Simulation {
     fn sim(&self) -> PyResult<&flc_sim::Simulation> {
         self.sim.as_ref().ok_or_else(|| SimulationError::new_err("Simulation: call reset() first"))
@@ -70,13 +79,25 @@ impl Simulation {
     /// Sets follower `k`'s command for the period paused at: `kind` is `"law"` (the scenario's
     /// controller), `"speed"` (m/s) or `"accel"` (m/s²).
     fn command(&mut self, k: usize, kind: &str, value: f64) -> PyResult<()> {
-        let cmd = match kind {
-            "law" => DriveCommand::Law,
-            "speed" => DriveCommand::Speed(value),
-            "accel" => DriveCommand::Accel(value),
-            other => return Err(ParameterError::new_err(format!("`command`: must be law, speed or accel, got `{other}`"))),
-        };
+        let cmd = parse_command(kind, value)?;
         self.sim_mut()?.command(k, cmd).map_err(|e| ParameterError::new_err(e.to_string()))
+    }
+
+    /// Sets `commands` (`(k, kind, value)`, as `command` takes them) and advances, again and
+    /// again with the same commands while the simulation pauses before time `until` (s): one
+    /// decision held over the scans of a policy period. Returns what the last `advance` did.
+    fn hold(&mut self, commands: Vec<(usize, String, f64)>, until: f64) -> PyResult<bool> {
+        let cmds = commands.iter().map(|(k, kind, v)| Ok((*k, parse_command(kind, *v)?))).collect::<PyResult<Vec<_>>>()?;
+        let sim = self.sim_mut()?;
+        loop {
+            for &(k, c) in &cmds {
+                sim.command(k, c).map_err(|e| ParameterError::new_err(e.to_string()))?;
+            }
+            let paused = sim.advance().map_err(scenario_err)?;
+            if !paused || sim.time() >= until - 1e-9 {
+                return Ok(paused);
+            }
+        }
     }
 
     /// Follower `k`'s measurement (what its pipeline got at its last scan) as a dict.
