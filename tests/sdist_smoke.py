@@ -12,7 +12,7 @@ assert not r.metrics["collision"] and r.metrics["min_gap"] > 0.5, r.metrics
 sim = flc.Simulation(flc.Scenario.paper(50, "flc"))
 obs = sim.reset()
 while not obs.done:
-    obs = sim.step(None)
+    obs = sim.step(None, hold_until=obs.t + 0.1)
 assert (sim.result().gap == r.gap).all()
 assert (Path(flc.__file__).parent / "py.typed").exists()
 print(f"sdist install ok: {here.parent} ({sys.version.split()[0]})")
