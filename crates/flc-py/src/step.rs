@@ -138,7 +138,7 @@ impl Simulation {
             None => d.set_item("detection", py.None())?,
         }
         if self.opts.beams > 0 {
-            d.set_item("ranges", array(py, m.ranges.clone()))?;
+            d.set_item("ranges", array(py, self.sim()?.beams(k).unwrap_or_default()))?;
         }
         if self.opts.points {
             let flat: Vec<f64> = m.points.iter().flatten().copied().collect();

@@ -41,7 +41,9 @@ fn an_flc_outside_the_loop_reproduces_the_run_bit_for_bit() {
     while sim.advance().expect("steps") {
         let (m, fresh, _) = sim.measurement(1).expect("driven");
         assert!(fresh, "one driven follower: every pause is its scan");
-        assert_eq!(m.ranges.len(), 16);
+        let beams = sim.beams(1).expect("driven");
+        assert_eq!(beams.len(), 16);
+        assert!(beams.iter().all(|r| *r > 0.0 && *r <= 200.0));
         seen_points |= !m.points.is_empty();
         let cmd = FallbackController::step(&mut law, m.distance, m.own_speed);
         sim.command(1, DriveCommand::Speed(cmd.speed)).expect("driven");

@@ -30,9 +30,9 @@ pub enum DriveCommand {
 pub struct DriveOptions {
     /// Copy the raw LiDAR points of each scan (sensor frame, m) into [`Measurement::points`].
     pub points: bool,
-    /// Reduce each scan to this many range beams ([`Measurement::ranges`]; 0: none): the
-    /// LiDAR's field of view cut into equal angular sectors, each the nearest return in it (the
-    /// LiDAR's `max_range` when it has none), as highway-env's `LidarObservation` does.
+    /// Reduce a scan to this many range beams on request ([`super::Simulation::beams`]; 0:
+    /// none): the LiDAR's field of view cut into equal angular sectors, each the nearest return in
+    /// it (the LiDAR's `max_range` when it has none), as highway-env's `LidarObservation` does.
     pub beams: usize,
 }
 
@@ -58,9 +58,8 @@ pub struct Measurement {
     pub status: Option<DetectorStatus>,
     /// Clusters the detector found.
     pub clusters: usize,
-    /// Range beams ([`DriveOptions::beams`]), m.
-    pub ranges: Vec<f64>,
-    /// Raw points of the scan ([`DriveOptions::points`]), sensor frame, m.
+    /// Raw points of the scan (with [`DriveOptions::points`] or [`DriveOptions::beams`]),
+    /// sensor frame, m.
     pub points: Vec<[f64; 2]>,
 }
 
@@ -136,13 +135,20 @@ impl Driven {
         (m.t, m.distance, m.own_speed, m.dt, m.lead_speed, m.v2v) = (t, frame.distance, frame.own_speed, frame.dt, frame.lead_speed, frame.v2v);
         (m.detection, m.status, m.clusters) = (det.detection, Some(det.status), det.clusters);
         m.points.clear();
-        if self.opts.points {
+        if self.opts.points || self.opts.beams > 0 {
             m.points.extend_from_slice(points);
         }
-        if self.opts.beams > 0 {
-            beams(points, self.opts.beams, self.fov, self.max_range, &mut m.ranges);
-        }
         self.pending = Some(frame);
+    }
+
+    /// The last scan as [`DriveOptions::beams`] range beams (computed now: a decision held over
+    /// several scans pays for the beams of the scans it reads only).
+    pub(super) fn beams(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        if self.opts.beams > 0 {
+            beams(&self.last.points, self.opts.beams, self.fov, self.max_range, &mut out);
+        }
+        out
     }
 }
 

@@ -411,6 +411,12 @@ impl<O: Observer> Simulation<O> {
         Some((&d.last, d.pending.is_some(), d.v2v))
     }
 
+    /// Driven follower `k`'s (1-based) last scan as [`DriveOptions::beams`] range beams, m (empty
+    /// with `beams = 0`).
+    pub fn beams(&self, k: usize) -> Option<Vec<f64>> {
+        Some(self.state.followers.get(k.wrapping_sub(1))?.drive.as_ref()?.beams())
+    }
+
     /// The ground truth about follower `k` (1-based) now: the vehicle in front of it as the run's
     /// records take it, its own state, its collision.
     pub fn ground_truth(&self, k: usize) -> Option<GroundTruth> {
