@@ -132,7 +132,8 @@ impl Driven {
     /// A scan delivered at `t`: keeps the frame for the command and what the pipeline got.
     pub(super) fn hold(&mut self, t: f64, frame: Frame, det: &DetectorOutput, points: &[[f64; 2]]) {
         let m = &mut self.last;
-        (m.t, m.distance, m.own_speed, m.dt, m.lead_speed, m.v2v) = (t, frame.distance, frame.own_speed, frame.dt, frame.lead_speed, frame.v2v);
+        (m.t, m.distance, m.own_speed, m.dt, m.lead_speed, m.v2v) =
+            (t, frame.distance, frame.own_speed, frame.dt, frame.lead_speed, frame.v2v);
         (m.detection, m.status, m.clusters) = (det.detection, Some(det.status), det.clusters);
         m.points.clear();
         if self.opts.points || self.opts.beams > 0 {

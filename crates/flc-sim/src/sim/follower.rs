@@ -157,7 +157,9 @@ impl Follower {
         (source, lead_weight): (V2vSource, f64),
         truth: Option<(f64, f64)>,
     ) -> (Frame, flc_core::DetectorOutput) {
-        let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
+        let det = self
+            .detector
+            .detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
         // Ideal perception (validation only): the true gap and speed of the vehicle in front; a
         // controller that sees the scene as a human does (the R157 careful driver): those of the
         // vehicle in front as it sees it (`human_front`; `None` when there is none).

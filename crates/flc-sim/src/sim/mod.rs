@@ -23,8 +23,8 @@ mod observer;
 mod story;
 mod traffic;
 
-pub(crate) use links::sub_seed;
 pub use drive::{DriveCommand, DriveOptions, GroundTruth, Measurement, V2vSeen};
+pub(crate) use links::sub_seed;
 pub use observer::Observer;
 
 use flc_core::PurePursuit;
@@ -870,7 +870,11 @@ impl<O: Observer> Simulation<O> {
         let runs: Vec<FollowerRun> = st
             .followers
             .iter()
-            .map(|f| FollowerRun { metrics: Metrics::compute(&f.series, f.collision.clone()), series: f.series.clone(), collision: f.collision.clone() })
+            .map(|f| FollowerRun {
+                metrics: Metrics::compute(&f.series, f.collision.clone()),
+                series: f.series.clone(),
+                collision: f.collision.clone(),
+            })
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> =
             st.followers.iter().map(|f| &*f.longitudinal as &dyn flc_core::LongitudinalController).collect();
