@@ -209,5 +209,6 @@ fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Supervisor>()?;
     m.add_class::<LeadDetector>()?;
     sim::register(m)?;
+    m.add_class::<step::Simulation>()?;
     Ok(())
 }

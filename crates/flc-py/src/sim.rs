@@ -314,7 +314,6 @@ impl ExternalFollower {
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ExternalFollower>()?;
-    m.add_class::<crate::step::Simulation>()?;
     m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
     m.add_function(wrap_pyfunction!(metrics_from_series, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
