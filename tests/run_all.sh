@@ -54,3 +54,16 @@ echo "== Python: stubs match the built module"
 
 echo "== Python: tests"
 "$VENV/bin/python" -m pytest -q tests/python
+
+echo "== Python: the sdist builds and installs in a fresh venv (the way users install from source)"
+# Its own target directory: the sdist's files carry old timestamps, so a shared one could hand back
+# an extension built from other sources. Fat LTO off for time (the same sources and dependencies;
+# the wheels keep the full `dist` profile).
+"$VENV/bin/python" -m pip install --quiet "maturin>=1.9.4,<2"
+SDIST_DIR="target/sdist"
+rm -rf "$SDIST_DIR" target/sdist-venv target/sdist-build
+"$VENV/bin/maturin" sdist -o "$SDIST_DIR"
+python3 -m venv target/sdist-venv
+CARGO_TARGET_DIR="$PWD/target/sdist-build" CARGO_PROFILE_DIST_LTO=false CARGO_PROFILE_DIST_CODEGEN_UNITS=16 \
+  target/sdist-venv/bin/python -m pip install --quiet "$SDIST_DIR"/flc-*.tar.gz
+(cd target && sdist-venv/bin/python "$OLDPWD/tests/sdist_smoke.py")

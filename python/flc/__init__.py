@@ -23,12 +23,16 @@ from ._mcap import read_mcap
 from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
 from ._sweep import SweepSummary, sweep_file
+from ._simulation import AccelCommand, GroundTruth, Observation, Simulation, SpeedCommand
 
 __all__ = [
+    "AccelCommand",
     "Command",
     "FallbackController",
     "FlcError",
+    "GroundTruth",
     "LeadDetector",
+    "Observation",
     "ParameterError",
     "PlatoonResult",
     "PidController",
@@ -37,7 +41,9 @@ __all__ = [
     "RunResult",
     "Scenario",
     "ScenarioError",
+    "Simulation",
     "SimulationError",
+    "SpeedCommand",
     "SweepSummary",
     "Steering",
     "Supervisor",

@@ -93,10 +93,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return _sweep(parser, args)
     if args.command == "reproduction":
         try:
-            from . import reproduction
+            from .figures import make_reproduction
 
             kw = {} if args.data is None else {"data_dir": args.data}
-            summary = reproduction.make_all(args.out, threads=args.threads, **kw)
+            summary = make_reproduction(args.out, threads=args.threads, **kw)
         except ImportError as e:
             print(f"error: {e}", file=sys.stderr)
             return 1

@@ -26,6 +26,7 @@ import numpy as np
 from ._controllers import FallbackController
 from ._params import defaults
 from ._run import RunResult, frequency_response, sweep
+from . import reproduction as rp
 from ._scenario import Scenario
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -523,9 +524,7 @@ def make_all(
     ]
     # The paper reproduction map, drawn from its committed data (`python -m flc reproduction`
     # recomputes the data).
-    from . import reproduction
-
-    data = reproduction.ROOT / "sweeps"
+    data = rp.ROOT / "sweeps"
     if (data / "paper-reproduction-map.csv").is_file():
         jobs += [
             ("paper_reproduction.png", lambda p: fig_reproduction(data, p)),
@@ -543,8 +542,6 @@ def reproduction_data(data_dir: PathLike) -> dict[str, Any]:
     """The committed reproduction data (``sweeps/paper-reproduction-*.csv``) as arrays: the map
     (``x``, ``y``, ``matches`` grid), the lines (per varied constant: values, matches) and the random
     sample (per constant: values, matches)."""
-    from . import reproduction as rp
-
     spec = rp.load_spec()
     d = Path(data_dir)
     m = spec["map"]
@@ -569,8 +566,6 @@ def fig_reproduction(data_dir: PathLike, out: Optional[PathLike] = None) -> Any:
     actuator response (other constants at the base values), the chosen preset marked; (b) matching
     cells along each constant through the preset; (c) the share of random points (all constants
     drawn over their ranges) that match all 8, per decile of each constant."""
-    from . import reproduction as rp
-
     d = reproduction_data(data_dir)
     spec = d["spec"]
     labels = {c["name"]: c["label"] for c in spec["constants"]}
@@ -609,8 +604,6 @@ def fig_reproduction_clearances(data_dir: PathLike, out: Optional[PathLike] = No
     """Clearances at standstill of the stopping cells against the paper's (3.8 / 4.0 / 2.3 m FLC,
     7.9 / 1.2 m PID): along the brake-authority line through the preset, and the remaining lines
     (one panel per constant), paper values dashed."""
-    from . import reproduction as rp
-
     spec = rp.load_spec()
     rows = rp.read_csv(Path(data_dir) / "paper-reproduction-lines.csv")
     names = [c["name"] for c in spec["constants"]]
@@ -632,3 +625,15 @@ def fig_reproduction_clearances(data_dir: PathLike, out: Optional[PathLike] = No
     fig.suptitle("Clearances of the stopping cells through the paper preset (dashed: the paper's values); gaps = collision")
     fig.tight_layout()
     return _save(fig, out)
+
+
+def make_reproduction(out_dir: PathLike, data_dir: PathLike = rp.ROOT / "sweeps", threads: Optional[int] = None) -> dict[str, Any]:
+    """Computes the paper reproduction map (:func:`flc.reproduction.compute`: the CSVs into
+    ``data_dir``) and draws ``paper_reproduction.png`` and ``paper_reproduction_clearances.png``
+    into ``out_dir``. Returns the chosen point and the region sizes."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = rp.compute(data_dir, threads)
+    fig_reproduction(data_dir, out / "paper_reproduction.png")
+    fig_reproduction_clearances(data_dir, out / "paper_reproduction_clearances.png")
+    return summary

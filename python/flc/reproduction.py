@@ -13,7 +13,8 @@ the simulated outcome (stop / collision) is the paper's.
 * one-at-a-time lines through the chosen point for every constant and the seeds,
 * a random sample over all constants (the size of the all-8 region),
 
-writes them as ``sweeps/paper-reproduction-{map,lines,random}.csv`` and draws the figures.
+writes them as ``sweeps/paper-reproduction-{map,lines,random}.csv`` (the figures are
+:func:`flc.figures.make_reproduction`'s; this module imports no plotting code).
 """
 from __future__ import annotations
 
@@ -206,13 +207,12 @@ def region_share(rows: Sequence[Mapping[str, Any]]) -> float:
     return sum(1 for r in rows if int(r["matches"]) == 8) / max(1, len(rows))
 
 
-def make_all(out_dir: PathLike, data_dir: PathLike = ROOT / "sweeps", threads: Optional[int] = None) -> dict[str, Any]:
-    """Computes the map, the lines through the chosen point and the random sample; writes the
-    CSVs into ``data_dir`` and the figures into ``out_dir``. Returns the chosen point and the
-    region sizes."""
+def compute(data_dir: PathLike = ROOT / "sweeps", threads: Optional[int] = None) -> dict[str, Any]:
+    """Computes the map, the lines through the chosen point and the random sample and writes the
+    CSVs into ``data_dir``. Returns the chosen point and the region sizes. (This module computes;
+    :func:`flc.figures.make_reproduction` computes and draws the figures.)"""
     spec = load_spec()
-    data, out = Path(data_dir), Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    data = Path(data_dir)
     data.mkdir(parents=True, exist_ok=True)
     map_rows = run_map(spec, threads)
     write_csv(data / "paper-reproduction-map.csv", map_rows)
@@ -223,14 +223,9 @@ def make_all(out_dir: PathLike, data_dir: PathLike = ROOT / "sweeps", threads: O
     write_csv(data / "paper-reproduction-lines.csv", lines)
     rnd = run_random(spec, threads)
     write_csv(data / "paper-reproduction-random.csv", rnd)
-    summary = {
+    return {
         "chosen": chosen,
         "map_share_8": region_share(map_rows),
         "random_share_8": region_share(rnd),
         "random_share_7": sum(1 for r in rnd if int(r["matches"]) >= 7) / len(rnd),
     }
-    from . import figures
-
-    figures.fig_reproduction(data, out / "paper_reproduction.png")
-    figures.fig_reproduction_clearances(data, out / "paper_reproduction_clearances.png")
-    return summary

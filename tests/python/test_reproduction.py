@@ -54,3 +54,23 @@ def test_reproduction_figure_data():
     assert set(d["lines"]) >= {"negative_multiplier", "speed_kp", "lidar_rate", "lidar_latency", "pid_kd", "seed"}
     xs, ms = d["lines"]["seed"]
     assert list(xs) == [1, 2, 3, 4, 5] and all(m == 8 for m in ms)
+
+
+def test_the_module_that_computes_does_not_import_the_one_that_draws() -> None:
+    import ast
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = Path(rp.__file__).read_text(encoding="utf-8")
+    imported = set()
+    for node in ast.walk(ast.parse(src)):
+        if isinstance(node, ast.ImportFrom):
+            imported |= {f"{node.module or ''}.{a.name}".strip(".") for a in node.names}
+        elif isinstance(node, ast.Import):
+            imported |= {a.name for a in node.names}
+    assert not [m for m in imported if "figures" in m or "matplotlib" in m], imported
+    # Importing it loads neither flc.figures nor matplotlib.
+    code = "import sys, flc.reproduction; print('flc.figures' in sys.modules, 'matplotlib' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False"]

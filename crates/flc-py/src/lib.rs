@@ -17,6 +17,7 @@ use serde::de::DeserializeOwned;
 mod laws;
 mod sim;
 mod sweep;
+mod step;
 
 create_exception!(_flc, FlcError, PyException, "Base class of every error raised by flc.");
 create_exception!(_flc, ParameterError, FlcError, "A parameter is out of range, of the wrong type or unknown; the message names it.");
@@ -210,5 +211,6 @@ fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<LeadDetector>()?;
     sim::register(m)?;
     sweep::register(m)?;
+    m.add_class::<step::Simulation>()?;
     Ok(())
 }

@@ -19,7 +19,7 @@ pub(crate) fn scenario_err(e: SimError) -> PyErr {
     }
 }
 
-fn parse_scenario(json: &str) -> PyResult<Scenario> {
+pub(crate) fn parse_scenario(json: &str) -> PyResult<Scenario> {
     let s: Scenario = from_json(json, "scenario").map_err(|e| ScenarioError::new_err(e.to_string()))?;
     s.validate().map_err(|e| ScenarioError::new_err(format!("scenario: {e}")))?;
     Ok(s)
@@ -129,7 +129,7 @@ fn apply_overrides(scenario_json: &str, overrides_json: &str) -> PyResult<String
 /// What a run returns to Python: metrics JSON, `{column: 1-D array}` (follower 1), for a
 /// platoon `(platoon JSON, {column: 2-D array (n_followers, n_steps)})`, and the contacts JSON
 /// `{"collision": follower 1's first contact or null, "other_contacts": [...]}`.
-type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>, String);
+pub(crate) type RunTuple<'py> = (String, Bound<'py, PyDict>, Option<(String, Bound<'py, PyDict>)>, String);
 
 /// The contacts of a run as Python receives them (see `RunTuple`).
 #[derive(serde::Serialize)]
@@ -138,7 +138,7 @@ struct Contacts<'a> {
     other_contacts: &'a [flc_sim::ContactRecord],
 }
 
-fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
+pub(crate) fn result_to_py<'py>(py: Python<'py>, r: RunResult) -> PyResult<RunTuple<'py>> {
     let metrics = to_json(&r.metrics)?;
     let contacts = to_json(&Contacts { collision: r.collision.as_ref(), other_contacts: &r.other_contacts })?;
     let d = PyDict::new(py);

@@ -69,7 +69,7 @@ pub use platoon::{FollowerOverride, MAX_FOLLOWERS, PlatoonSpec, StringStabilityS
 pub use runner::{RunOptions, run};
 pub use scenario::{ControllerKind, EGO, LEAD_DECEL_KEY, Scenario, StopSpec, SupervisorSpec, TrackSpec, Variant};
 pub use series::{ACTIVE_FLC, ACTIVE_PID, MISSING_CODE, Series, StepRecord};
-pub use sim::{FollowerRun, Observer, PlatoonResult, RunResult, Simulation};
+pub use sim::{DriveCommand, DriveOptions, FollowerRun, GroundTruth, Measurement, Observer, PlatoonResult, RunResult, Simulation, V2vSeen};
 pub use track::{Projection, RoadsideObject, Track};
 pub use units::KMH;
 pub use v2v::{GilbertElliott, Outage, V2vChannel, V2vPacket, V2vParams, V2vStats};

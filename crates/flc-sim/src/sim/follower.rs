@@ -2,6 +2,7 @@
 
 use flc_core::{ActiveController, Frame, LeadDetector, Point2, PurePursuit, SwitchReason, V2vMessage};
 
+use super::drive::{DriveCommand, Driven};
 use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
 use super::traffic::centreline_pursuit;
@@ -66,6 +67,11 @@ pub(super) struct Follower {
     pub(super) accel_cmd: f64,
     pub(super) collision: Option<CollisionInfo>,
     pub(super) series: Series,
+    /// Driven from outside ([`super::Simulation::drive`]): what its last scan gave, the command
+    /// waiting; `None` for a follower its own law drives.
+    pub(super) drive: Option<Box<Driven>>,
+    /// An acceleration command from outside, m/s² (bypasses the low-level speed controller).
+    pub(super) accel_override: Option<f64>,
 }
 
 impl Follower {
@@ -112,6 +118,8 @@ impl Follower {
             lookahead: (0.0, 0.0),
             accel_cmd: 0.0,
             collision: None,
+            drive: None,
+            accel_override: None,
             // Room for the whole run (up to 2^18 steps, 45 min at 10 ms; longer runs grow): no
             // reallocation while recording.
             series: Series::with_capacity(((s.duration / s.physics_dt).ceil() as usize + 2).min(1 << 18)),
@@ -119,7 +127,28 @@ impl Follower {
         })
     }
 
+    /// One delivered scan: the detector, the lateral control and the frame of the longitudinal
+    /// law, which steps at once unless the follower is driven from outside ([`Follower::drive`]:
+    /// the frame waits in `drive.pending` for [`Follower::resume`]).
     pub(super) fn control_tick(
+        &mut self,
+        t: f64,
+        points: &[[f64; 2]],
+        fs: &VehicleState,
+        road: &Road<'_>,
+        link: (V2vSource, f64),
+        truth: Option<(f64, f64)>,
+    ) {
+        let (frame, det) = self.sense(t, points, fs, road, link, truth);
+        match self.drive.as_mut() {
+            None => self.apply_law(&frame),
+            Some(d) => d.hold(t, frame, &det, points),
+        }
+    }
+
+    /// Everything of a control tick but the longitudinal law: the detector, the lateral control,
+    /// and the frame the law gets.
+    fn sense(
         &mut self,
         t: f64,
         points: &[[f64; 2]],
@@ -127,8 +156,10 @@ impl Follower {
         road: &Road<'_>,
         (source, lead_weight): (V2vSource, f64),
         truth: Option<(f64, f64)>,
-    ) {
-        let det = self.detector.detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
+    ) -> (Frame, flc_core::DetectorOutput) {
+        let det = self
+            .detector
+            .detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
         // Ideal perception (validation only): the true gap and speed of the vehicle in front; a
         // controller that sees the scene as a human does (the R157 careful driver): those of the
         // vehicle in front as it sees it (`human_front`; `None` when there is none).
@@ -174,9 +205,22 @@ impl Follower {
                 *age = age.saturating_add(1);
             }
         }
+        (Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed }, det)
+    }
+
+    /// A V2V message on its link at `t`: into the mailbox (the next scan's frame).
+    pub(super) fn deliver(&mut self, t: f64, m: V2vMessage) {
+        self.mailbox = Some(m);
+        if let Some(d) = self.drive.as_mut() {
+            d.received(t, m);
+        }
+    }
+
+    /// Steps the longitudinal law on `frame` and holds its speed command.
+    fn apply_law(&mut self, frame: &Frame) {
         // Every law gets the same frame; only the PID family reads `v2v`, only the laws whose
         // `uses_dt()` is true read `dt` (the FLC family takes neither).
-        let out = self.longitudinal.step(&Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed });
+        let out = self.longitudinal.step(frame);
         if out.switched {
             self.switches += 1;
         }
@@ -185,6 +229,43 @@ impl Follower {
         self.v2v_age = out.v2v_age_ticks;
         let cmd = out.command;
         self.speed_cmd = cmd.speed;
+    }
+
+    /// A follower driven from outside, after its command for this step was set: the law steps on
+    /// the frame held ([`DriveCommand::Law`]) or the command given replaces the law's (a speed
+    /// command, held like the law's; an acceleration command, which bypasses the low-level speed
+    /// controller until the next command). Without a frame held (no scan this step) a speed or
+    /// acceleration command replaces the held one at once and `Law` changes nothing.
+    pub(super) fn resume(&mut self) {
+        let Some(d) = self.drive.as_mut() else { return };
+        let frame = d.pending.take();
+        let cmd = std::mem::take(&mut d.command);
+        match cmd {
+            DriveCommand::Law => {
+                if let Some(frame) = frame {
+                    self.accel_override = None;
+                    self.apply_law(&frame);
+                }
+            }
+            DriveCommand::Speed(v) => {
+                self.accel_override = None;
+                self.speed_cmd = v;
+            }
+            DriveCommand::Accel(a) => {
+                self.accel_override = Some(a);
+                self.speed_cmd = f64::NAN;
+            }
+        }
+    }
+
+    /// The acceleration demand of this physics step: the low-level speed controller's on the
+    /// held speed command, or the acceleration command given from outside.
+    pub(super) fn accel_demand(&mut self, dt: f64) -> f64 {
+        let v = self.vehicle.state().speed;
+        match self.accel_override {
+            None => self.speed_ctrl.step(self.speed_cmd, v, dt),
+            Some(a) => a,
+        }
     }
 
     /// Lost-lead steering `hold_lane` (no lead detected this scan): steer along the centre of the

@@ -15,6 +15,7 @@
 //! lead's contacts with road-side objects are listed in [`RunResult::other_contacts`].
 
 mod contacts;
+mod drive;
 mod follower;
 mod geometry;
 mod links;
@@ -22,6 +23,7 @@ mod observer;
 mod story;
 mod traffic;
 
+pub use drive::{DriveCommand, DriveOptions, GroundTruth, Measurement, V2vSeen};
 pub(crate) use links::sub_seed;
 pub use observer::Observer;
 
@@ -125,6 +127,14 @@ struct State {
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
+    /// The lead's acceleration command and steering of the step being run (set while sensing).
+    lead_cmd: (f64, f64),
+    /// Some follower is driven from outside ([`Simulation::drive`]).
+    any_driven: bool,
+    /// The step's sensing ran and it waits for commands ([`Simulation::advance`]).
+    paused: bool,
+    /// The run is over.
+    ended: bool,
 }
 
 impl Simulation {
@@ -233,6 +243,10 @@ impl Simulation {
             t: 0.0,
             k: 0,
             standstill_since: None,
+            lead_cmd: (0.0, 0.0),
+            any_driven: false,
+            paused: false,
+            ended: false,
             track,
         };
         Ok(Self { state, observer: () })
@@ -324,10 +338,113 @@ impl<O: Observer> Simulation<O> {
         self.state.followers.len()
     }
 
-    /// One physics step. Returns `Ok(false)` when the run is over.
+    /// One physics step. Returns `Ok(false)` when the run is over. Driven followers
+    /// ([`Simulation::drive`]) get the command set with [`Simulation::command`] (default: their
+    /// law).
     pub fn step(&mut self) -> Result<bool, SimError> {
-        let dt = self.state.scenario.physics_dt;
+        if !self.state.paused {
+            self.sense()?;
+        }
+        self.act()
+    }
+
+    /// Drives followers `followers` (1-based) from outside: from now on each scan delivered to
+    /// one of them pauses [`Simulation::advance`] until its command is set. An index out of
+    /// range is an error naming it.
+    pub fn drive(&mut self, followers: &[usize], opts: DriveOptions) -> Result<(), ConfigError> {
+        let n = self.state.followers.len();
+        if let Some(&k) = followers.iter().find(|&&k| k == 0 || k > n) {
+            return Err(ConfigError::new("drive", format!("follower {k} does not exist (the scenario has {n}, numbered from 1)")));
+        }
+        for &k in followers {
+            let f = &mut self.state.followers[k - 1];
+            f.drive = Some(Box::new(self::drive::Driven::new(opts, &f.cfg.lidar)));
+        }
+        self.state.any_driven |= !followers.is_empty();
+        Ok(())
+    }
+
+    /// Runs physics steps up to the next scan of a driven follower and pauses there (`Ok(true)`:
+    /// read [`Simulation::measurement`] / [`Simulation::ground_truth`], set
+    /// [`Simulation::command`], call again), or to the end of the run (`Ok(false)`; then
+    /// [`Simulation::result`]). Commands not set are [`DriveCommand::Law`].
+    pub fn advance(&mut self) -> Result<bool, SimError> {
+        loop {
+            if self.state.ended {
+                return Ok(false);
+            }
+            if !self.state.paused {
+                self.sense()?;
+                if self.state.followers.iter().any(|f| f.drive.as_ref().is_some_and(|d| d.pending.is_some())) {
+                    self.state.paused = true;
+                    return Ok(true);
+                }
+            }
+            self.act()?;
+        }
+    }
+
+    /// Sets driven follower `k`'s (1-based) command for the step paused at. An error if `k` is
+    /// not driven or a number is not finite.
+    pub fn command(&mut self, k: usize, cmd: DriveCommand) -> Result<(), ConfigError> {
+        let bad = match cmd {
+            DriveCommand::Law => None,
+            DriveCommand::Speed(v) => (!v.is_finite()).then_some(("speed", v)),
+            DriveCommand::Accel(a) => (!a.is_finite()).then_some(("accel", a)),
+        };
+        if let Some((what, v)) = bad {
+            return Err(ConfigError::new(format!("command.{what}"), format!("must be a finite number, got {v}")));
+        }
+        match self.state.followers.get_mut(k.wrapping_sub(1)).and_then(|f| f.drive.as_mut()) {
+            Some(d) => {
+                d.command = cmd;
+                Ok(())
+            }
+            None => Err(ConfigError::new("command", format!("follower {k} is not driven from outside"))),
+        }
+    }
+
+    /// What driven follower `k`'s (1-based) pipeline got at its last scan, whether that scan
+    /// is the one paused at (`true`: its command is due), and the latest V2V message it received.
+    pub fn measurement(&self, k: usize) -> Option<(&Measurement, bool, Option<V2vSeen>)> {
+        let d = self.state.followers.get(k.wrapping_sub(1))?.drive.as_ref()?;
+        Some((&d.last, d.pending.is_some(), d.v2v))
+    }
+
+    /// Driven follower `k`'s (1-based) last scan as [`DriveOptions::beams`] range beams, m (empty
+    /// with `beams = 0`).
+    pub fn beams(&self, k: usize) -> Option<Vec<f64>> {
+        Some(self.state.followers.get(k.wrapping_sub(1))?.drive.as_ref()?.beams())
+    }
+
+    /// The ground truth about follower `k` (1-based) now: the vehicle in front of it as the run's
+    /// records take it, its own state, its collision.
+    pub fn ground_truth(&self, k: usize) -> Option<GroundTruth> {
+        let st = &self.state;
+        let f = st.followers.get(k.wrapping_sub(1))?;
+        let (front, front_len) = match (st.fronts.get(k - 1), k.checked_sub(2)) {
+            (Some(fr), _) => *fr,
+            (None, None) => (*st.lead.state(), st.scenario.lead.vehicle.length),
+            (None, Some(j)) => (*st.followers[j].vehicle.state(), st.followers[j].cfg.follower.vehicle.length),
+        };
+        let fs = f.vehicle.state();
+        Some(GroundTruth {
+            t: st.t,
+            gap: bumper_gap(&front, front_len, fs, f.cfg.follower.vehicle.length),
+            front_speed: front.speed,
+            front_accel: front.accel,
+            speed: fs.speed,
+            accel: fs.accel,
+            pose: (fs.x, fs.y, fs.yaw),
+            lateral_offset: st.track.project(fs.x, fs.y).lateral_offset,
+            collision: f.collision.clone(),
+        })
+    }
+
+    /// Steps 1-3 of a physics step: triggers, drivers, V2V, scans and the pipelines.
+    fn sense(&mut self) -> Result<(), SimError> {
         let t = self.state.t;
+        let dt = self.state.scenario.physics_dt;
 
         // 1. Start triggers (ground truth at the start of the step), then the drivers of the
         //    lead and the traffic and their lateral control along the centreline.
@@ -373,7 +490,7 @@ impl<O: Observer> Simulation<O> {
             match self.state.source {
                 V2vSource::Predecessor => {
                     if let Some(m) = f.v2v.tick(t, self.state.speeds[k]) {
-                        f.mailbox = Some(m);
+                        f.deliver(t, m);
                     }
                 }
                 V2vSource::Lead => {
@@ -383,14 +500,14 @@ impl<O: Observer> Simulation<O> {
                         f.v2v.tick(t, ls.speed)
                     };
                     if let Some(m) = m {
-                        f.mailbox = Some(m);
+                        f.deliver(t, m);
                         f.relay_pending = Some(m.lead_speed);
                     }
                 }
                 V2vSource::Both => {
                     let pred = f.v2v.tick(t, self.state.speeds[k]);
                     if let Some(m) = pred {
-                        f.mailbox = Some(m);
+                        f.deliver(t, m);
                     }
                     let lead_msg = match f.v2v_lead.as_mut() {
                         // Follower 1: its predecessor is the lead.
@@ -443,13 +560,34 @@ impl<O: Observer> Simulation<O> {
                 }
             }
         }
+        self.state.lead_cmd = (lcmd.accel, lead_steer);
+        Ok(())
+    }
 
+    /// Steps 4-5 of a physics step (after [`Simulation::sense`] and the commands of driven
+    /// followers): low-level control, dynamics, contacts, records, stop conditions.
+    fn act(&mut self) -> Result<bool, SimError> {
+        let dt = self.state.scenario.physics_dt;
+        self.state.paused = false;
+        if self.state.any_driven {
+            for f in &mut self.state.followers {
+                f.resume();
+            }
+        }
+        let running = self.physics(dt)?;
+        self.state.ended = !running;
+        Ok(running)
+    }
+
+    /// Steps 4-5 proper; `Ok(false)` when the run is over.
+    fn physics(&mut self, dt: f64) -> Result<bool, SimError> {
+        let (lead_accel, lead_steer) = self.state.lead_cmd;
         // 4. Low-level control and dynamics (the story's kinematic entities are put where their
         //    motion is).
         let ego_slot = 1 + self.state.traffic.len();
         for (k, f) in self.state.followers.iter_mut().enumerate() {
             let v = f.vehicle.state().speed;
-            f.accel_cmd = f.speed_ctrl.step(f.speed_cmd, v, dt);
+            f.accel_cmd = f.accel_demand(dt);
             match self.state.story.as_ref().filter(|r| k == 0 && r.ego_scripted) {
                 Some(r) if r.kinematic(ego_slot) => {
                     if let Some(m) = r.motions.get(ego_slot) {
@@ -468,7 +606,7 @@ impl<O: Observer> Simulation<O> {
         }
         match self.state.story.as_ref().filter(|r| r.kinematic(0)).and_then(|r| r.motions.first()) {
             Some(m) => self.state.lead.set_state(pose_of(&self.state.track, m, 0.0)),
-            None => self.state.lead.step(lcmd.accel, lead_steer, dt),
+            None => self.state.lead.step(lead_accel, lead_steer, dt),
         }
         for (i, f) in self.state.followers.iter().enumerate() {
             self.state.world.set_pose(f.body, f.vehicle.state());
@@ -714,7 +852,7 @@ impl<O: Observer> Simulation<O> {
     pub fn finish(self) -> RunResult {
         let State { scenario, followers, lead_driver, other_contacts, .. } = self.state;
         let mut laws = Vec::with_capacity(followers.len());
-        let mut runs: Vec<FollowerRun> = followers
+        let runs: Vec<FollowerRun> = followers
             .into_iter()
             .map(|f| {
                 laws.push(f.longitudinal);
@@ -722,12 +860,41 @@ impl<O: Observer> Simulation<O> {
             })
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> = laws.iter().map(|l| &**l as &dyn flc_core::LongitudinalController).collect();
-        let platoon = scenario.platoon.as_ref().map(|p| {
-            let signals = Signals::of(&runs, &laws);
-            let string_stability = StringStability::measure(&p.string_stability, &signals, &runs, lead_driver.brake_onset());
-            PlatoonResult { followers: runs.clone(), signals, string_stability }
-        });
-        let first = runs.swap_remove(0);
-        RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts }
+        assemble(scenario, runs, &laws, &lead_driver, other_contacts)
     }
+
+    /// The result of the run so far, as [`Simulation::finish`] gives it at the end (the run goes
+    /// on; `flc.Simulation.result()`).
+    pub fn result(&self) -> RunResult {
+        let st = &self.state;
+        let runs: Vec<FollowerRun> = st
+            .followers
+            .iter()
+            .map(|f| FollowerRun {
+                metrics: Metrics::compute(&f.series, f.collision.clone()),
+                series: f.series.clone(),
+                collision: f.collision.clone(),
+            })
+            .collect();
+        let laws: Vec<&dyn flc_core::LongitudinalController> =
+            st.followers.iter().map(|f| &*f.longitudinal as &dyn flc_core::LongitudinalController).collect();
+        assemble(st.scenario.clone(), runs, &laws, &st.lead_driver, st.other_contacts.clone())
+    }
+}
+
+/// A run's [`RunResult`] from its parts.
+fn assemble(
+    scenario: Scenario,
+    mut runs: Vec<FollowerRun>,
+    laws: &[&dyn flc_core::LongitudinalController],
+    lead_driver: &LeadDriver,
+    other_contacts: Vec<ContactRecord>,
+) -> RunResult {
+    let platoon = scenario.platoon.as_ref().map(|p| {
+        let signals = Signals::of(&runs, laws);
+        let string_stability = StringStability::measure(&p.string_stability, &signals, &runs, lead_driver.brake_onset());
+        PlatoonResult { followers: runs.clone(), signals, string_stability }
+    });
+    let first = runs.swap_remove(0);
+    RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts }
 }
