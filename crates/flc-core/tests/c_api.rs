@@ -194,7 +194,7 @@ fn expected() -> Vec<String> {
         if k == 450 {
             s.reset();
         }
-        let r = s.step(has_v2v.then_some(V2vMessage { lead_speed, seq }), has_dist.then_some(dist), own, 0.05);
+        let r = s.step(has_v2v.then_some(V2vMessage::speed_only(lead_speed, seq)), has_dist.then_some(dist), own, 0.05);
         let active = match r.active {
             ActiveController::Flc => 0,
             ActiveController::Pid => 1,

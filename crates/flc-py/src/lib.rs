@@ -120,7 +120,7 @@ impl Supervisor {
 
     /// One tick; returns the JSON of [`SupervisorStep`]: the command, the active controller and why.
     fn step(&mut self, v2v: Option<(f64, u32)>, distance: Option<f64>, own_speed: f64, dt: f64) -> PyResult<String> {
-        let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage { lead_speed, seq });
+        let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage::speed_only(lead_speed, seq));
         let o = self.inner.step(msg, distance, own_speed, dt);
         to_json(&SupervisorStep {
             speed: o.command.speed,
