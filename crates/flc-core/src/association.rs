@@ -348,6 +348,14 @@ mod tests {
     }
 
     #[test]
+    fn the_default_gate_is_the_documented_one() {
+        // docs/v2v-and-metrics.md 1.11: 19.1 m plus 0.1 v_s (3.6 m at 130 km/h).
+        let p = AssociationParams::default();
+        assert!((p.gate_m(0.0) - 19.1).abs() < 0.05, "{}", p.gate_m(0.0));
+        assert!((p.gate_m(130.0 / 3.6) - p.gate_m(0.0) - 3.6).abs() < 0.05);
+    }
+
+    #[test]
     fn bad_parameters_name_the_field() {
         let e = Association::new(AssociationParams { jump_m: 0.0, ..Default::default() }).unwrap_err();
         assert_eq!(e.field, "association.jump_m");

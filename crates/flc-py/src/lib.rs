@@ -100,6 +100,8 @@ struct SupervisorStep {
     /// `None` before any V2V message.
     v2v_age_ticks: Option<u32>,
     fresh_count: u32,
+    /// `unknown`, `associated` or `not_associated` (is the detected object the V2V sender?).
+    association: &'static str,
     flc_speed: f64,
     pid_speed: f64,
 }
@@ -131,6 +133,7 @@ impl Supervisor {
             switched: o.switched,
             v2v_age_ticks: (o.v2v_age_ticks != u32::MAX).then_some(o.v2v_age_ticks),
             fresh_count: o.fresh_count,
+            association: o.association.as_str(),
             flc_speed: o.flc.speed,
             pid_speed: o.pid.speed,
         })
