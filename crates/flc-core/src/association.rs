@@ -6,12 +6,16 @@
 //! another. [`Association`] decides, each control tick, from what the supervisor already has
 //! (the detector's distance, the own speed, the V2V message's contents and its age in ticks):
 //!
-//! 1. **Continuity (jump test).** Between two detections the distance must change as the
-//!    reported relative speed says: `|d_k - d_{k-1} - (v_s - v_o) dt| <= jump_m`, summed over
-//!    ticks without a detection. A car entering the gap is entirely between the ego and the
-//!    sender, so the distance jumps *down* by at least its length (>= 3 m for a car); a cut-out
-//!    makes it jump *up* by at least the leaving lead's length. Either is a new object: not
-//!    associated from that tick on, before the PID issues a single command on the new distance.
+//! 1. **Continuity (jump and rate test).** The distance must change as the reported relative
+//!    speed says. A tracked gap `g` is carried on each tick by `(v_s - v_o) dt` (`v_s` the
+//!    sender's speed extrapolated with its broadcast acceleration over the message's age) and
+//!    pulled towards each detection with time constant `track_tau_s`; a detection with `|d -
+//!    g| > jump_m` is a new object. A car entering the gap is entirely between the ego and the
+//!    sender, so the distance jumps *down* by at least its length (>= 3 m for a car) on the first
+//!    scan that sees it; a cut-out makes it jump *up* by at least the leaving lead's length. An
+//!    object whose gap changes at a rate differing by `dv` from the reported relative speed
+//!    drifts away from `g` by up to `dv track_tau_s` (the gap's change against the reported
+//!    relative speed). Either is a new object: not associated from that tick on.
 //! 2. **Dead-reckoned sender gap.** While not associated, the sender's gap is carried on from
 //!    the last associated distance with the reported relative speed. A detection that matches it
 //!    within `jump_m + speed_error_mps * t` (t since the anchor) is the sender again (e.g. the
@@ -40,6 +44,12 @@ pub struct AssociationParams {
     /// 100 ms old speed at 8 m/s² times 50 ms = 0.04 m, the detector's nearest point moving on
     /// the rear of a car that is turning, < 0.5 m) and below the shortest car's length (3 m).
     pub jump_m: f64,
+    /// Time constant with which the tracked gap follows the detections, s, in [0.05, 100].
+    /// Default 2: a relative-speed mismatch above `jump_m / track_tau_s` = 0.75 m/s is a
+    /// different object; the sender's speed error after extrapolating with its acceleration
+    /// (jerk times latency, a 100 ms air latency at 2.5 m/s² unextrapolated: 0.25 m/s) is well
+    /// below.
+    pub track_tau_s: f64,
     /// Growth of the dead-reckoned gap's tolerance, m/s, in [0, 10]: the relative error of the
     /// two speeds (the broadcast and the own speedometer). Default 0.05.
     pub speed_error_mps: f64,
@@ -55,7 +65,7 @@ pub struct AssociationParams {
 
 impl Default for AssociationParams {
     fn default() -> Self {
-        Self { enabled: true, jump_m: 1.5, speed_error_mps: 0.05, gnss_sigma_m: 3.0, gate_sigmas: 4.5, max_latency_s: 0.1 }
+        Self { enabled: true, jump_m: 1.5, track_tau_s: 2.0, speed_error_mps: 0.05, gnss_sigma_m: 3.0, gate_sigmas: 4.5, max_latency_s: 0.1 }
     }
 }
 
@@ -63,6 +73,7 @@ impl AssociationParams {
     /// Checks every value; the error names the field.
     pub fn validate(&self) -> Result<(), ParamError> {
         check_range("association.jump_m", self.jump_m, 1e-3, 100.0, "must be in [0.001, 100] m")?;
+        check_range("association.track_tau_s", self.track_tau_s, 0.05, 100.0, "must be in [0.05, 100] s")?;
         check_range("association.speed_error_mps", self.speed_error_mps, 0.0, 10.0, "must be in [0, 10] m/s")?;
         check_range("association.gnss_sigma_m", self.gnss_sigma_m, 0.0, 100.0, "must be in [0, 100] m")?;
         check_range("association.gate_sigmas", self.gate_sigmas, 1.0, 100.0, "must be in [1, 100]")?;
@@ -160,9 +171,9 @@ pub struct AssociationInput<'a> {
 pub struct Association {
     params: AssociationParams,
     state: AssociationState,
-    /// Last detected distance and the relative motion expected since (m).
-    last_distance: Option<f64>,
-    expected_change: f64,
+    /// The tracked gap of the object followed (m): carried on with the reported relative speed,
+    /// pulled towards the detections.
+    track: Option<f64>,
     /// Dead-reckoned sender gap (m) and seconds since it was anchored on an associated detection.
     sender_gap: Option<f64>,
     since_anchor: f64,
@@ -201,8 +212,7 @@ impl Association {
         Self {
             params,
             state: AssociationState::Unknown,
-            last_distance: None,
-            expected_change: 0.0,
+            track: None,
             sender_gap: None,
             since_anchor: 0.0,
             jumped: false,
@@ -218,14 +228,18 @@ impl Association {
         let Some(v_s) = input.sender_speed.filter(|v| v.is_finite()).filter(|_| p.enabled) else {
             // No V2V (or association off): nothing to associate; forget the sender's gap.
             self.state = if p.enabled || input.sender_speed.is_none() { AssociationState::Unknown } else { AssociationState::Associated };
-            self.last_distance = d;
-            self.expected_change = 0.0;
+            self.track = d;
             self.sender_gap = None;
             self.jumped = false;
             return self.state;
         };
-        let closing = (v_s - v_o) * dt;
-        self.expected_change += closing;
+        let accel = input.sender.map_or(0.0, |s| if s.accel.is_finite() { s.accel } else { 0.0 });
+        let age = if input.message_age.is_finite() { input.message_age.clamp(0.0, 1.0) } else { 0.0 };
+        let v_now = (v_s + accel * age).max(0.0);
+        let closing = (v_now - v_o) * dt;
+        if let Some(g) = self.track.as_mut() {
+            *g += closing;
+        }
         if let Some(g) = self.sender_gap.as_mut() {
             *g += closing;
             self.since_anchor += dt;
@@ -235,9 +249,12 @@ impl Association {
             self.jumped = false;
             return self.state;
         };
-        self.jumped = self.last_distance.is_some_and(|last| libm::fabs(d - last - self.expected_change) > p.jump_m);
-        self.last_distance = Some(d);
-        self.expected_change = 0.0;
+        self.jumped = self.track.is_some_and(|g| libm::fabs(d - g) > p.jump_m);
+        self.track = match self.track {
+            Some(g) if !self.jumped => Some(g + (d - g) * (dt / p.track_tau_s).min(1.0)),
+            // A new object (or the first): track it from here.
+            _ => Some(d),
+        };
 
         let in_gate = match (input.sender, input.own_fix) {
             (Some(s), Some(own)) => {

@@ -21,12 +21,24 @@ fn kmh(v: f64) -> f64 {
     v / 3.6
 }
 
-/// Two lanes; the lead in lane 0 at `v_ego` km/h, `lead_gap` m ahead of the ego (pipeline,
-/// default V2V). A car without V2V in lane 1 at `v_car` km/h, its rear `car_gap` m ahead of the
-/// ego's front bumper when it starts a `duration` s lane change into lane 0 at `t0`.
-fn cut_in(v_ego: f64, v_car: f64, car_gap: f64, duration: f64, lead_gap: f64, t0: f64, run_s: f64) -> Scenario {
+/// Two lanes; the lead in lane 0 at `v_ego` km/h, the ego (pipeline, default V2V) behind it at
+/// its PID's equilibrium gap. A car without V2V in lane 1 at `v_car` km/h, its rear `car_gap` m
+/// ahead of the ego's front bumper when it starts a `duration` s lane change into lane 0 at 3 s.
+///
+/// The paper PID's gap (6 m + 0.5 s v + Scale_f) has no room for a car 20 or 30 m ahead of the
+/// ego; where it does not (`car_gap + 4.9 m + 8 m` beyond it), the PID's time gap is raised so
+/// that its equilibrium gap is that (the association rule does not depend on it).
+fn cut_in(v_ego: f64, v_car: f64, car_gap: f64, duration: f64, run_s: f64) -> (Scenario, f64) {
     let (ve, vc) = (kmh(v_ego), kmh(v_car));
-    // The ego's front bumper starts at 5.9 m and drives at ~ve until t0 (the car's centre s).
+    let t0 = 3.0;
+    let mut pid = flc_core::PidParams::paper();
+    let need = car_gap + LEN + 8.0;
+    if pid.desired_distance(ve) < need {
+        pid.time_gap += (need - pid.desired_distance(ve)) / ve;
+    }
+    let lead_gap = pid.desired_distance(ve);
+    let time_gap = pid.time_gap;
+    // The ego's front bumper starts at 5.9 m and drives at ve until t0 (the car's centre s).
     let s_car = 5.9 + car_gap + (ve - vc) * t0 + LEN / 2.0;
     let text = format!(
         r#"
@@ -43,6 +55,10 @@ initial_speed = {ve}
 [[lead.phases]]
 kind = "hold"
 duration = 1000.0
+[v2v]
+enabled = true
+[pid]
+time_gap = {time_gap}
 [follower]
 initial_speed = {ve}
 initial_gap = {lead_gap}
@@ -62,7 +78,7 @@ kind = "hold"
 duration = 1000.0
 "#
     );
-    Scenario::from_toml_str(&text, "assoc-cut-in.toml").unwrap_or_else(|e| panic!("{e}"))
+    (Scenario::from_toml_str(&text, "assoc-cut-in.toml").unwrap_or_else(|e| panic!("{e}")), lead_gap)
 }
 
 /// Figures of a run: min gap to whatever is in front, ticks the PID drove on a detection that was
@@ -76,9 +92,13 @@ struct Figures {
     handback: Option<f64>,
 }
 
-fn figures(r: &RunResult, lead_len: f64) -> Figures {
+/// `lead_gap0`, `v_lead`: the V2V lead's initial gap (m) and its constant speed (m/s); the
+/// series' `lead_*` columns are the vehicle in front, so the lead's gap is computed.
+fn figures(r: &RunResult, lead_gap0: f64, v_lead: f64) -> Figures {
     let s = &r.series;
-    let lead_gap = |k: usize| s.lead_x[k] - s.follower_x[k] - (lead_len + LEN) / 2.0;
+    let lead_gap = |k: usize| lead_gap0 + v_lead * s.t[k] - (s.follower_x[k] - s.follower_x[0]);
+    // Before anything happens the detector sees the lead where it is computed to be.
+    assert!((1..20).all(|k| s.detected_distance[k].is_nan() || (s.detected_distance[k] - lead_gap(k)).abs() < 0.5));
     let wrong = |k: usize| s.detected_distance[k].is_finite() && (s.detected_distance[k] - lead_gap(k)).abs() > 1.5;
     let first_wrong = (0..s.len()).find(|&k| wrong(k));
     let fallback = (0..s.len()).find(|&k| s.reason[k] == NOT_ASSOCIATED);
@@ -105,10 +125,9 @@ fn cut_ins_fall_back_before_the_pid_drives_on_the_new_car_and_do_not_collide() {
         (130.0, 100.0, 30.0, 2.5),
     ];
     for (ve, vc, gap, dur) in cases {
-        let lead_gap = gap + LEN + 15.0;
-        let s = cut_in(ve, vc, gap, dur, lead_gap, 1.0, 30.0);
+        let (s, lead_gap) = cut_in(ve, vc, gap, dur, 30.0);
         let r = run(&s).expect("run");
-        let f = figures(&r, LEN);
+        let f = figures(&r, lead_gap, kmh(ve));
         eprintln!("cut-in {ve}/{vc} km/h {gap} m {dur} s: {f:?} contact {:?}", r.collision.as_ref().map(|c| c.impact_speed));
         assert!(r.collision.is_none() && !r.metrics.collision, "{ve}/{vc}: contact {:?}", r.collision);
         assert!(f.min_gap > 1.0, "{ve}/{vc}: min gap {}", f.min_gap);
@@ -122,13 +141,13 @@ fn cut_ins_fall_back_before_the_pid_drives_on_the_new_car_and_do_not_collide() {
     }
 }
 
-/// The same cut-in with association off is the issue's contact (the rule is what prevents it).
+/// The same cut-in with association off: the PID drives on the distance to the car that cut in (the rule is what prevents it).
 #[test]
-fn without_association_the_pipeline_drives_into_the_car_that_cut_in() {
-    let mut s = cut_in(80.0, 80.0, 8.0, 2.0, 8.0 + LEN + 15.0, 1.0, 30.0);
+fn without_association_the_pid_drives_on_the_car_that_cut_in() {
+    let (mut s, lead_gap) = cut_in(80.0, 80.0, 8.0, 2.0, 30.0);
     s.supervisor.association.enabled = false;
     let r = run(&s).expect("run");
-    let f = figures(&r, LEN);
+    let f = figures(&r, lead_gap, kmh(80.0));
     eprintln!("association off: {f:?} contact {:?}", r.collision.as_ref().map(|c| c.impact_speed));
     assert!(f.pid_on_wrong_object > 0);
 }
@@ -136,7 +155,7 @@ fn without_association_the_pipeline_drives_into_the_car_that_cut_in() {
 /// The car that cut in leaves again: the sender is the detected object again and the PID drives.
 #[test]
 fn the_pid_drives_again_when_the_car_that_cut_in_leaves() {
-    let mut s = cut_in(80.0, 80.0, 8.0, 2.0, 8.0 + LEN + 20.0, 1.0, 40.0);
+    let (mut s, lead_gap) = cut_in(80.0, 80.0, 8.0, 2.0, 40.0);
     let text = r#"
 kind = "lane_change"
 lane = 1
@@ -146,7 +165,7 @@ start = { kind = "simulation_time", rule = "greater_or_equal", value = 15.0 }
     let back: flc_sim::ScriptedPhase = toml::from_str(text).expect("phase");
     s.vehicles[0].phases.insert(1, back);
     let r = run(&s).expect("run");
-    let f = figures(&r, LEN);
+    let f = figures(&r, lead_gap, kmh(80.0));
     eprintln!("cut-in and out: {f:?}");
     assert!(r.collision.is_none());
     assert_eq!(f.pid_on_wrong_object, 0);
@@ -160,8 +179,9 @@ fn a_cut_out_revealing_a_car_without_v2v_falls_back_at_once() {
     for v in [80.0, 130.0] {
         let ve = kmh(v);
         let lead_gap = 25.0;
-        // The hidden car: 30 m ahead of the lead's front, 30 km/h slower.
-        let s_hidden = 5.9 + lead_gap + LEN + 30.0 + LEN / 2.0;
+        // The hidden car: 60 m ahead of the lead's front, 30 km/h slower (the lead leaves from
+        // 2 to 5 s, before it reaches the car).
+        let s_hidden = 5.9 + lead_gap + LEN + 60.0 + LEN / 2.0;
         let text = format!(
             r#"
 name = "assoc-cut-out"
@@ -184,6 +204,8 @@ duration = 3.0
 [[lead.phases]]
 kind = "hold"
 duration = 1000.0
+[v2v]
+enabled = true
 [follower]
 initial_speed = {ve}
 initial_gap = {lead_gap}
@@ -201,7 +223,7 @@ duration = 1000.0
         );
         let sc = Scenario::from_toml_str(&text, "assoc-cut-out.toml").expect("scenario");
         let r = run(&sc).expect("run");
-        let f = figures(&r, LEN);
+        let f = figures(&r, lead_gap, ve);
         eprintln!("cut-out {v} km/h: {f:?} contact {:?}", r.collision.as_ref().map(|c| c.impact_speed));
         assert!(r.collision.is_none() && !r.metrics.collision, "{v}: {:?}", r.collision);
         assert_eq!(f.pid_on_wrong_object, 0, "{v}: {f:?}");
@@ -247,6 +269,8 @@ initial_speed = {v}
 [[lead.phases]]
 kind = "hold"
 duration = 4000.0
+[v2v]
+enabled = true
 [follower]
 initial_speed = {v}
 initial_gap = 21.0
@@ -303,9 +327,10 @@ initial_gap = 21.0
 #[test]
 fn in_a_platoon_only_the_follower_behind_the_cut_in_falls_back() {
     let v = kmh(80.0);
-    let gap = 30.0;
-    // Follower 2's front bumper is at 5.9 + (4.9 + 30) m; the car's rear 10 m ahead of it.
-    let s_car = 5.9 + 10.0 + LEN / 2.0 + (LEN + gap);
+    let gap = flc_core::PidParams::paper().desired_distance(v);
+    // Follower 3's front bumper is at 5.9 m, follower 2's at 5.9 + (4.9 + gap) m; the car's rear
+    // 7 m ahead of follower 2's (the string spreads to the PID's gap before the car moves).
+    let s_car = 5.9 + 7.0 + LEN / 2.0 + (LEN + gap);
     let text = format!(
         r#"
 name = "assoc-platoon-cut-in"
@@ -320,6 +345,8 @@ initial_speed = {v}
 [[lead.phases]]
 kind = "hold"
 duration = 1000.0
+[v2v]
+enabled = true
 [follower]
 initial_speed = {v}
 initial_gap = {gap}
@@ -353,8 +380,10 @@ duration = 1000.0
     }
     // Follower 2 never drove on the car with its V2V sender's speed.
     let s2 = &p.followers[1].series;
+    // (follower 1 stays 26 to 30 m ahead of it; the car comes in at ~14 m)
+    assert!(p.followers[0].series.gap.iter().all(|&g| g > 25.0));
     assert!(s2.detected_distance.iter().any(|&d| d < 20.0), "follower 2 sees the car");
-    // (follower 1 is ~30 m ahead, the car ~10 m)
     assert_eq!((0..s2.len()).filter(|&i| s2.active[i] == PID && s2.detected_distance[i] < 20.0).count(), 0);
     assert_eq!(p.string_stability.not_associated, [2]);
 }
+

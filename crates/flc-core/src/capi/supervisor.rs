@@ -59,6 +59,8 @@ pub enum FlcAssociationState {
 pub struct FlcAssociationParams {
     /// Largest unexplained change of the distance between two ticks, m.
     pub jump_m: f64,
+    /// Time constant with which the tracked gap follows the detections, s.
+    pub track_tau_s: f64,
     /// Growth of the dead-reckoned gap's tolerance, m/s.
     pub speed_error_mps: f64,
     /// 1-sigma GNSS position error assumed for each vehicle, m.
@@ -75,6 +77,7 @@ impl From<AssociationParams> for FlcAssociationParams {
     fn from(p: AssociationParams) -> Self {
         Self {
             jump_m: p.jump_m,
+            track_tau_s: p.track_tau_s,
             speed_error_mps: p.speed_error_mps,
             gnss_sigma_m: p.gnss_sigma_m,
             gate_sigmas: p.gate_sigmas,
@@ -89,6 +92,7 @@ impl From<FlcAssociationParams> for AssociationParams {
         Self {
             enabled: p.enabled,
             jump_m: p.jump_m,
+            track_tau_s: p.track_tau_s,
             speed_error_mps: p.speed_error_mps,
             gnss_sigma_m: p.gnss_sigma_m,
             gate_sigmas: p.gate_sigmas,
@@ -187,7 +191,7 @@ impl From<SupervisorOutput> for FlcSupervisorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcSupervisor::storage`.
-pub const FLC_SUPERVISOR_WORDS: usize = 120;
+pub const FLC_SUPERVISOR_WORDS: usize = 128;
 
 /// Caller-owned storage of one supervisor (FLC + PID + switching). Initialise with
 /// `flc_supervisor_init`.
