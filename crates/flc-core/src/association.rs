@@ -24,7 +24,7 @@
 //!    gives the own fix ([`OwnFix`]), the detected distance must lie within
 //!    `gate_sigmas * sqrt(2) * gnss_sigma_m + v_s * max_latency_s` of the V2V-predicted gap
 //!    `(p_s - p_o) . h_o - L_s` (both positions are CAM reference points, the centre of the
-//!    front of the vehicle's bounding box). It is coarse on purpose (19 m + 3.6 m at 3 m GNSS
+//!    front of the vehicle's bounding box). It is coarse on purpose (25.5 m + 3.6 m at 3 m GNSS
 //!    sigma and 130 km/h): it catches a wrong object at start-up and, when the dead reckoning
 //!    has grown too wide, an object far from the sender; it never decides a cut-in.
 //!
@@ -56,7 +56,9 @@ pub struct AssociationParams {
     /// 1-sigma GNSS position error assumed for each vehicle, m, in [0, 100]. Default 3.
     pub gnss_sigma_m: f64,
     /// Width of the position gate in sigmas of the gap's GNSS error (`sqrt 2 gnss_sigma_m`), in
-    /// [1, 100]. Default 4.5 (a false rejection per independent sample < 1e-5).
+    /// [1, 100]. Default 6: by the union bound over an hour's 72 000 control ticks at 20 Hz,
+    /// whatever the error's correlation, a false rejection in an hour has probability at most
+    /// `72 000 * 2 Phi(-6)` = 1.4e-4 (4.5 sigma would allow 0.49 per hour).
     pub gate_sigmas: f64,
     /// Largest V2V air latency the gate allows for, s, in [0, 10]: the sender has moved on by
     /// `v_s max_latency_s` since its position was taken. Default 0.1.
@@ -65,7 +67,7 @@ pub struct AssociationParams {
 
 impl Default for AssociationParams {
     fn default() -> Self {
-        Self { enabled: true, jump_m: 1.5, track_tau_s: 2.0, speed_error_mps: 0.05, gnss_sigma_m: 3.0, gate_sigmas: 4.5, max_latency_s: 0.1 }
+        Self { enabled: true, jump_m: 1.5, track_tau_s: 2.0, speed_error_mps: 0.05, gnss_sigma_m: 3.0, gate_sigmas: 6.0, max_latency_s: 0.1 }
     }
 }
 
@@ -348,7 +350,7 @@ mod tests {
         let own = OwnFix { x: 0.0, y: 0.0, heading: 0.0 };
         assert!((predicted_gap(&sender, 0.0, 0.0, &own) - 55.5).abs() < 1e-12);
         let inp = |d| AssociationInput { sender: Some(&sender), own_fix: Some(own), ..input(Some(d), 20.0, 20.0) };
-        // 4.5 sqrt(2) + 2 = 8.36 m gate.
+        // 6 sqrt(2) + 2 = 10.5 m gate.
         assert_eq!(a.step(&inp(20.0)), AssociationState::NotAssociated);
         let mut b = Association::new(p).unwrap();
         assert_eq!(b.step(&inp(50.0)), AssociationState::Associated);
@@ -366,9 +368,11 @@ mod tests {
 
     #[test]
     fn the_default_gate_is_the_documented_one() {
-        // docs/v2v-and-metrics.md 1.11: 19.1 m plus 0.1 v_s (3.6 m at 130 km/h).
+        // docs/v2v-and-metrics.md 1.11: 25.5 m plus 0.1 v_s (3.6 m at 130 km/h).
         let p = AssociationParams::default();
-        assert!((p.gate_m(0.0) - 19.1).abs() < 0.05, "{}", p.gate_m(0.0));
+        assert!((p.gate_m(0.0) - 25.5).abs() < 0.05, "{}", p.gate_m(0.0));
+        // The union bound of the docs: 72 000 ticks * 2 Phi(-6) = 1.4e-4 (2 Phi(-6) = 1.973e-9).
+        assert!((72_000.0 * 1.973e-9 - 1.4e-4f64).abs() < 0.05e-4);
         assert!((p.gate_m(130.0 / 3.6) - p.gate_m(0.0) - 3.6).abs() < 0.05);
     }
 
