@@ -191,7 +191,7 @@ impl From<SupervisorOutput> for FlcSupervisorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcSupervisor::storage`.
-pub const FLC_SUPERVISOR_WORDS: usize = 128;
+pub const FLC_SUPERVISOR_WORDS: usize = 122;
 
 /// Caller-owned storage of one supervisor (FLC + PID + switching). Initialise with
 /// `flc_supervisor_init`.
