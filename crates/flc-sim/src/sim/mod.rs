@@ -180,9 +180,15 @@ impl Simulation {
         }
         let lead_body = lead_body.ok_or_else(|| ConfigError::new("platoon.followers", "at least one follower"))?;
         let mut followers = Vec::with_capacity(n);
-        for (k, (c, body)) in configs.into_iter().zip(bodies).enumerate() {
+        for (k, (mut c, body)) in configs.into_iter().zip(bodies).enumerate() {
             let state = state_at(k + 1, c.follower.initial_speed);
             let lead_link = platoon.v2v_source == V2vSource::Both && k >= 1;
+            if platoon.v2v_source != V2vSource::Predecessor && k >= 1 {
+                // The speed its PID takes is the lead's (`lead`) or a mix of the lead's and the
+                // predecessor's (`both`): by design not that of the vehicle it detects, so there is
+                // no sender to associate the detection with (docs/v2v-and-metrics.md 1.11).
+                c.supervisor.association.enabled = false;
+            }
             followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
         }
         // Scripted traffic: bodies after the string's.
