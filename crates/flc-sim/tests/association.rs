@@ -387,3 +387,29 @@ duration = 1000.0
     assert_eq!(p.string_stability.not_associated, [2]);
 }
 
+
+/// The defaults the docs list are the code's.
+#[test]
+fn the_documented_association_defaults_are_the_codes() {
+    let p = flc_core::AssociationParams::default();
+    let line = format!(
+        "`[supervisor.association]`: `enabled` ({}), `jump_m` ({}), `track_tau_s` ({}), `speed_error_mps` ({}), `gnss_sigma_m` ({}), `gate_sigmas` ({}), `max_latency_s` ({})",
+        p.enabled, p.jump_m, p.track_tau_s, p.speed_error_mps, p.gnss_sigma_m, p.gate_sigmas, p.max_latency_s
+    );
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let scen = std::fs::read_to_string(root.join("docs/scenarios.md")).expect("docs");
+    assert!(scen.contains(&line), "docs/scenarios.md should say: {line}");
+    let v2v = std::fs::read_to_string(root.join("docs/v2v-and-metrics.md")).expect("docs");
+    for row in [
+        format!("| `jump_m` | {} m |", p.jump_m),
+        format!("| `track_tau_s` | {} s |", p.track_tau_s),
+        format!("| `speed_error_mps` | {} m/s |", p.speed_error_mps),
+        format!("| `gnss_sigma_m` | {} m |", p.gnss_sigma_m),
+        format!("| `gate_sigmas` | {} |", p.gate_sigmas),
+        format!("| `max_latency_s` | {} s |", p.max_latency_s),
+    ] {
+        assert!(v2v.contains(&row), "docs/v2v-and-metrics.md should have {row}");
+    }
+    let g = flc_sim::gnss::GnssParams::default();
+    assert!(v2v.contains(&format!("`{{ sigma_m = {}, tau_s = {} }}`", g.sigma_m, g.tau_s)));
+}
