@@ -67,7 +67,15 @@ pub struct AssociationParams {
 
 impl Default for AssociationParams {
     fn default() -> Self {
-        Self { enabled: true, jump_m: 1.5, track_tau_s: 2.0, speed_error_mps: 0.05, gnss_sigma_m: 3.0, gate_sigmas: 6.0, max_latency_s: 0.1 }
+        Self {
+            enabled: true,
+            jump_m: 1.5,
+            track_tau_s: 2.0,
+            speed_error_mps: 0.05,
+            gnss_sigma_m: 3.0,
+            gate_sigmas: 6.0,
+            max_latency_s: 0.1,
+        }
     }
 }
 
@@ -211,14 +219,7 @@ impl Association {
     }
 
     fn new_unchecked(params: AssociationParams) -> Self {
-        Self {
-            params,
-            state: AssociationState::Unknown,
-            track: None,
-            sender_gap: None,
-            since_anchor: 0.0,
-            jumped: false,
-        }
+        Self { params, state: AssociationState::Unknown, track: None, sender_gap: None, since_anchor: 0.0, jumped: false }
     }
 
     /// One tick: returns the decision (also kept as [`Self::state`]).
@@ -265,16 +266,18 @@ impl Association {
             }
             _ => true,
         };
-        let matches_dead_reckoning = self
-            .sender_gap
-            .is_none_or(|g| libm::fabs(d - g) <= p.jump_m + p.speed_error_mps * self.since_anchor);
+        let matches_dead_reckoning = self.sender_gap.is_none_or(|g| libm::fabs(d - g) <= p.jump_m + p.speed_error_mps * self.since_anchor);
         self.state = match self.state {
             // The same object as before unless it jumped.
             AssociationState::Associated if !self.jumped && in_gate => AssociationState::Associated,
             AssociationState::Associated => AssociationState::NotAssociated,
             // First detection with V2V: the gate decides (no dead reckoning yet).
             AssociationState::Unknown if self.sender_gap.is_none() => {
-                if in_gate { AssociationState::Associated } else { AssociationState::NotAssociated }
+                if in_gate {
+                    AssociationState::Associated
+                } else {
+                    AssociationState::NotAssociated
+                }
             }
             // Not associated: a detection where the sender is dead-reckoned to be is the sender.
             _ if in_gate && self.sender_gap.is_some() && matches_dead_reckoning => AssociationState::Associated,

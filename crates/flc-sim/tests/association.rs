@@ -295,11 +295,16 @@ initial_gap = 21.0
         }
     }
     // The paper cells as they are (default GNSS and latency), for the comparison below.
-    let plain: Vec<Scenario> = paper.iter().filter(|s| s.v2v.gnss.sigma_m == 1.0 && s.v2v.latency == 0.02).map(|s| {
-        let mut p = Scenario::paper_experiment(s.speed_kmh.expect("paper"), flc_sim::ControllerKind::Pipeline, flc_sim::Calibration::Paper);
-        p.seed = s.seed;
-        p
-    }).collect();
+    let plain: Vec<Scenario> = paper
+        .iter()
+        .filter(|s| s.v2v.gnss.sigma_m == 1.0 && s.v2v.latency == 0.02)
+        .map(|s| {
+            let mut p =
+                Scenario::paper_experiment(s.speed_kmh.expect("paper"), flc_sim::ControllerKind::Pipeline, flc_sim::Calibration::Paper);
+            p.seed = s.seed;
+            p
+        })
+        .collect();
     let all: Vec<Scenario> = steady.iter().chain(&paper).chain(&plain).cloned().collect();
     let results: Vec<RunResult> = flc_sim::RunOptions::default().run_batch(&all).into_iter().map(|r| r.expect("run")).collect();
     let (checked, reference) = results.split_at(steady.len() + paper.len());
@@ -386,7 +391,6 @@ duration = 1000.0
     assert_eq!((0..s2.len()).filter(|&i| s2.active[i] == PID && s2.detected_distance[i] < 20.0).count(), 0);
     assert_eq!(p.string_stability.not_associated, [2]);
 }
-
 
 /// The defaults the docs list are the code's.
 #[test]
