@@ -219,8 +219,9 @@ def test_terms_stay_finite_numbers_on_bad_input(cls):
 def test_supervisor_step_keys_and_types():
     s = flc.Supervisor()
     out = s.step(None, 20.0, 10.0, 0.05)
-    assert list(out) == ["speed", "accel", "status", "active", "reason", "switched", "v2v_age_ticks", "fresh_count", "flc_speed", "pid_speed"]
+    assert list(out) == ["speed", "accel", "status", "active", "reason", "switched", "v2v_age_ticks", "fresh_count", "association", "flc_speed", "pid_speed"]
     assert out["v2v_age_ticks"] is None and out["switched"] is False and out["fresh_count"] == 0
+    assert out["association"] == "unknown"
     assert (out["active"], out["reason"]) == ("flc", "no_v2v")
     # No V2V: the FLC drives, as the FLC alone would.
     alone = flc.FallbackController().step(20.0, 10.0)

@@ -67,6 +67,19 @@ def test_supervisor_falls_back_and_returns():
     assert outs[-1]["reason"] == "v2v_stale"
 
 
+def test_supervisor_reports_association_and_falls_back_on_a_cut_in():
+    # Issue 25: a distance jump the V2V sender's speed does not explain is a new object.
+    s = flc.Supervisor(return_after=3)
+    outs = [s.step((10.0, k), 25.0, 10.0, 0.05) for k in range(3)]
+    assert outs[-1]["active"] == "pid" and outs[-1]["association"] == "associated"
+    out = s.step((10.0, 3), 12.0, 10.0, 0.05)
+    assert (out["active"], out["reason"], out["association"], out["switched"]) == ("flc", "not_associated", "not_associated", True)
+    # The car leaves: the sender is where it was, and the PID drives again after 3 messages.
+    outs = [s.step((10.0, k), 25.0, 10.0, 0.05) for k in range(4, 7)]
+    assert [o["association"] for o in outs] == ["associated"] * 3
+    assert [o["active"] for o in outs] == ["flc", "flc", "pid"]
+
+
 def test_detector_finds_a_rear_face():
     d = flc.LeadDetector()
     ys = np.linspace(-0.95, 0.95, 40)

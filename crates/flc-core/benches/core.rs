@@ -77,7 +77,7 @@ fn controllers(c: &mut Criterion) {
             seq = seq.wrapping_add(1);
             let (d, v, l) = inputs[k];
             // V2V every other tick: the PID drives, freshness bookkeeping runs every tick.
-            let msg = (seq & 1 == 0).then_some(V2vMessage { lead_speed: l, seq });
+            let msg = (seq & 1 == 0).then_some(V2vMessage::speed_only(l, seq));
             sup.step(black_box(msg), Some(black_box(d)), black_box(v), black_box(0.05))
         })
     });

@@ -59,7 +59,7 @@ fn supervisor_steps(s: &mut Supervisor, inputs: &[(f64, f64, f64)]) -> f64 {
         .iter()
         .map(|&(d, v, l)| {
             seq += 1;
-            let msg = (seq & 1 == 0).then_some(V2vMessage { lead_speed: l, seq });
+            let msg = (seq & 1 == 0).then_some(V2vMessage::speed_only(l, seq));
             black_box(s.step(msg, Some(d), v, 0.05)).command.speed
         })
         .sum()

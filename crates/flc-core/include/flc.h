@@ -40,7 +40,7 @@
 /**
  * Words (8 bytes each) of `FlcSupervisor::storage`.
  */
-#define FLC_SUPERVISOR_WORDS 94
+#define FLC_SUPERVISOR_WORDS 122
 
 /**
  * Words (8 bytes each) of `FlcPursuit::storage`.
@@ -216,12 +216,45 @@ enum FlcSwitchReason
      * The last message carried an unusable lead speed.
      */
     FLC_SWITCH_REASON_INVALID_V2V = 4,
+    /**
+     * V2V is fresh but the detected object is not its sender.
+     */
+    FLC_SWITCH_REASON_NOT_ASSOCIATED = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
 typedef enum FlcSwitchReason FlcSwitchReason;
 #else
 typedef uint8_t FlcSwitchReason;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * Mirror of the Rust `AssociationState`.
+ */
+enum FlcAssociationState
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * No fresh V2V or no detection yet.
+     */
+    FLC_ASSOCIATION_STATE_UNKNOWN = 0,
+    /**
+     * The detected object is the V2V sender.
+     */
+    FLC_ASSOCIATION_STATE_ASSOCIATED = 1,
+    /**
+     * The detected object is not the V2V sender.
+     */
+    FLC_ASSOCIATION_STATE_NOT_ASSOCIATED = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum FlcAssociationState FlcAssociationState;
+#else
+typedef uint8_t FlcAssociationState;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -852,6 +885,40 @@ typedef struct FlcPidTerms {
 } FlcPidTerms;
 
 /**
+ * Mirror of the Rust `AssociationParams`.
+ */
+typedef struct FlcAssociationParams {
+    /**
+     * Largest unexplained change of the distance between two ticks, m.
+     */
+    double jump_m;
+    /**
+     * Time constant with which the tracked gap follows the detections, s.
+     */
+    double track_tau_s;
+    /**
+     * Growth of the dead-reckoned gap's tolerance, m/s.
+     */
+    double speed_error_mps;
+    /**
+     * 1-sigma GNSS position error assumed for each vehicle, m.
+     */
+    double gnss_sigma_m;
+    /**
+     * Width of the position gate in sigmas of the gap's GNSS error.
+     */
+    double gate_sigmas;
+    /**
+     * Largest V2V air latency the gate allows for, s.
+     */
+    double max_latency_s;
+    /**
+     * `false`: every detection counts as the sender.
+     */
+    bool enabled;
+} FlcAssociationParams;
+
+/**
  * Mirror of the Rust `SupervisorParams`.
  */
 typedef struct FlcSupervisorParams {
@@ -863,6 +930,10 @@ typedef struct FlcSupervisorParams {
      * The PID's parameters.
      */
     struct FlcPidParams pid;
+    /**
+     * The association rule's parameters.
+     */
+    struct FlcAssociationParams association;
     /**
      * Highest V2V age, in control ticks, still counted as fresh.
      */
@@ -932,6 +1003,10 @@ typedef struct FlcSupervisorOutput {
      * Why.
      */
     FlcSwitchReason reason;
+    /**
+     * Is the detected object the V2V sender?
+     */
+    FlcAssociationState association;
     /**
      * `true` on the tick the active controller changed.
      */

@@ -36,6 +36,7 @@
 #[cfg(any(feature = "std", test))]
 extern crate std;
 
+pub mod association;
 pub mod baselines;
 #[cfg(feature = "capi")]
 pub mod capi;
@@ -50,6 +51,7 @@ pub mod pid;
 pub mod pure_pursuit;
 pub mod supervisor;
 
+pub use association::{Association, AssociationParams, AssociationState, OwnFix, SenderState};
 pub use baselines::{Baseline, BaselineKind, NoLeadPolicy};
 pub use command::{LongitudinalCommand, Status};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};

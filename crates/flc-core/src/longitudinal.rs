@@ -15,7 +15,7 @@
 //! use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
 //!
 //! let mut law: Box<dyn LongitudinalController + Send> = Box::new(FallbackController::new(FlcParams::paper())?);
-//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None });
+//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None });
 //! // Eqs. (2)-(5): dist_s = 25 - 16 - 4 = 5, a = 5 (1 - cos(5 pi / 11)) = 4.2884...
 //! assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
 //! assert_eq!(out.terms.get("dist_s"), Some(5.0));
@@ -23,6 +23,7 @@
 //! # Ok::<(), flc_core::ParamError>(())
 //! ```
 
+use crate::association::{AssociationState, OwnFix, SenderState};
 use crate::command::LongitudinalCommand;
 
 /// One V2V message as received by the follower.
@@ -33,6 +34,17 @@ pub struct V2vMessage {
     /// The sender's sequence number (wrapping). Duplicates and messages older than the newest
     /// accepted one are ignored.
     pub seq: u32,
+    /// The rest of the sender's CAM / BSM (id, GNSS position, heading, acceleration, length);
+    /// `None` for a message that carries a speed only (e.g. a relayed lead speed). The
+    /// supervisor's association rule uses it when present ([`crate::association`]).
+    pub sender: Option<SenderState>,
+}
+
+impl V2vMessage {
+    /// A message with a speed and a sequence number only.
+    pub const fn speed_only(lead_speed: f64, seq: u32) -> Self {
+        Self { lead_speed, seq, sender: None }
+    }
 }
 
 /// Which controller produced the command.
@@ -69,6 +81,9 @@ pub enum SwitchReason {
     Recovering = 3,
     /// The last message carried an unusable lead speed (NaN, infinite, implausible).
     InvalidV2v = 4,
+    /// V2V is fresh but the object the detector reports is not its sender (a car cut in, or a
+    /// cut-out revealed another one): the PID must not combine the two ([`crate::association`]).
+    NotAssociated = 5,
 }
 
 impl SwitchReason {
@@ -80,6 +95,7 @@ impl SwitchReason {
             SwitchReason::V2vStale => "v2v_stale",
             SwitchReason::Recovering => "recovering",
             SwitchReason::InvalidV2v => "invalid_v2v",
+            SwitchReason::NotAssociated => "not_associated",
         }
     }
 }
@@ -101,12 +117,14 @@ pub struct Frame {
     /// results). `None` (LiDAR): the laws that need the lead's speed estimate it from the
     /// distance. The FLC family and the PID never read it.
     pub lead_speed: Option<f64>,
+    /// The own GNSS fix (read only by the supervisor's association rule; `None`: none).
+    pub own_fix: Option<OwnFix>,
 }
 
 impl Frame {
     /// A frame without V2V.
     pub const fn new(distance: Option<f64>, own_speed: f64, dt: f64) -> Self {
-        Self { distance, own_speed, v2v: None, dt, lead_speed: None }
+        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None }
     }
 }
 
@@ -127,13 +145,23 @@ pub struct ControlOutput {
     pub switched: bool,
     /// Supervisor only: V2V age in ticks (u32::MAX otherwise).
     pub v2v_age_ticks: u32,
+    /// Supervisor only: is the detected object the V2V sender (`Unknown` otherwise).
+    pub association: AssociationState,
 }
 
 impl ControlOutput {
     /// The output of a single (non-switching) law: `reason = NoV2v`, `switched = false`,
     /// `v2v_age_ticks = u32::MAX`.
     pub const fn single(command: LongitudinalCommand, terms: Terms, active: ActiveController) -> Self {
-        Self { command, terms, active, reason: SwitchReason::NoV2v, switched: false, v2v_age_ticks: u32::MAX }
+        Self {
+            command,
+            terms,
+            active,
+            reason: SwitchReason::NoV2v,
+            switched: false,
+            v2v_age_ticks: u32::MAX,
+            association: AssociationState::Unknown,
+        }
     }
 }
 
@@ -290,7 +318,7 @@ mod tests {
     }
 
     fn frame((distance, own_speed, dt, m): (Option<f64>, f64, f64, Option<(f64, u32)>)) -> Frame {
-        Frame { distance, own_speed, dt, v2v: m.map(|(lead_speed, seq)| crate::V2vMessage { lead_speed, seq }), lead_speed: None }
+        Frame { distance, own_speed, dt, v2v: m.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)), lead_speed: None, own_fix: None }
     }
 
     proptest! {
@@ -357,7 +385,7 @@ mod tests {
             prop_assert!(!flc.0.uses_dt() && !rob.0.uses_dt());
             for (i, other_dt, other_v2v) in seq {
                 let f = frame(i);
-                let g = Frame { dt: other_dt, v2v: other_v2v.map(|(lead_speed, seq)| crate::V2vMessage { lead_speed, seq }), ..f };
+                let g = Frame { dt: other_dt, v2v: other_v2v.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)), ..f };
                 let (a, b) = (LongitudinalController::step(&mut flc.0, &f), LongitudinalController::step(&mut flc.1, &g));
                 prop_assert!(same(a.command, b.command));
                 prop_assert_eq!(a.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>(), b.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>());

@@ -319,8 +319,8 @@ impl PidController {
 /// use flc_core::{Frame, LongitudinalController, PidController, PidParams, V2vMessage};
 ///
 /// let mut pid = PidController::new(PidParams::paper())?;
-/// let v2v = Some(V2vMessage { lead_speed: 10.0, seq: 1 });
-/// let out = LongitudinalController::step(&mut pid, &Frame { distance: Some(15.0), own_speed: 10.0, v2v, dt: 0.1, lead_speed: None });
+/// let v2v = Some(V2vMessage::speed_only(10.0, 1));
+/// let out = LongitudinalController::step(&mut pid, &Frame { distance: Some(15.0), own_speed: 10.0, v2v, dt: 0.1, lead_speed: None, own_fix: None });
 /// // desired = 0.5 * 10 + 6 + 10 * 0.4 = 15 = distance, lead speed = own speed: u = 0.
 /// assert_eq!(out.command.accel, 0.0);
 /// assert_eq!(pid.desired_gap(10.0), 15.0);

@@ -11,8 +11,13 @@
 //! * FLC -> PID only after `return_after` consecutive fresh messages (each arriving within
 //!   `max_age_ticks` of the previous one), so a flickering link does not chatter;
 //! * the switch to the PID is bumpless: the PID's integrator is preset so that its first command
-//!   equals the last command issued; the switch to the FLC takes the FLC's own command.
+//!   equals the last command issued; the switch to the FLC takes the FLC's own command;
+//! * V2V that is fresh but whose sender is not the object the detector reports
+//!   ([`crate::association`]: a car cut in, a cut-out revealed another one) counts as not fresh:
+//!   PID -> FLC at once (reason [`SwitchReason::NotAssociated`]), and back only after
+//!   `return_after` consecutive fresh messages with the sender associated again.
 
+use crate::association::{Association, AssociationInput, AssociationParams, AssociationState, OwnFix, SenderState};
 use crate::command::LongitudinalCommand;
 use crate::flc::{FallbackController, FlcParams};
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms};
@@ -36,11 +41,20 @@ pub struct SupervisorParams {
     pub flc: FlcParams,
     /// The PID's parameters.
     pub pid: PidParams,
+    /// Is the detected object the V2V sender? ([`crate::association`]).
+    pub association: AssociationParams,
 }
 
 impl Default for SupervisorParams {
     fn default() -> Self {
-        Self { max_age_ticks: 4, return_after: 5, bumpless: true, flc: FlcParams::paper(), pid: PidParams::paper() }
+        Self {
+            max_age_ticks: 4,
+            return_after: 5,
+            bumpless: true,
+            flc: FlcParams::paper(),
+            pid: PidParams::paper(),
+            association: AssociationParams::default(),
+        }
     }
 }
 
@@ -57,8 +71,10 @@ pub struct SupervisorOutput {
     pub switched: bool,
     /// Ticks since the last accepted V2V message (`u32::MAX` if none yet).
     pub v2v_age_ticks: u32,
-    /// Consecutive fresh messages counted so far.
+    /// Consecutive fresh messages counted so far (with the sender associated).
     pub fresh_count: u32,
+    /// Is the detected object the V2V sender?
+    pub association: AssociationState,
     /// What the FLC commanded this tick.
     pub flc: LongitudinalCommand,
     /// What the PID commanded this tick.
@@ -75,6 +91,8 @@ pub struct Supervisor {
     age: u32,
     last_seq: Option<u32>,
     lead_speed: Option<f64>,
+    sender: Option<SenderState>,
+    association: Association,
     fresh_count: u32,
     last_command: Option<f64>,
     last_invalid: bool,
@@ -94,6 +112,8 @@ impl Supervisor {
             age: u32::MAX,
             last_seq: None,
             lead_speed: None,
+            sender: None,
+            association: Association::new(params.association)?,
             fresh_count: 0,
             last_command: None,
             last_invalid: false,
@@ -128,6 +148,8 @@ impl Supervisor {
         self.age = u32::MAX;
         self.last_seq = None;
         self.lead_speed = None;
+        self.sender = None;
+        self.association.reset();
         self.fresh_count = 0;
         self.last_command = None;
         self.last_invalid = false;
@@ -137,8 +159,35 @@ impl Supervisor {
     /// `distance` the LiDAR distance (`None`: no lead detected), `own_speed` in m/s, `dt` the PID's
     /// time step in s (the FLC ignores it).
     pub fn step(&mut self, v2v: Option<V2vMessage>, distance: Option<f64>, own_speed: f64, dt: f64) -> SupervisorOutput {
+        self.step_with_fix(v2v, distance, own_speed, dt, None)
+    }
+
+    /// [`Self::step`] with the own GNSS fix for the association rule's position gate.
+    pub fn step_with_fix(
+        &mut self,
+        v2v: Option<V2vMessage>,
+        distance: Option<f64>,
+        own_speed: f64,
+        dt: f64,
+        own_fix: Option<OwnFix>,
+    ) -> SupervisorOutput {
         self.receive(v2v);
         let fresh = self.age <= self.params.max_age_ticks;
+        let tick = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        let association = self.association.step(&AssociationInput {
+            distance,
+            own_speed,
+            sender_speed: if fresh { self.lead_speed } else { None },
+            sender: self.sender.as_ref(),
+            message_age: f64::from(self.age.min(1_000_000)) * tick,
+            own_fix,
+            dt,
+        });
+        let not_associated = fresh && association == AssociationState::NotAssociated;
+        if not_associated {
+            // The hand-back counts messages from the tick the sender is associated again.
+            self.fresh_count = 0;
+        }
 
         let flc = self.flc.step(distance, own_speed);
         // Without any lead speed the PID is stepped with zero relative speed; its output is then
@@ -148,8 +197,10 @@ impl Supervisor {
 
         let previous = self.active;
         self.active = match self.active {
-            ActiveController::Pid if !fresh => ActiveController::Flc,
-            ActiveController::Flc if fresh && self.fresh_count >= self.params.return_after => ActiveController::Pid,
+            ActiveController::Pid if !fresh || not_associated => ActiveController::Flc,
+            ActiveController::Flc if fresh && !not_associated && self.fresh_count >= self.params.return_after => {
+                ActiveController::Pid
+            }
             same => same,
         };
         let switched = previous != self.active;
@@ -165,6 +216,8 @@ impl Supervisor {
             SwitchReason::NoV2v
         } else if !fresh {
             SwitchReason::V2vStale
+        } else if not_associated {
+            SwitchReason::NotAssociated
         } else if self.active == ActiveController::Flc {
             SwitchReason::Recovering
         } else {
@@ -182,6 +235,7 @@ impl Supervisor {
             switched,
             v2v_age_ticks: self.age,
             fresh_count: self.fresh_count,
+            association,
             flc,
             pid,
         }
@@ -214,6 +268,7 @@ impl Supervisor {
                 self.age = 0;
                 self.last_seq = Some(m.seq);
                 self.lead_speed = Some(m.lead_speed);
+                self.sender = m.sender;
             }
             None => {
                 self.age = self.age.saturating_add(1);
@@ -252,7 +307,7 @@ impl SupervisorOutput {
 /// ```
 impl LongitudinalController for Supervisor {
     fn step(&mut self, frame: &Frame) -> ControlOutput {
-        let o = Supervisor::step(self, frame.v2v, frame.distance, frame.own_speed, frame.dt);
+        let o = Supervisor::step_with_fix(self, frame.v2v, frame.distance, frame.own_speed, frame.dt, frame.own_fix);
         ControlOutput {
             command: o.command,
             terms: o.to_terms(),
@@ -260,6 +315,7 @@ impl LongitudinalController for Supervisor {
             reason: o.reason,
             switched: o.switched,
             v2v_age_ticks: o.v2v_age_ticks,
+            association: o.association,
         }
     }
 
@@ -295,7 +351,7 @@ mod tests {
     const DT: f64 = 0.05;
 
     fn msg(seq: u32) -> Option<V2vMessage> {
-        Some(V2vMessage { lead_speed: 10.0, seq })
+        Some(V2vMessage::speed_only(10.0, seq))
     }
 
     #[test]
@@ -384,7 +440,7 @@ mod tests {
         for seq in 1..=5 {
             s.step(msg(seq), Some(20.0), 10.0, DT);
         }
-        let out = s.step(Some(V2vMessage { lead_speed: f64::NAN, seq: 6 }), Some(20.0), 10.0, DT);
+        let out = s.step(Some(V2vMessage::speed_only(f64::NAN, 6)), Some(20.0), 10.0, DT);
         assert_eq!(out.reason, SwitchReason::InvalidV2v);
         assert_eq!(out.fresh_count, 0);
         assert!(out.command.speed.is_finite());
@@ -406,7 +462,7 @@ mod tests {
         ) {
             let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
             for (m, d, v, dt) in seq {
-                let out = s.step(m.map(|(lead_speed, seq)| V2vMessage { lead_speed, seq }), d, v, dt);
+                let out = s.step(m.map(|(lead_speed, seq)| V2vMessage::speed_only(lead_speed, seq)), d, v, dt);
                 prop_assert!(out.command.speed.is_finite() && out.command.speed >= 0.0 && out.command.speed <= 70.0);
                 if !v.is_finite() { prop_assert_eq!(out.command.status, Status::InvalidSpeed); }
             }

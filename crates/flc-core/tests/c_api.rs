@@ -254,7 +254,7 @@ fn expected() -> Vec<String> {
         if k == 450 {
             s.reset();
         }
-        let r = s.step(has_v2v.then_some(V2vMessage { lead_speed, seq }), has_dist.then_some(dist), own, 0.05);
+        let r = s.step(has_v2v.then_some(V2vMessage::speed_only(lead_speed, seq)), has_dist.then_some(dist), own, 0.05);
         let active = match r.active {
             ActiveController::Flc => 0,
             ActiveController::Pid => 1,
@@ -265,8 +265,10 @@ fn expected() -> Vec<String> {
             SwitchReason::V2vStale => 2,
             SwitchReason::Recovering => 3,
             SwitchReason::InvalidV2v => 4,
+            SwitchReason::NotAssociated => 5,
         };
-        let _ = write!(o, "sup {k} {active} {reason} {} {} {}", u8::from(r.switched), r.v2v_age_ticks, r.fresh_count);
+        let association = r.association as u8;
+        let _ = write!(o, "sup {k} {active} {reason} {} {} {} {association}", u8::from(r.switched), r.v2v_age_ticks, r.fresh_count);
         cmd(&mut o, r.command);
         cmd(&mut o, r.flc);
         cmd(&mut o, r.pid);
@@ -429,6 +431,7 @@ fn c_example_outputs_equal_rust() {
     // The sequences exercise every status, both controllers of the supervisor and detections.
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(2) == Some("1")), "the PID never drove");
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(4) == Some("1")), "the supervisor never switched");
+    assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(3) == Some("5")), "never not associated");
     assert!(got.iter().filter(|l| l.starts_with("det ") && l.split(' ').nth(4) == Some("1")).count() >= 4, "too few detections");
     // The robust sequences hold for missed frames, confirm jumps and latch on reveals.
     let flag = |prefix: &str, i: usize| got.iter().filter(|l| l.starts_with(prefix) && l.split(' ').nth(i) == Some("1")).count();

@@ -257,9 +257,9 @@ proptest! {
             prop_assert_eq!(unsafe { flc_supervisor_step(sup_s.as_mut_ptr(), has_v2v, m, has_d, d, v, dt, so.as_mut_ptr()) }, FlcResult::Ok);
             // SAFETY: written on Ok.
             let so = unsafe { so.assume_init() };
-            let ro = sup.step(has_v2v.then_some(V2vMessage { lead_speed: lead, seq: seq_no }), has_d.then_some(d), v, dt);
+            let ro = sup.step(has_v2v.then_some(V2vMessage::speed_only(lead, seq_no)), has_d.then_some(d), v, dt);
             prop_assert!(same_cmd(so.command, ro.command) && same_cmd(so.flc, ro.flc) && same_cmd(so.pid, ro.pid));
-            prop_assert_eq!((so.active as u8, so.reason as u8, so.switched, so.v2v_age_ticks, so.fresh_count), (ro.active as u8, ro.reason as u8, ro.switched, ro.v2v_age_ticks, ro.fresh_count));
+            prop_assert_eq!((so.active as u8, so.reason as u8, so.switched, so.v2v_age_ticks, so.fresh_count, so.association as u8), (ro.active as u8, ro.reason as u8, ro.switched, ro.v2v_age_ticks, ro.fresh_count, ro.association as u8));
         }
     }
 

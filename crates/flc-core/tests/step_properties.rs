@@ -129,7 +129,7 @@ proptest! {
         let params = SupervisorParams { max_age_ticks, return_after, bumpless, ..SupervisorParams::default() };
         let mut s = Supervisor::new(params).unwrap();
         for (msg, d, own) in seq {
-            let out = s.step(msg.map(|(lead_speed, seq)| V2vMessage { lead_speed, seq }), d, own, 0.05);
+            let out = s.step(msg.map(|(lead_speed, seq)| V2vMessage::speed_only(lead_speed, seq)), d, own, 0.05);
             check_command(out.command, own, params.flc.max_speed)?;
             let expected = match out.active {
                 ActiveController::Flc => out.flc,

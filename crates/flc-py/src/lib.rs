@@ -102,6 +102,8 @@ struct SupervisorStep {
     /// `None` before any V2V message.
     v2v_age_ticks: Option<u32>,
     fresh_count: u32,
+    /// `unknown`, `associated` or `not_associated` (is the detected object the V2V sender?).
+    association: &'static str,
     flc_speed: f64,
     pid_speed: f64,
 }
@@ -122,7 +124,7 @@ impl Supervisor {
 
     /// One tick; returns the JSON of [`SupervisorStep`]: the command, the active controller and why.
     fn step(&mut self, v2v: Option<(f64, u32)>, distance: Option<f64>, own_speed: f64, dt: f64) -> PyResult<String> {
-        let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage { lead_speed, seq });
+        let msg = v2v.map(|(lead_speed, seq)| flc_core::V2vMessage::speed_only(lead_speed, seq));
         let o = self.inner.step(msg, distance, own_speed, dt);
         to_json(&SupervisorStep {
             speed: o.command.speed,
@@ -133,6 +135,7 @@ impl Supervisor {
             switched: o.switched,
             v2v_age_ticks: (o.v2v_age_ticks != u32::MAX).then_some(o.v2v_age_ticks),
             fresh_count: o.fresh_count,
+            association: o.association.as_str(),
             flc_speed: o.flc.speed,
             pid_speed: o.pid.speed,
         })

@@ -175,6 +175,8 @@ pub struct SupervisorSpec {
     pub return_after: u32,
     /// Bumpless return to the PID.
     pub bumpless: bool,
+    /// Is the detected object the V2V sender? (`[supervisor.association]`, issue 25).
+    pub association: flc_core::AssociationParams,
 }
 
 impl SupervisorSpec {
@@ -183,14 +185,14 @@ impl SupervisorSpec {
         if !(1..=1_000_000).contains(&self.return_after) {
             return Err(flc_core::ParamError { field: "return_after", problem: "must be in [1, 1000000] messages" });
         }
-        Ok(())
+        self.association.validate()
     }
 }
 
 impl Default for SupervisorSpec {
     fn default() -> Self {
         let d = flc_core::SupervisorParams::default();
-        Self { max_age_ticks: d.max_age_ticks, return_after: d.return_after, bumpless: d.bumpless }
+        Self { max_age_ticks: d.max_age_ticks, return_after: d.return_after, bumpless: d.bumpless, association: d.association }
     }
 }
 
@@ -203,6 +205,7 @@ impl ControllerSections {
             bumpless: self.supervisor.bumpless,
             flc: self.flc,
             pid: self.pid,
+            association: self.supervisor.association,
         }
     }
 }

@@ -29,6 +29,7 @@ mod external;
 mod follower;
 pub mod frequency_response;
 mod gap_sensor;
+pub mod gnss;
 mod lead;
 mod lidar;
 mod metrics;

@@ -84,6 +84,10 @@ pub struct StringStability {
     pub max_ratio: Option<f64>,
     /// Followers that touched the vehicle in front.
     pub collisions: Vec<u32>,
+    /// Followers whose supervisor fell back because the vehicle in front was not their V2V sender
+    /// (reason `not_associated`, e.g. a car cut in ahead of them; issue 25). Absent if none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_associated: Vec<u32>,
     /// No collision and every counted ratio `<= 1 + tolerance`.
     pub time_domain_stable: bool,
     /// `|Gamma(jw)|` per measured frequency (empty unless measured).
@@ -286,6 +290,7 @@ impl StringStability {
             accel_ratio_peak,
             max_ratio,
             collisions,
+            not_associated: Vec::new(),
             time_domain_stable,
             frequency_response: Vec::new(),
             max_gamma: None,
@@ -300,7 +305,11 @@ impl StringStability {
         let t0 = spec.window_start.or(brake_onset).unwrap_or(0.0);
         let t1 = sig.t.last().copied().unwrap_or(0.0);
         let collisions = runs.iter().enumerate().filter(|(_, r)| r.collision.is_some()).map(|(k, _)| k as u32 + 1).collect();
-        Self::from_signals(sig, t0, t1, spec, collisions)
+        let mut out = Self::from_signals(sig, t0, t1, spec, collisions);
+        let not_associated = flc_core::SwitchReason::NotAssociated as u8;
+        out.not_associated =
+            runs.iter().enumerate().filter(|(_, r)| r.series.reason.contains(&not_associated)).map(|(k, _)| k as u32 + 1).collect();
+        out
     }
 
     /// Adds the frequency response and updates the verdict.

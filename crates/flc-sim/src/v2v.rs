@@ -22,18 +22,24 @@
 //!   ticks since the last message, so no clock synchronisation is needed and the skew has no effect
 //!   on control. That is the point of the parameter.
 //!
-//! Determinism: one ChaCha8 stream per channel, seeded by the caller; every broadcast draws exactly
+//! * **Message contents.** Besides the speed and a sequence number, a message may carry the
+//!   sender's CAM / BSM kinematics ([`flc_core::SenderState`]: station id, reference position,
+//!   heading, acceleration, length; [`V2vChannel::send_state`]). The position carries the
+//!   sender's GNSS error ([`crate::gnss`], `[v2v.gnss]`), sampled when the message is generated.
+//!
+//! Determinism: one ChaCha8 stream per channel (and one for the sender's GNSS error), seeded by the caller; every broadcast draws exactly
 //! four uniforms (Gilbert–Elliott transition, Gilbert–Elliott loss, independent loss, jitter)
 //! whatever the configuration, so changing e.g. `loss_prob` does not reshuffle the jitter draws.
 
 use std::collections::VecDeque;
 
-use flc_core::V2vMessage;
+use flc_core::{SenderState, V2vMessage};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
+use crate::gnss::{GnssError, GnssParams};
 
 /// Tolerance on time comparisons (s): a tick at `0.09999999999` counts as `0.1`.
 const TIME_EPS: f64 = 1e-9;
@@ -126,6 +132,9 @@ pub struct V2vParams {
     /// Offset of the lead's clock, s, in [-1e6, 1e6]; only changes the stamps in the messages,
     /// which the supervisor never reads (no clock synchronisation needed). Default 0.
     pub clock_skew_s: f64,
+    /// GNSS error of the sender's position in the messages (and of the receiver's own fix).
+    /// Default 1 m sigma, 60 s correlation time.
+    pub gnss: GnssParams,
 }
 
 impl Default for V2vParams {
@@ -140,6 +149,7 @@ impl Default for V2vParams {
             outages: Vec::new(),
             outage_on_brake: false,
             clock_skew_s: 0.0,
+            gnss: GnssParams::default(),
         }
     }
 }
@@ -167,7 +177,8 @@ impl V2vParams {
                 return Err(ConfigError::new(format!("{key}.end"), format!("must be > start ({}) s, got {}", o.start, o.end)));
             }
         }
-        check_range("clock_skew_s", self.clock_skew_s, -1e6, 1e6, "s")
+        check_range("clock_skew_s", self.clock_skew_s, -1e6, 1e6, "s")?;
+        self.gnss.validate().map_err(|e| e.within("gnss"))
     }
 
     /// Broadcast period, s.
@@ -226,6 +237,7 @@ pub struct V2vChannel {
     runtime_outages: Vec<Outage>,
     last_delivered: Option<u64>,
     stats: V2vStats,
+    gnss: GnssError,
 }
 
 impl V2vChannel {
@@ -235,7 +247,9 @@ impl V2vChannel {
         // Initial Gilbert–Elliott state from the stationary distribution (always drawn).
         let u: f64 = rng.random();
         let ge_bad = params.gilbert_elliott.is_some_and(|ge| u < ge.stationary_bad());
+        let gnss = GnssError::new(params.gnss, seed ^ 0x474E_5353_5345_4E44); // "GNSSSEND"
         Self {
+            gnss,
             params,
             rng,
             next_slot: None,
@@ -286,6 +300,20 @@ impl V2vChannel {
     /// Broadcasts `lead_speed` at `t_send` and advances the schedule past `t_send` (missed slots
     /// are skipped). Does nothing when the link is disabled or `t_send` is not finite.
     pub fn send(&mut self, t_send: f64, lead_speed: f64) {
+        self.send_state(t_send, lead_speed, None);
+    }
+
+    /// [`Self::tick`] for a sender that broadcasts its kinematics (`truth`: true values; the
+    /// message's position gets the sender's GNSS error).
+    pub fn tick_state(&mut self, t: f64, lead_speed: f64, truth: &SenderState) -> Option<V2vMessage> {
+        if self.broadcast_due(t) {
+            self.send_state(t, lead_speed, Some(truth));
+        }
+        self.receive_packet(t).map(|p| p.message)
+    }
+
+    /// [`Self::send`] with the sender's kinematics (`truth`: true values, `None`: speed only).
+    pub fn send_state(&mut self, t_send: f64, lead_speed: f64, truth: Option<&SenderState>) {
         if !self.params.enabled || !t_send.is_finite() {
             return;
         }
@@ -324,8 +352,12 @@ impl V2vChannel {
             return;
         }
         let delay = (self.params.latency + self.params.jitter * (2.0 * u_jitter - 1.0)).max(0.0);
+        let sender = truth.map(|s| {
+            let (ex, ey) = self.gnss.sample(t_send);
+            SenderState { x: s.x + ex, y: s.y + ey, ..*s }
+        });
         self.in_flight.push_back(V2vPacket {
-            message: V2vMessage { lead_speed, seq: seq_full as u32 },
+            message: V2vMessage { lead_speed, seq: seq_full as u32, sender },
             t_send,
             t_arrive: t_send + delay,
             stamp: t_send + self.params.clock_skew_s,

@@ -171,7 +171,7 @@ fn no_crate_has_an_import_cycle() {
 /// the layers below.
 const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units"],
-    &["track", "world", "vehicle", "lidar", "gap_sensor", "v2v", "trigger", "lead", "story"],
+    &["track", "world", "vehicle", "lidar", "gap_sensor", "gnss", "v2v", "trigger", "lead", "story"],
     &["series", "metrics"],
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],

@@ -260,8 +260,8 @@ static void run_supervisor(void) {
         if (k == 450) check("flc_supervisor_reset", flc_supervisor_reset(&sup_storage));
         FlcSupervisorOutput o;
         check("flc_supervisor_step", flc_supervisor_step(&sup_storage, has_v2v, m, has_dist, dist, own, 0.05, &o));
-        printf("sup %zu %u %u %d %u %u", k, (unsigned)o.active, (unsigned)o.reason, (int)o.switched,
-               (unsigned)o.v2v_age_ticks, (unsigned)o.fresh_count);
+        printf("sup %zu %u %u %d %u %u %u", k, (unsigned)o.active, (unsigned)o.reason, (int)o.switched,
+               (unsigned)o.v2v_age_ticks, (unsigned)o.fresh_count, (unsigned)o.association);
         print_cmd(&o.command);
         print_cmd(&o.flc);
         print_cmd(&o.pid);

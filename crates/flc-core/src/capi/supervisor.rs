@@ -6,6 +6,7 @@ use core::ptr;
 use super::storage::{check_ptr, get_mut, init, storage, tri, write_out};
 use super::{FlcFallbackParams, FlcLongitudinalCommand, FlcParamError, FlcPidParams, FlcResult};
 use crate::params::ParamError;
+use crate::association::{AssociationParams, AssociationState};
 use crate::supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
 
 // ---------------------------------------------------------------------------------------------
@@ -36,6 +37,68 @@ pub enum FlcSwitchReason {
     Recovering = 3,
     /// The last message carried an unusable lead speed.
     InvalidV2v = 4,
+    /// V2V is fresh but the detected object is not its sender.
+    NotAssociated = 5,
+}
+
+/// Mirror of the Rust `AssociationState`.
+#[repr(u8)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FlcAssociationState {
+    /// No fresh V2V or no detection yet.
+    Unknown = 0,
+    /// The detected object is the V2V sender.
+    Associated = 1,
+    /// The detected object is not the V2V sender.
+    NotAssociated = 2,
+}
+
+/// Mirror of the Rust `AssociationParams`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlcAssociationParams {
+    /// Largest unexplained change of the distance between two ticks, m.
+    pub jump_m: f64,
+    /// Time constant with which the tracked gap follows the detections, s.
+    pub track_tau_s: f64,
+    /// Growth of the dead-reckoned gap's tolerance, m/s.
+    pub speed_error_mps: f64,
+    /// 1-sigma GNSS position error assumed for each vehicle, m.
+    pub gnss_sigma_m: f64,
+    /// Width of the position gate in sigmas of the gap's GNSS error.
+    pub gate_sigmas: f64,
+    /// Largest V2V air latency the gate allows for, s.
+    pub max_latency_s: f64,
+    /// `false`: every detection counts as the sender.
+    pub enabled: bool,
+}
+
+impl From<AssociationParams> for FlcAssociationParams {
+    fn from(p: AssociationParams) -> Self {
+        Self {
+            jump_m: p.jump_m,
+            track_tau_s: p.track_tau_s,
+            speed_error_mps: p.speed_error_mps,
+            gnss_sigma_m: p.gnss_sigma_m,
+            gate_sigmas: p.gate_sigmas,
+            max_latency_s: p.max_latency_s,
+            enabled: p.enabled,
+        }
+    }
+}
+
+impl From<FlcAssociationParams> for AssociationParams {
+    fn from(p: FlcAssociationParams) -> Self {
+        Self {
+            enabled: p.enabled,
+            jump_m: p.jump_m,
+            track_tau_s: p.track_tau_s,
+            speed_error_mps: p.speed_error_mps,
+            gnss_sigma_m: p.gnss_sigma_m,
+            gate_sigmas: p.gate_sigmas,
+            max_latency_s: p.max_latency_s,
+        }
+    }
 }
 
 /// Mirror of the Rust `SupervisorParams`.
@@ -46,6 +109,8 @@ pub struct FlcSupervisorParams {
     pub flc: FlcFallbackParams,
     /// The PID's parameters.
     pub pid: FlcPidParams,
+    /// The association rule's parameters.
+    pub association: FlcAssociationParams,
     /// Highest V2V age, in control ticks, still counted as fresh.
     pub max_age_ticks: u32,
     /// Consecutive fresh messages needed before the PID drives again.
@@ -82,6 +147,8 @@ pub struct FlcSupervisorOutput {
     pub active: FlcActiveController,
     /// Why.
     pub reason: FlcSwitchReason,
+    /// Is the detected object the V2V sender?
+    pub association: FlcAssociationState,
     /// `true` on the tick the active controller changed.
     pub switched: bool,
 }
@@ -98,6 +165,12 @@ impl From<SupervisorOutput> for FlcSupervisorOutput {
             SwitchReason::V2vStale => FlcSwitchReason::V2vStale,
             SwitchReason::Recovering => FlcSwitchReason::Recovering,
             SwitchReason::InvalidV2v => FlcSwitchReason::InvalidV2v,
+            SwitchReason::NotAssociated => FlcSwitchReason::NotAssociated,
+        };
+        let association = match o.association {
+            AssociationState::Unknown => FlcAssociationState::Unknown,
+            AssociationState::Associated => FlcAssociationState::Associated,
+            AssociationState::NotAssociated => FlcAssociationState::NotAssociated,
         };
         Self {
             command: o.command.into(),
@@ -107,6 +180,7 @@ impl From<SupervisorOutput> for FlcSupervisorOutput {
             fresh_count: o.fresh_count,
             active,
             reason,
+            association,
             switched: o.switched,
         }
     }
@@ -117,7 +191,7 @@ impl From<SupervisorOutput> for FlcSupervisorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcSupervisor::storage`.
-pub const FLC_SUPERVISOR_WORDS: usize = 94;
+pub const FLC_SUPERVISOR_WORDS: usize = 122;
 
 /// Caller-owned storage of one supervisor (FLC + PID + switching). Initialise with
 /// `flc_supervisor_init`.
@@ -135,7 +209,14 @@ storage!(FlcSupervisor, Supervisor, 0x464C_435F_5355_5001); // "FLC_SUP\x01"
 
 impl From<SupervisorParams> for FlcSupervisorParams {
     fn from(p: SupervisorParams) -> Self {
-        Self { flc: p.flc.into(), pid: p.pid.into(), max_age_ticks: p.max_age_ticks, return_after: p.return_after, bumpless: p.bumpless }
+        Self {
+            flc: p.flc.into(),
+            pid: p.pid.into(),
+            association: p.association.into(),
+            max_age_ticks: p.max_age_ticks,
+            return_after: p.return_after,
+            bumpless: p.bumpless,
+        }
     }
 }
 
@@ -148,6 +229,7 @@ impl TryFrom<FlcSupervisorParams> for SupervisorParams {
             bumpless: p.bumpless,
             flc: p.flc.try_into()?,
             pid: p.pid.into(),
+            association: p.association.into(),
         })
     }
 }
@@ -196,7 +278,7 @@ pub unsafe extern "C" fn flc_supervisor_step(
     tri!(check_ptr(out.cast_const()));
     // SAFETY: caller contract.
     let s = tri!(unsafe { get_mut(sup) });
-    let msg = has_v2v.then_some(V2vMessage { lead_speed: v2v.lead_speed, seq: v2v.seq });
+    let msg = has_v2v.then_some(V2vMessage::speed_only(v2v.lead_speed, v2v.seq));
     let o = s.step(msg, has_distance.then_some(distance), own_speed, dt);
     // SAFETY: checked, caller contract.
     unsafe { write_out(out, o.into()) };

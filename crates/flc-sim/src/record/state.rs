@@ -4,8 +4,14 @@
 use super::*;
 
 pub(super) fn reason_name(code: u8) -> &'static str {
-    const REASONS: [SwitchReason; 5] =
-        [SwitchReason::V2vFresh, SwitchReason::NoV2v, SwitchReason::V2vStale, SwitchReason::Recovering, SwitchReason::InvalidV2v];
+    const REASONS: [SwitchReason; 6] = [
+        SwitchReason::V2vFresh,
+        SwitchReason::NoV2v,
+        SwitchReason::V2vStale,
+        SwitchReason::Recovering,
+        SwitchReason::InvalidV2v,
+        SwitchReason::NotAssociated,
+    ];
     REASONS.iter().find(|r| **r as u8 == code).map_or("unknown", |r| r.as_str())
 }
 

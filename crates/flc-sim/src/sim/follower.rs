@@ -1,6 +1,6 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
-use flc_core::{ActiveController, Frame, LeadDetector, Point2, PurePursuit, SwitchReason, V2vMessage};
+use flc_core::{ActiveController, Frame, LeadDetector, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::drive::{DriveCommand, Driven};
 use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
@@ -9,6 +9,7 @@ use super::traffic::centreline_pursuit;
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
 use crate::follower::{FollowerConfig, LostLeadSteering, Perception};
+use crate::gnss::GnssError;
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
 use crate::platoon::V2vSource;
@@ -33,6 +34,8 @@ pub(super) struct Follower {
     pub(super) v2v: V2vChannel,
     /// `both`, followers 2..N: the link carrying the lead's speed (direct or relayed).
     pub(super) v2v_lead: Option<V2vChannel>,
+    /// Its own GNSS error (the fix the association rule compares the sender's position with).
+    pub(super) gnss: GnssError,
     pub(super) detector: Box<LeadDetector>,
     pub(super) pursuit: PurePursuit,
     /// Lost-lead steering `hold_lane`: the lane keeper (pure pursuit of a point on the lane
@@ -95,6 +98,7 @@ impl Follower {
             lidar: Lidar::new(cfg.lidar.clone(), sub_seed(s.seed, follower_stream(index, 1))),
             v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
             v2v_lead,
+            gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
             detector: Box::new(<LeadDetector>::new(cfg.detector)?),
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
@@ -205,7 +209,11 @@ impl Follower {
                 *age = age.saturating_add(1);
             }
         }
-        (Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed }, det)
+        // The own GNSS fix at the CAM reference point (centre of the front of the bounding box).
+        let (ex, ey) = self.gnss.sample(t);
+        let half = self.cfg.follower.vehicle.length / 2.0;
+        let own_fix = Some(OwnFix { x: fs.x + half * fs.yaw.cos() + ex, y: fs.y + half * fs.yaw.sin() + ey, heading: fs.yaw });
+        (Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed, own_fix }, det)
     }
 
     /// A V2V message on its link at `t`: into the mailbox (the next scan's frame).

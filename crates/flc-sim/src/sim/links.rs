@@ -14,7 +14,7 @@ pub(crate) fn sub_seed(seed: u64, stream: u64) -> u64 {
 }
 
 /// Random stream `j` of follower `k` (1-based): follower 1 keeps the single-follower streams
-/// (1 = LiDAR, 2 = V2V link, 3 = second V2V link), follower `k` uses `j + 16 (k - 1)`.
+/// (1 = LiDAR, 2 = V2V link, 3 = second V2V link, 4 = own GNSS), follower `k` uses `j + 16 (k - 1)`.
 pub(super) fn follower_stream(k: usize, j: u64) -> u64 {
     j + 16 * (k as u64 - 1)
 }

@@ -120,6 +120,8 @@ struct State {
     relay: bool,
     /// Speeds of the vehicles at the start of the step (0 = lead), reused.
     speeds: Vec<f64>,
+    /// This step's V2V senders' true kinematics (0: the lead, k: follower k).
+    senders: Vec<flc_core::SenderState>,
     /// Bodies and states of the vehicles after a step with contacts (0 = lead), reused.
     bodies: Vec<(Body, VehicleState)>,
     /// First contacts of the pairs without a follower.
@@ -188,9 +190,15 @@ impl Simulation {
         }
         let lead_body = lead_body.ok_or_else(|| ConfigError::new("platoon.followers", "at least one follower"))?;
         let mut followers = Vec::with_capacity(n);
-        for (k, (c, body)) in configs.into_iter().zip(bodies).enumerate() {
+        for (k, (mut c, body)) in configs.into_iter().zip(bodies).enumerate() {
             let state = state_at(k + 1, c.follower.initial_speed);
             let lead_link = platoon.v2v_source == V2vSource::Both && k >= 1;
+            if platoon.v2v_source != V2vSource::Predecessor && k >= 1 {
+                // The speed its PID takes is the lead's (`lead`) or a mix of the lead's and the
+                // predecessor's (`both`): by design not that of the vehicle it detects, so there is
+                // no sender to associate the detection with (docs/v2v-and-metrics.md 1.11).
+                c.supervisor.association.enabled = false;
+            }
             followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
         }
         // Scripted traffic: bodies after the string's.
@@ -238,6 +246,7 @@ impl Simulation {
             lead_weight: platoon.lead_weight,
             relay: platoon.relay,
             speeds: Vec::with_capacity(n + 1),
+            senders: Vec::with_capacity(n + 1),
             bodies: Vec::new(),
             other_contacts: Vec::new(),
             t: 0.0,
@@ -483,13 +492,18 @@ impl<O: Observer> Simulation<O> {
         self.state.speeds.clear();
         self.state.speeds.push(ls.speed);
         self.state.speeds.extend(self.state.followers.iter().map(|f| f.vehicle.state().speed));
+        self.state.senders.clear();
+        self.state.senders.push(sender_truth(0, &ls, &self.state.scenario.lead.vehicle));
+        for f in &self.state.followers {
+            self.state.senders.push(sender_truth(f.index as u32, f.vehicle.state(), &f.cfg.follower.vehicle));
+        }
         for k in 0..self.state.followers.len() {
             let pending = if self.state.relay && k >= 1 { self.state.followers[k - 1].relay_pending } else { None };
             let mut consumed = false;
             let f = &mut self.state.followers[k];
             match self.state.source {
                 V2vSource::Predecessor => {
-                    if let Some(m) = f.v2v.tick(t, self.state.speeds[k]) {
+                    if let Some(m) = f.v2v.tick_state(t, self.state.speeds[k], &self.state.senders[k]) {
                         f.deliver(t, m);
                     }
                 }
@@ -897,4 +911,18 @@ fn assemble(
     });
     let first = runs.swap_remove(0);
     RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts }
+}
+
+/// The true CAM / BSM kinematics of a V2V sender: its reference point is the centre of the front
+/// of its bounding box (CAM `ReferencePosition`), `id` its station id.
+fn sender_truth(id: u32, st: &VehicleState, v: &crate::vehicle::VehicleParams) -> flc_core::SenderState {
+    let half = v.length / 2.0;
+    flc_core::SenderState {
+        station_id: id,
+        x: st.x + half * st.yaw.cos(),
+        y: st.y + half * st.yaw.sin(),
+        heading: st.yaw,
+        accel: st.accel,
+        length: v.length,
+    }
 }
