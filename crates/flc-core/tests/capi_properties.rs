@@ -142,8 +142,10 @@ macro_rules! robust_case {
             }
             Err(e) => {
                 prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams; NUL-terminated by construction.
-                let field = unsafe { std::ffi::CStr::from_ptr(err.assume_init().field.as_ptr()) }.to_str().unwrap().to_owned();
+                // SAFETY: written on InvalidParams.
+                let err = unsafe { err.assume_init() };
+                // SAFETY: NUL-terminated by construction (`err` outlives the borrow).
+                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) }.to_str().unwrap().to_owned();
                 prop_assert_eq!(field, e.field);
                 return Ok(());
             }
