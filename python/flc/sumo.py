@@ -52,6 +52,7 @@ TRACE_COLUMNS = (
     "distance",
     "active_flc",
     "switches",
+    "not_associated",
 )
 
 
@@ -61,7 +62,8 @@ class Trace:
 
     ``gap``/``front_speed`` are SUMO's (NaN without a leader), ``distance`` what the controller saw
     at its last measurement (NaN: nothing), ``active_flc`` 1 while the FLC drives, ``switches`` the
-    hand-overs so far, ``leader`` the SUMO id of the leader at each step ("" if none).
+    hand-overs so far, ``not_associated`` 1 while the supervisor finds that the vehicle it measures
+    is not the V2V sender (reason ``not_associated``), ``leader`` the SUMO id of the leader at each step ("" if none).
     """
 
     vehicle: str
@@ -113,6 +115,9 @@ class FlcVehicle:
     seeds the sensor and the V2V link; give each vehicle its own. ``actuation="direct"`` sets the
     law's speed command itself instead of going through flc's low-level controller and vehicle
     model (how SUMO's own models act; for checking a baseline against SUMO's model in closed loop).
+    ``v2v_sender`` (a SUMO vehicle id) is the vehicle whose messages this one receives, whatever is
+    in front of it (mixed traffic: a car without V2V may come between); by default the V2V speed is
+    that of SUMO's leader, the vehicle measured.
     """
 
     def __init__(
@@ -124,6 +129,7 @@ class FlcVehicle:
         seed: Optional[int] = None,
         leader_range: float = 250.0,
         actuation: str = "vehicle",
+        v2v_sender: Optional[str] = None,
         **overrides: Any,
     ) -> None:
         base = scenario if scenario is not None else Scenario.paper(controller=controller or "flc")
@@ -131,6 +137,7 @@ class FlcVehicle:
             overrides = {"controller": controller, **overrides}
         self.scenario = base.replace(**overrides) if overrides else base
         self.vehicle_id = vehicle_id
+        self.v2v_sender = v2v_sender
         self.leader_range = float(leader_range)
         self._inner = _flc.ExternalFollower(self.scenario.to_json(), self.scenario.seed if seed is None else int(seed), actuation)
         self._attached = False
@@ -167,6 +174,10 @@ class FlcVehicle:
         dt = float(traci.simulation.getDeltaT())
         own = float(traci.vehicle.getSpeed(vid))
         leader_id, gap, front = _leader(traci, vid, self.leader_range)
+        if self.v2v_sender is not None:
+            # The speed broadcast is the sender's, measured or not (None once it has left).
+            sender = self.v2v_sender
+            front = float(traci.vehicle.getSpeed(sender)) if sender in traci.vehicle.getIDList() else None
         out: dict[str, Any] = json.loads(self._inner.step(t, dt, gap, front, own))
         traci.vehicle.setSpeed(vid, out["speed"])
         nan = float("nan")
@@ -182,6 +193,7 @@ class FlcVehicle:
             distance=nan if out["distance"] is None else out["distance"],
             active_flc=1.0 if out["active"] == "flc" else 0.0,
             switches=out["switches"],
+            not_associated=1.0 if out["reason"] == "not_associated" else 0.0,
         )
         self.last = out
         return out
@@ -235,13 +247,19 @@ class PlatoonOutcome:
     controller: str
     followers: list[dict[str, Any]]
     collisions: list[str]
-    outage_at: float
+    outage_at: Optional[float]
     brake_at: float
+    join_at: Optional[float] = None
 
     @property
     def switched_to_flc(self) -> int:
         """How many followers were driven by the FLC 1 s after the outage began."""
         return sum(1 for f in self.followers if f.get("active_after_outage") == "flc")
+
+    @property
+    def on_flc_after_join(self) -> list[str]:
+        """The followers driven by the FLC 1 s after the joining car began its lane change."""
+        return [f["vehicle"] for f in self.followers if f.get("active_after_join") == "flc"]
 
 
 def _ssm(path: Path) -> dict[str, dict[str, float]]:
@@ -272,6 +290,8 @@ def cacc_platoon(
     step: float = 0.05,
     directory: Optional[Union[str, "os.PathLike[str]"]] = None,
     seed: int = 1,
+    join_at: Optional[float] = None,
+    join_after: int = 2,
     **overrides: Any,
 ) -> PlatoonOutcome:
     """The example: a SUMO platoon on a straight 3 km highway lane behind a scripted SUMO lead
@@ -280,7 +300,14 @@ def cacc_platoon(
     while its predecessor's messages are fresh, the FLC otherwise), listening to its predecessor
     over flc's V2V model; every link goes down at ``outage_at`` for the rest of the run.
     ``controller="sumo-cacc"`` runs SUMO's own CACC model instead (perfect information, no flc):
-    the reference. Returns flc's and SUMO's SSM measures per follower."""
+    the reference. Returns flc's and SUMO's SSM measures per follower.
+
+    Mixed traffic (issue 25): with ``join_at`` the road has two lanes and a SUMO car without flc
+    or V2V (``joiner``, SUMO's Krauss model) drives in the left lane beside the gap behind follower
+    ``join_after``, and at ``join_at`` changes into the platoon's lane in 3 s. Each follower listens
+    to its predecessor's V2V whatever it measures, so follower ``join_after + 1`` must find that
+    the car in front is not its V2V sender and hand over to the FLC (reason ``not_associated``);
+    ``outage_at=None`` keeps every link up."""
     import tempfile
 
     import libsumo as traci
@@ -291,20 +318,27 @@ def cacc_platoon(
         directory = tmp.name
     d = Path(directory)
     try:
-        net = straight_road(d, 3000.0, speed=40.0)
+        lanes = 1 if join_at is None else 2
+        if join_at is not None and not 1 <= join_after < followers:
+            raise ValueError(f"join_after: must be in [1, {followers - 1}], got {join_after}")
+        net = straight_road(d, 3000.0, lanes=lanes, speed=40.0)
         sc = Scenario.paper(speed_kmh=cruise_kmh, controller="pipeline" if controller == "sumo-cacc" else controller, **overrides)
         length = float(sc["follower"]["vehicle"]["length"])
         model = 'carFollowModel="CACC"' if controller == "sumo-cacc" else 'carFollowModel="Krauss" sigma="0"'
-        vehicles = [f'<vehicle id="lead" type="lead" route="r" depart="0" departPos="{30.0 + followers * (7.0 + length) + length}" departSpeed="0" insertionChecks="none"/>']
+        vehicles = [f'<vehicle id="lead" type="lead" route="r" depart="0" departPos="{30.0 + followers * (7.0 + length) + length}" departSpeed="0" departLane="0" insertionChecks="none"/>']
         ids = [f"f{k}" for k in range(1, followers + 1)]
         for k, vid in enumerate(ids):
             pos = 30.0 + (followers - 1 - k) * (7.0 + length) + length
-            vehicles.append(f'<vehicle id="{vid}" type="follower" route="r" depart="0" departPos="{pos}" departSpeed="0" insertionChecks="none"/>')
+            vehicles.append(f'<vehicle id="{vid}" type="follower" route="r" depart="0" departPos="{pos}" departSpeed="0" departLane="0" insertionChecks="none"/>')
+        if join_at is not None:
+            pos = 30.0 + (followers - join_after - 0.5) * (7.0 + length) + length
+            vehicles.append(f'<vehicle id="joiner" type="joiner" route="r" depart="0" departPos="{pos}" departSpeed="0" departLane="1" insertionChecks="none"/>')
         common = f'length="{length}" minGap="2.5" maxSpeed="40" speedFactor="1" speedDev="0"'
         (d / "platoon.rou.xml").write_text(
             "<routes>\n"
             f'<vType id="lead" {common} accel="10" decel="10" emergencyDecel="10" sigma="0"/>\n'
             f'<vType id="follower" {common} accel="2.6" decel="8" emergencyDecel="9" {model}/>\n'
+            f'<vType id="joiner" {common} accel="2.6" decel="4.5" emergencyDecel="9" carFollowModel="Krauss" sigma="0"/>\n'
             '<route id="r" edges="e"/>\n' + "\n".join(vehicles) + "\n</routes>\n"
         )
         ssm = d / "ssm.xml"
@@ -319,14 +353,20 @@ def cacc_platoon(
         try:
             traci.simulationStep()
             traci.vehicle.setSpeedMode("lead", 0)
+            if join_at is not None:
+                traci.vehicle.setLaneChangeMode("joiner", 0)  # no lane change of its own; the scripted one at join_at
             if controller != "sumo-cacc":
-                outage = [{"start": outage_at, "end": 1e9}]  # JSON has no inf: "for the rest of the run"
-                drivers = [FlcVehicle(vid, sc, seed=seed + k, v2v_outages=outage) for k, vid in enumerate(ids)]
+                # JSON has no inf: "for the rest of the run"
+                outage = [] if outage_at is None else [{"start": outage_at, "end": 1e9}]
+                senders = ["lead"] + ids[:-1] if join_at is not None else [None] * len(ids)
+                drivers = [FlcVehicle(vid, sc, seed=seed + k, v2v_outages=outage, v2v_sender=senders[k]) for k, vid in enumerate(ids)]
             traces = {vid: Trace(vid) for vid in ids}
             t = float(traci.simulation.getTime())
             while t < brake_at + 20.0:
                 v = float(traci.vehicle.getSpeed("lead"))
                 traci.vehicle.setSpeed("lead", _lead_speed(t, v, step, cruise_kmh / 3.6, brake_at, brake_decel))
+                if join_at is not None:
+                    _joiner(traci, ids[join_after - 1], ids[join_after], length, t, join_at)
                 for drv in drivers:
                     drv.step(traci)
                 if not drivers:
@@ -343,16 +383,37 @@ def cacc_platoon(
             s = tr.summary()
             tt = tr.array("t")
             if drivers:
-                after = np.nonzero(tt >= outage_at + 1.0)[0]
-                s["active_after_outage"] = "flc" if after.size and tr.columns["active_flc"][after[0]] == 1.0 else "pid"
-                flc_on = np.nonzero((tt >= outage_at) & (tr.array("active_flc") == 1.0))[0]
-                s["switch_to_flc_after"] = float(tt[flc_on[0]] - outage_at) if flc_on.size else float("nan")
+                for name, at in (("outage", outage_at), ("join", join_at)):
+                    if at is None:
+                        continue
+                    after = np.nonzero(tt >= at + 1.0)[0]
+                    s[f"active_after_{name}"] = "flc" if after.size and tr.columns["active_flc"][after[0]] == 1.0 else "pid"
+                    flc_on = np.nonzero((tt >= at) & (tr.array("active_flc") == 1.0))[0]
+                    key = "switch_to_flc_after" if name == "outage" else "switch_to_flc_after_join"
+                    s[key] = float(tt[flc_on[0]] - at) if flc_on.size else float("nan")
+                s["time_not_associated"] = float(np.sum(tr.array("not_associated")) * step)
             s["ssm"] = _ssm(ssm).get(vid, {"min_ttc": float("inf"), "max_drac": 0.0})
             result.append(s)
-        return PlatoonOutcome(controller, result, collisions, outage_at, brake_at)
+        return PlatoonOutcome(controller, result, collisions, outage_at, brake_at, join_at)
     finally:
         if tmp is not None:
             tmp.cleanup()
+
+
+def _joiner(traci: Any, front: str, back: str, length: float, t: float, join_at: float) -> None:
+    """The joining car of :func:`cacc_platoon`: until its lane change is done it keeps beside the
+    middle of the gap between followers ``front`` and ``back`` (speed set each step), at
+    ``join_at`` it changes into lane 0 in 3 s; then SUMO's car-following model drives it."""
+    if traci.vehicle.getLaneIndex("joiner") == 0:
+        traci.vehicle.setSpeed("joiner", -1.0)  # in the platoon's lane: SUMO's model drives
+        return
+    x_front = float(traci.vehicle.getLanePosition(front)) - length
+    x_back = float(traci.vehicle.getLanePosition(back))
+    x = float(traci.vehicle.getLanePosition("joiner")) - length / 2.0
+    v = float(traci.vehicle.getSpeed(front))
+    traci.vehicle.setSpeed("joiner", max(0.0, v + 0.5 * (0.5 * (x_front + x_back) - x)))
+    if t >= join_at:
+        traci.vehicle.changeLane("joiner", 0, 3.0)
 
 
 def _leader(traci: Any, vid: str, leader_range: float) -> tuple[str, Optional[float], Optional[float]]:
@@ -370,4 +431,5 @@ def _observe(traci: Any, tr: Trace, vid: str, t: float) -> None:
     g = float("nan") if gap is None else gap
     own = float(traci.vehicle.getSpeed(vid))
     tr.append(leader_id, t=t, gap=g, front_speed=float("nan") if front is None else front, speed=own, set_speed=own,
-              speed_command=own, accel_command=float(traci.vehicle.getAcceleration(vid)), distance=g, active_flc=0.0, switches=0.0)
+              speed_command=own, accel_command=float(traci.vehicle.getAcceleration(vid)), distance=g, active_flc=0.0, switches=0.0,
+              not_associated=0.0)

@@ -200,3 +200,22 @@ def test_flc_baselines_in_sumo_reproduce_sumos_models_in_closed_loop(tmp_path: P
     err = np.abs(ours[:n] - ref[:n])
     tol = 1e-6 if law == "idm" else 0.01
     assert float(err.max()) < tol, f"{law} {speed_kmh}: max {err.max():.3e} m/s at step {err.argmax()}"
+
+
+def test_a_car_without_v2v_joining_the_platoon_hands_only_the_follower_behind_it_to_the_flc(tmp_path: Path) -> None:
+    # Issue 25 in SUMO: a SUMO car (no flc, no V2V) changes into the platoon's lane between
+    # followers 2 and 3 at 30 s; every link stays up and each follower keeps listening to its
+    # predecessor. Follower 3 measures the joining car, finds it is not its V2V sender and hands
+    # over to the FLC at once; the others keep the PID. Then the lead stops at 6 m/s².
+    o = fs.cacc_platoon(5, directory=tmp_path, cruise_kmh=100.0, outage_at=None, join_at=30.0, join_after=2, brake_at=45.0)
+    assert o.on_flc_after_join == ["f3"]
+    f3 = o.followers[2]
+    # The first step after the lane change begins (SUMO step 0.05 s = one scan at 20 Hz).
+    assert 0.0 <= f3["switch_to_flc_after_join"] <= 0.05 + 1e-9
+    # Not associated from then on (the joining car stays in front), about 35 s of the run.
+    assert f3["time_not_associated"] > 30.0
+    for f in o.followers[:2] + o.followers[3:]:
+        assert f["time_not_associated"] == 0.0 and f["switches"] == 1, f
+    assert o.collisions == []
+    assert all(f["min_gap"] > 2.0 for f in o.followers)
+    assert all(f["ssm"]["min_ttc"] > 1.0 for f in o.followers)
