@@ -128,11 +128,14 @@ impl Patch {
     pub fn apply<T: Serialize + DeserializeOwned>(&self, base: &T) -> Result<T, ConfigError> {
         let mut value = toml::Value::try_from(base).map_err(|e| ConfigError::new("", e.to_string()))?;
         self.apply_value(&mut value)?;
-        serde_path_to_error::deserialize(value.clone()).map_err(|e| {
+        serde_path_to_error::deserialize(value).map_err(|e| {
             let path = e.path().to_string();
             let msg = e.into_inner().to_string();
             let msg = msg.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or_default().to_string();
-            let path = entry_path(&value, &path, &msg).unwrap_or(path);
+            // Only on an error: the patched value again, to name the entry of a tagged table (no
+            // copy of every scenario on the success path, which sweeps take once per run).
+            let again = toml::Value::try_from(base).ok().and_then(|mut v| self.apply_value(&mut v).is_ok().then_some(v));
+            let path = again.and_then(|v| entry_path(&v, &path, &msg)).unwrap_or(path);
             ConfigError::new(if path == "." { String::new() } else { path }, msg)
         })
     }
