@@ -174,20 +174,7 @@ impl LeadDetector {
         d.set_item("points_used", out.points_used)?;
         d.set_item("points_rejected", out.points_rejected)?;
         d.set_item("clusters", out.clusters)?;
-        match out.detection {
-            Some(det) => {
-                let det_d = PyDict::new(py);
-                det_d.set_item("x", det.position.x)?;
-                det_d.set_item("y", det.position.y)?;
-                det_d.set_item("distance", det.distance)?;
-                det_d.set_item("width", det.width)?;
-                det_d.set_item("depth", det.depth)?;
-                det_d.set_item("points", det.points)?;
-                det_d.set_item("confidence", det.confidence)?;
-                d.set_item("detection", det_d)?;
-            }
-            None => d.set_item("detection", py.None())?,
-        }
+        d.set_item("detection", detection_dict(py, out.detection)?)?;
         let boxes: Vec<(f64, f64, f64, f64, usize, bool)> =
             self.inner.clusters().iter().map(|c| (c.x_min, c.x_max, c.y_min, c.y_max, c.points, c.accepted())).collect();
         d.set_item("cluster_boxes", boxes)?;
@@ -196,6 +183,21 @@ impl LeadDetector {
 }
 
 /// Helper so the facade can build NumPy arrays without copying twice.
+/// A detection as Python sees it (`x`, `y`, `distance`, `width`, `depth`, `points`,
+/// `confidence`), or `None`: the detector binding's and the stepping observation's one shape.
+pub(crate) fn detection_dict(py: Python<'_>, det: Option<flc_core::Detection>) -> PyResult<Py<PyAny>> {
+    let Some(det) = det else { return Ok(py.None()) };
+    let d = PyDict::new(py);
+    d.set_item("x", det.position.x)?;
+    d.set_item("y", det.position.y)?;
+    d.set_item("distance", det.distance)?;
+    d.set_item("width", det.width)?;
+    d.set_item("depth", det.depth)?;
+    d.set_item("points", det.points)?;
+    d.set_item("confidence", det.confidence)?;
+    Ok(d.into_any().unbind())
+}
+
 pub(crate) fn array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
     PyArray1::from_vec(py, v)
 }

@@ -123,20 +123,7 @@ impl Simulation {
         }
         d.set_item("status", m.status.map(|s| s.as_str()))?;
         d.set_item("clusters", m.clusters)?;
-        match m.detection {
-            Some(det) => {
-                let dd = PyDict::new(py);
-                dd.set_item("x", det.position.x)?;
-                dd.set_item("y", det.position.y)?;
-                dd.set_item("distance", det.distance)?;
-                dd.set_item("width", det.width)?;
-                dd.set_item("depth", det.depth)?;
-                dd.set_item("points", det.points)?;
-                dd.set_item("confidence", det.confidence)?;
-                d.set_item("detection", dd)?;
-            }
-            None => d.set_item("detection", py.None())?,
-        }
+        d.set_item("detection", crate::detection_dict(py, m.detection)?)?;
         if self.opts.beams > 0 {
             d.set_item("ranges", array(py, self.sim()?.beams(k).unwrap_or_default()))?;
         }
