@@ -40,10 +40,15 @@ fn scenario(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
+/// `FLC_BLESS=1` rewrites the goldens; any other value (`FLC_BLESS=0`, empty) or none compares.
+fn blessing() -> bool {
+    std::env::var("FLC_BLESS").is_ok_and(|v| v == "1")
+}
+
 /// Compares `actual` with the golden file `name` (or writes it with `FLC_BLESS=1`).
 fn check(name: &str, actual: &str) {
     let path = golden_dir().join(name);
-    if std::env::var_os("FLC_BLESS").is_some() {
+    if blessing() {
         std::fs::create_dir_all(golden_dir()).expect("mkdir");
         std::fs::write(&path, actual).expect("write golden");
         return;
@@ -146,7 +151,7 @@ fn mcap_message_counts_and_contents() {
 fn check_between(path: &Path, begin: &str, end: &str, actual: &str) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let (Some(a), Some(b)) = (text.find(begin), text.find(end)) else { panic!("{} lacks the markers {begin} .. {end}", path.display()) };
-    if std::env::var_os("FLC_BLESS").is_some() {
+    if blessing() {
         std::fs::write(path, format!("{}{begin}{actual}{}", &text[..a], &text[b..])).expect("write");
     } else {
         assert_eq!(
@@ -175,7 +180,7 @@ fn standard_suites_report() {
             let a = std::fs::read_to_string(one.join(&file)).expect("report");
             assert_eq!(a, std::fs::read_to_string(two.join(&file)).expect("report"), "{file} depends on the thread count");
             let committed = docs.join(&file);
-            if std::env::var_os("FLC_BLESS").is_some() {
+            if blessing() {
                 std::fs::create_dir_all(&docs).expect("mkdir");
                 std::fs::write(&committed, &a).expect("write");
             } else {

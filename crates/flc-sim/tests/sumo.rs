@@ -110,14 +110,17 @@ fn flc_acc_reproduces_sumo_acc_step_by_step() {
     }
 }
 
-/// Gipps (1981) against SUMO's Krauss (sigma 0), which is a Gipps-type safe-speed model:
-/// measured and documented (docs/baselines.md), not asserted. The two laws differ by design.
+/// Gipps (1981) against SUMO's Krauss (sigma 0), which is a Gipps-type safe-speed model. The two
+/// laws differ by design, so the residuals are not near zero; they are asserted to be the ranges
+/// docs/baselines.md quotes (RMS 0.23-0.28 m/s, max 0.43-0.81 m/s per step over the 12 files, to
+/// two decimals; measured 0.227-0.277 and 0.427-0.809).
 /// Gipps' free-flow branch `v + 2.5 a tau (1 - v/V) sqrt(0.025 + v/V)` is not Krauss'
 /// `v + a dt`, and Gipps brakes against `b̂` with a `tau / 2` margin where Krauss uses the
 /// leader's `decel`. Both use SUMO's vType: accel 2.6, decel 4.5, tau 1, minGap 2.5, 50 m/s.
 #[test]
 fn gipps_against_sumo_krauss_is_measured() {
     use flc_core::baselines::{GippsController, GippsParams};
+    let (mut rms_range, mut max_range) = ((f64::INFINITY, 0.0_f64), (f64::INFINITY, 0.0_f64));
     for name in SCENARIOS {
         let p = GippsParams {
             desired_speed: 50.0,
@@ -131,6 +134,11 @@ fn gipps_against_sumo_krauss_is_measured() {
         let mut c = GippsController::new(p).expect("params");
         let (rms, max) = residuals(&format!("krauss-{name}"), |gap, v, vl| c.step_measured(Some(gap), v, DT, Some(vl)).speed);
         eprintln!("gipps vs krauss {name}: rms {rms:.3} max {max:.3} m/s");
-        assert!(rms.is_finite() && max.is_finite());
+        assert!(rms.is_finite() && max.is_finite(), "gipps vs krauss {name}: rms {rms} max {max}");
+        rms_range = (rms_range.0.min(rms), rms_range.1.max(rms));
+        max_range = (max_range.0.min(max), max_range.1.max(max));
     }
+    let two = |(lo, hi): (f64, f64)| format!("{lo:.2}-{hi:.2}");
+    assert_eq!(two(rms_range), "0.23-0.28", "RMS range (docs/baselines.md)");
+    assert_eq!(two(max_range), "0.43-0.81", "max range (docs/baselines.md)");
 }
