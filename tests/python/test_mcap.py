@@ -68,4 +68,6 @@ def test_channels_have_foxglove_schemas_and_counts_follow_the_rates(recorded):
     for topic, ts in times.items():
         assert all(a < b for a, b in zip(ts, ts[1:])), topic
     assert times["/flc/state"] == [round(t * 1e9) for t in r.t]
+    # Chunked with an index (an empty list would make the `all` below true for nothing).
+    assert len(summary.chunk_indexes) > 0
     assert all(c.compression == "zstd" for c in summary.chunk_indexes)

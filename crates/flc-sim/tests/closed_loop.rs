@@ -86,27 +86,32 @@ fn deterministic_across_runs_and_thread_counts() {
     assert_ne!(key(&run(&other)), k0);
 }
 
-/// On the curved track the FLC-driven follower stays within 0.5 m of the lane centre on average
-/// and stops behind the lead without contact. Before issue 23 it lost the lead out of the last
-/// right-hand curve (the detector's grid did not follow the path) and, steering straight, touched
-/// the left guard rail; now the detector keeps the lead through every curve, so the run ends the
-/// same with either lost-lead steering (what `hold_lane` does when a lead is lost is tested in
-/// `tests/lost_lead.rs`).
+/// On the curved track the FLC-driven follower tracks the lane: mean |lateral offset| below
+/// 0.3 m and mean |heading error| below 1 deg (measured 0.215 m / 0.586 deg; the paper's Fig. 3a
+/// FLC: 0.2258 m / 0.0176 deg, docs/paper-reproduction.md). The bound is what pure pursuit of the
+/// lead allows on these curves: the follower cuts each curve by the chord of its look-ahead, a
+/// few tenths of a metre at 50 km/h; 0.3 m keeps 40 % headroom over the measured value. The
+/// errors are averages over the run, so the run must cover the whole route to the lead's stop
+/// (no contact, both at standstill, the lead in sight): with either lost-lead steering, since the lead is kept through every curve (what
+/// `hold_lane` does when a lead is lost is tested in `tests/lost_lead.rs`).
 #[test]
 fn curved_track_tracking_error() {
     let s = Scenario::from_file(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/curvy-follow.toml")))
         .expect("scenario");
     assert!(matches!(s.track, TrackSpec::Curvy));
-    let r = run(&s).expect("run");
-    let m = &r.metrics;
-    let e = m.trans_error_m.expect("tracking error");
-    assert!(e < 0.5, "translational error {e} m");
-    assert!(r.collision.is_none(), "{:?}", r.collision);
-
     let mut straight = s.clone();
     straight.follower.lost_lead_steering = flc_sim::LostLeadSteering::Straight;
-    let r = run(&straight).expect("run");
-    assert!(r.collision.is_none(), "{:?}", r.collision);
-    assert!(r.metrics.final_clearance.is_some_and(|c| c > 2.0), "{:?}", r.metrics.final_clearance);
-    assert!(r.series.detected_distance.iter().rev().take(100).all(|d| d.is_finite()), "the lead is in sight at the stop");
+    for s in [s, straight] {
+        let r = run(&s).expect("run");
+        let m = &r.metrics;
+        let (trans, rot) = (m.trans_error_m.expect("tracking error"), m.rot_error_deg.expect("tracking error"));
+        assert!(trans < 0.3, "{:?}: translational error {trans} m", s.follower.lost_lead_steering);
+        assert!(rot < 1.0, "{:?}: rotational error {rot} deg", s.follower.lost_lead_steering);
+        // The errors cover the whole route: the lead stopped after 1600 m and the follower behind it.
+        let n = r.series.len();
+        assert!(r.series.lead_speed[n - 1] == 0.0 && r.series.follower_speed[n - 1] < 0.1, "the run ends at the stop");
+        assert!(r.collision.is_none(), "{:?}", r.collision);
+        assert!(r.metrics.final_clearance.is_some_and(|c| c > 2.0), "{:?}", r.metrics.final_clearance);
+        assert!(r.series.detected_distance.iter().rev().take(100).all(|d| d.is_finite()), "the lead is in sight at the stop");
+    }
 }

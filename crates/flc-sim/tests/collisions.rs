@@ -123,21 +123,23 @@ fn the_lead_touching_a_parked_car_is_another_contact_not_the_followers_collision
 }
 
 #[test]
-fn the_paper_flc_runs_into_the_car_revealed_by_the_cut_out() {
-    // scenarios/robust-cut-out.toml with the paper's FLC: the lead leaves the lane, the follower
-    // keeps it and hits the standing car (the scripted vehicle "stopped") at speed; the lead passes it.
+fn a_follower_without_brakes_runs_into_the_car_revealed_by_the_cut_out() {
+    // scenarios/robust-cut-out.toml with a follower that cannot brake (demand limited to
+    // 0.1 m/s², friction to 0.5 m/s²): the lead leaves the lane, the follower keeps it and hits
+    // the standing car (the scripted vehicle "stopped") at speed; the lead passes it. Whether a
+    // controller stops there is a controller's outcome, tested in tests/robust_flc.rs.
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robust-cut-out.toml");
     let mut s = Scenario::from_file(&path).expect("scenario");
-    s.controller = flc_sim::ControllerKind::parse("flc").expect("flc");
+    s.follower.speed_controller.max_decel = 0.1;
+    s.follower.vehicle.max_brake = 0.5;
     let r = run(&s);
-    let c = r.collision.expect("the paper FLC runs into the standing car");
+    let c = r.collision.expect("a follower without brakes runs into the standing car");
     assert_eq!((c.object.kind, c.object.name.as_deref()), (ObjectKind::Vehicle, Some("stopped")));
-    assert!(c.impact_speed > 1.0 && (c.impact_speed - c.follower_speed).abs() < 0.05, "{c:?}");
+    // Hardly slowed from 80 km/h; the standing car has no speed of its own.
+    assert!(c.impact_speed > 15.0 && (c.impact_speed - c.follower_speed).abs() < 0.05, "{c:?}");
     assert!((c.point[0] - (222.4 - 2.45)).abs() < 0.5, "{c:?}");
     assert!(r.other_contacts.is_empty(), "the lead changed lanes before the car: {:?}", r.other_contacts);
-    // The robust FLC stops in front of it: no contact at all.
-    let robust = run(&Scenario::from_file(&path).expect("scenario"));
-    assert!(robust.collision.is_none() && !robust.metrics.collision);
+    assert!(r.metrics.collision && r.metrics.impact_speed == c.impact_speed, "{:?}", r.metrics.impact_speed);
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! output says so.
 
 use flc_sim::report::RunRecord;
+use flc_core::longitudinal::Frame;
 use flc_sim::{ControllerKind, Perception, Phase, Scenario, run};
 
 fn steady(controller: ControllerKind, perception: Perception) -> Scenario {
@@ -51,8 +52,37 @@ fn outputs_say_when_ideal_perception_was_on() {
     let lidar = run(&steady(ControllerKind::Acc, Perception::Lidar)).expect("run");
     let json = serde_json::to_value(RunRecord::from_run(None, &lidar)).expect("json");
     assert!(json.get("perception").is_none(), "{json}");
-    // The true lead speed reaches the ACC: its speed trace differs from the LiDAR run's.
-    assert_ne!(ideal.series.follower_speed, lidar.series.follower_speed);
+}
+
+/// The true lead speed reaches the ACC: replaying the law on the run's true inputs at every
+/// control frame (the gap, own speed and lead speed at the start of the step) with the lead speed
+/// given reproduces the recorded speed commands bit for bit; the same replay without it (the
+/// law's range-rate estimate from the same true gaps) does not.
+#[test]
+fn the_acc_gets_the_true_lead_speed() {
+    let s = steady(ControllerKind::Acc, Perception::Ideal);
+    let r = run(&s).expect("run");
+    let x = &r.series;
+    let dt = 1.0 / s.lidar.rate_hz;
+    let steps = (dt / s.physics_dt).round() as usize;
+    let replay = |with_speed: bool| {
+        let mut law = s.base_follower_config().longitudinal().expect("law");
+        let (mut same, mut frames) = (0, 0);
+        // Control frames every `steps` records (no jitter, no drops, no latency by default).
+        for i in (steps..x.len()).step_by(steps) {
+            let mut f = Frame::new(Some(x.gap[i - 1]), x.follower_speed[i - 1], dt);
+            f.lead_speed = with_speed.then_some(x.lead_speed[i - 1]);
+            let out = law.step(&f);
+            frames += 1;
+            same += usize::from(out.command.speed.to_bits() == x.speed_command[i].to_bits());
+        }
+        (same, frames)
+    };
+    let (same, frames) = replay(true);
+    assert!(frames > 500, "{frames} frames");
+    assert_eq!(same, frames, "replay with the true lead speed: {same} of {frames} commands equal");
+    let (same, _) = replay(false);
+    assert!(same < frames / 2, "replay with the estimate: {same} of {frames} commands equal");
 }
 
 #[test]

@@ -224,11 +224,15 @@ duration = 2.0
 
 #[test]
 fn the_ego_driving_into_a_standing_scripted_car_is_a_collision_naming_it() {
+    // scenarios/robust-cut-out.toml with a follower that cannot brake (demand limited to
+    // 0.1 m/s², friction to 0.5 m/s²): whatever its controller does, it reaches the standing car.
+    // What a controller does there is tested with the controllers (tests/robust_flc.rs).
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robust-cut-out.toml");
     let mut s = Scenario::from_file(&path).expect("scenario");
-    s.controller = flc_sim::ControllerKind::parse("flc").expect("flc");
+    s.follower.speed_controller.max_decel = 0.1;
+    s.follower.vehicle.max_brake = 0.5;
     let r = run(&s).expect("run");
-    let c = r.collision.expect("the paper FLC hits the standing car");
+    let c = r.collision.expect("a follower without brakes hits the standing car");
     assert_eq!((c.object.kind, c.object.name.as_deref()), (ObjectKind::Vehicle, Some("stopped")));
     // The gap column is measured to it after the lead left.
     assert!(r.series.gap.last().is_some_and(|g| g.abs() < 0.2), "{:?}", r.series.gap.last());
