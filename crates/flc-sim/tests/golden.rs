@@ -3,8 +3,9 @@
 //!
 //! The set: the paper experiment with all eight controllers and both presets (`--json`), the
 //! platoon brake demo (`--json`), a 200-run sweep CSV (`sweeps/golden-200.toml`, rows sorted by
-//! run id since they are written as runs finish), the per-step series of one run (`--out`) and the
-//! per-topic message counts and content hashes of one MCAP recording (`--record`).
+//! run id since they are written as runs finish), the per-step series of one run (`--out`), the
+//! per-topic message counts and content hashes of one MCAP recording (`--record`), and scripted
+//! traffic (`scenarios/traffic-10.toml`: `--json` and the recording's digest).
 //!
 //! The goldens change only when an issue changes behaviour on purpose; regenerate them with
 //!
@@ -123,11 +124,11 @@ fn fnv(h: &mut u64, bytes: &[u8]) {
     }
 }
 
-#[test]
-#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
-fn mcap_message_counts_and_contents() {
-    let d = tmpdir("mcap");
-    scenario(&["--config", "scenarios/paper-70-pipeline.toml", "--record", d.to_str().expect("utf-8 path")]);
+/// Per topic of the recording `scenario --config CONFIG --record DIR` writes: the message count
+/// and an FNV-1a hash of every message's log time and data, in file order.
+fn mcap_digest(tag: &str, config: &str) -> String {
+    let d = tmpdir(tag);
+    scenario(&["--config", config, "--record", d.to_str().expect("utf-8 path")]);
     let file =
         std::fs::read_dir(&d).expect("read dir").map(|e| e.expect("entry").path()).find(|p| p.extension().is_some_and(|e| e == "mcap"));
     let bytes = std::fs::read(file.expect("an mcap file")).expect("read mcap");
@@ -140,11 +141,28 @@ fn mcap_message_counts_and_contents() {
         fnv(&mut e.1, &m.log_time.to_le_bytes());
         fnv(&mut e.1, &m.data);
     }
+    let _ = std::fs::remove_dir_all(&d);
     let mut out = String::from("topic,messages,fnv1a64\n");
     for (topic, (n, h)) in per_topic {
         out.push_str(&format!("{topic},{n},{h:016x}\n"));
     }
-    check("mcap-paper-70-pipeline.csv", &out);
+    out
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn mcap_message_counts_and_contents() {
+    check("mcap-paper-70-pipeline.csv", &mcap_digest("mcap", "scenarios/paper-70-pipeline.toml"));
+}
+
+/// Scripted traffic (`[[vehicles]]`: eight cars on three lanes, lane changes, a braking car):
+/// the run's record (`--json`) and the recording's per-topic digest (`/vehicles`: every car's
+/// body, `/tf`: every car's pose at every step).
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn scripted_traffic() {
+    check("traffic-10.jsonl", &scenario(&["--json", "--config", "scenarios/traffic-10.toml"]));
+    check("mcap-traffic-10.csv", &mcap_digest("mcap-traffic", "scenarios/traffic-10.toml"));
 }
 
 /// Replaces the text between `begin` and `end` in `path` (with `FLC_BLESS=1`) or checks it.
