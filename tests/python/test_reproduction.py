@@ -9,20 +9,48 @@ from flc import reproduction as rp
 from flc import figures
 
 
-def test_committed_rows_are_reproduced():
-    spec = rp.load_spec()
+def _as_written(r):
+    """A row as ``rp.write_csv`` writes it (floats in repr, so equal text = equal bits)."""
+    return {k: (repr(v) if isinstance(v, float) else str(v)) for k, v in r.items()}
+
+
+def _recompute(spec, rows):
+    """Recomputes committed rows (their point and seed) and compares every column: the matches, and
+    per cell the collision, the clearance and the impact speed, bit for bit."""
     names = [c["name"] for c in spec["constants"]]
-    rng = random.Random(3)
-    for file in ("paper-reproduction-map.csv", "paper-reproduction-random.csv"):
-        rows = rp.read_csv(rp.ROOT / "sweeps" / file)
-        for r in rng.sample(rows, 3):
-            point = {n: float(r[n]) for n in names}
-            cells = rp.evaluate(spec, [point], (int(r["seed"]),))[0]
-            again = rp.row(point, int(r["seed"]), cells)
-            assert again["matches"] == int(r["matches"]), (file, point)
-            for k in again:
-                if k.endswith("_collision"):
-                    assert again[k] == int(r[k]), (file, k)
+    points = [{n: float(r[n]) for n in names} for r in rows]
+    seeds = {int(r["seed"]) for r in rows}
+    assert seeds == {1}, seeds  # the map and the random sample are computed at seed 1
+    for r, p, cells in zip(rows, points, rp.evaluate(spec, points, (1,))):
+        again = _as_written(rp.row(p, 1, cells))
+        committed = {k: r[k] for k in again}
+        assert again == committed, {k: (committed[k], again[k]) for k in again if again[k] != committed[k]}
+
+
+def test_every_all_8_row_of_the_map_and_its_grid_neighbours_are_reproduced():
+    # The region the docs quote (all 8 cells) rests on these rows and its edge on their
+    # neighbours (one grid step in x and y, diagonals included): every one recomputed.
+    spec = rp.load_spec()
+    m = spec["map"]
+    xs, ys = [float(v) for v in m["x_values"]], [float(v) for v in m["y_values"]]
+    rows = rp.read_csv(rp.ROOT / "sweeps" / "paper-reproduction-map.csv")
+    assert len(rows) == len(xs) * len(ys)
+    at = {(xs.index(float(r[m["x"]])), ys.index(float(r[m["y"]]))): r for r in rows}
+    eight = [ij for ij, r in at.items() if int(r["matches"]) == 8]
+    assert eight, "no all-8 row in the map"
+    near = sorted({(i + a, j + b) for (i, j) in eight for a in (-1, 0, 1) for b in (-1, 0, 1) if (i + a, j + b) in at})
+    _recompute(spec, [at[ij] for ij in near])
+    # The share the docs quote is that of the committed rows.
+    assert abs(100.0 * rp.region_share(rows) - 100.0 * len(eight) / len(rows)) < 1e-12
+
+
+def test_every_all_8_row_of_the_random_sample_and_three_others_are_reproduced():
+    spec = rp.load_spec()
+    rows = rp.read_csv(rp.ROOT / "sweeps" / "paper-reproduction-random.csv")
+    eight = [r for r in rows if int(r["matches"]) == 8]
+    assert eight, "no all-8 row in the random sample"
+    others = random.Random(3).sample([r for r in rows if int(r["matches"]) != 8], 3)
+    _recompute(spec, eight + others)
 
 
 def test_the_paper_preset_is_the_point_the_map_chooses():
