@@ -57,7 +57,14 @@ fn every_baseline_follows_a_steady_lead_at_its_own_gap() {
         let (gap, v, desired) = final_gap_and_speed(&s);
         assert!((v - 20.0).abs() < 0.3, "{}: speed {v}", c.as_str());
         assert!((desired - law_gap(&s, v)).abs() < 1e-9, "{}: recorded desired gap", c.as_str());
-        assert!((gap - desired).abs() < 0.1 * desired, "{}: gap {gap} vs desired {desired}", c.as_str());
+        // The laws regulate the detector's distance, a few cm short of the bumper gap (the first
+        // LiDAR return on the lead's rear), so the true gap settles that much long: measured after
+        // 120 s ACC +0.042 m, RSS +0.023 m. IDM approaches its equilibrium asymptotically (the
+        // (s*/s)² term vanishes only at the equilibrium) and is still 0.23 m (0.5 %) short at
+        // 120 s. Bounds: 0.1 m for the ranging bias, 0.5 m for IDM's slow approach (the 10 %
+        // these replaced would have passed gaps 2-4 m off).
+        let tol = if c == ControllerKind::Idm { 0.5 } else { 0.1 };
+        assert!((gap - desired).abs() < tol, "{}: gap {gap} vs desired {desired}", c.as_str());
     }
     // The CARLA agent's speed bands make it hunt around the lead's speed (limit cycle) while the
     // gap stays between the emergency-stop distance and the upper edge of the second band.
@@ -80,7 +87,9 @@ fn baseline_parameters_come_from_the_scenario_file() {
     let (g1, _, _) = final_gap_and_speed(&with(1.0));
     let (g2, _, _) = final_gap_and_speed(&with(2.0));
     let expected = 20.0 / (1.0_f64 - (20.0_f64 / 25.0).powi(4)).sqrt();
-    assert!(((g2 - g1) - expected).abs() < 3.0, "gap grew by {} m, expected {expected}", g2 - g1);
+    // IDM is still approaching both equilibria at 120 s, the longer one more slowly: measured
+    // 25.63 m against 26.03 m; 1 m allows for that approach.
+    assert!(((g2 - g1) - expected).abs() < 1.0, "gap grew by {} m, expected {expected}", g2 - g1);
 }
 
 /// Out-of-range and unknown baseline parameters are errors naming the dotted key.
@@ -114,3 +123,4 @@ fn baselines_ignore_v2v() {
         assert_eq!(bits(&ra.series.follower_speed), bits(&rb.series.follower_speed), "{}", c.as_str());
     }
 }
+

@@ -36,7 +36,11 @@ fn gipps_settles_at_its_own_equilibrium_gap() {
     assert!((desired - law.desired_gap(v)).abs() < 1e-9, "recorded desired gap {desired}");
     let analytic = 2.5 + 1.5 * 1.0 * 20.0 + 20.0 * 20.0 / 2.0 * (1.0 / 4.5 - 1.0 / 3.75);
     assert!((law.desired_gap(20.0) - analytic).abs() < 1e-9, "law gap {} vs {analytic}", law.desired_gap(20.0));
-    assert!((gap - desired).abs() < 0.1 * desired, "gap {gap} vs desired {desired}");
+    // The law regulates the detector's distance, which lies a few cm short of the bumper gap (the
+    // first LiDAR return on the lead's rear), so the true gap settles that much long: measured
+    // +0.042 m (0.18 %) after 120 s. 0.1 m allows for the ranging bias, not for a wrong law
+    // (the 10 % this replaced would have passed a gap 2.4 m off).
+    assert!((gap - desired).abs() < 0.1, "gap {gap} vs desired {desired}");
 }
 
 /// `[gipps]` in a scenario file reaches the law: 0.5 s more reaction time lengthens the
@@ -53,7 +57,8 @@ fn gipps_parameters_come_from_the_scenario_file() {
     };
     let (g1, _, _) = settle(&with(1.0));
     let (g2, _, _) = settle(&with(1.5));
-    assert!(((g2 - g1) - 15.0).abs() < 2.0, "gap grew by {} m, expected 15", g2 - g1);
+    // Each gap settles within a few cm of its law's (see above): measured 14.994 m.
+    assert!(((g2 - g1) - 15.0).abs() < 0.1, "gap grew by {} m, expected 15", g2 - g1);
 }
 
 /// Out-of-range and unknown Gipps parameters are errors naming the dotted key.
@@ -83,3 +88,4 @@ fn gipps_in_the_paper_experiment() {
     assert_eq!(bits(&ra.series.follower_speed), bits(&rb.series.follower_speed));
     assert!(!ra.metrics.collision && ra.metrics.final_clearance.is_some_and(|c| c > 0.5), "{:?}", ra.metrics.final_clearance);
 }
+
