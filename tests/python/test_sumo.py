@@ -75,9 +75,20 @@ def test_flc_driving_a_sumo_vehicle_matches_flcs_own_ideal_run(tmp_path: Path, c
     # The same outcome: a stop behind the lead at flc's standstill gap.
     assert r.metrics["collision"] is False and gaps.min() > 0.0
     assert abs(gaps[-1] - r.gap[-1]) < 0.05
-    # What the controller saw was SUMO's gap (ideal perception): the true bumper gap.
+    # SUMO's gap (the trace's input column) is the bumper gap of the SUMO positions ...
     tr = drv.trace
     assert np.allclose(tr.array("gap")[1:], gaps[:-1], atol=1e-9)
+    # ... and what the controller saw (`distance`, ideal perception) is exactly that gap on each
+    # measurement (20 Hz: every 5th step), held in between.
+    gap_in, seen = tr.array("gap"), tr.array("distance")
+    assert seen[0] == gap_in[0]
+    fresh = seen[1:] == gap_in[1:]
+    held = seen[1:] == seen[:-1]
+    assert np.all(fresh | held)
+    updates = int(np.sum(fresh & ~held))
+    every = round(1.0 / (float(sc["lidar.rate_hz"]) * float(sc["physics_dt"])))
+    # Every measurement of a moving scene is an update (at standstill the gap repeats itself).
+    assert updates > 0.9 * len(seen) / every * float(np.mean(speeds > 0.01)), updates
 
 
 def test_the_gap_sensor_delays_blurs_and_drops(tmp_path: Path) -> None:
