@@ -88,7 +88,12 @@ def test_frequency_response_fits_the_lead_sine():
     assert len(pt["amplitude"]) == 3 and len(pt["gamma"]) == 2
     assert pt["amplitude"][0] == pytest.approx(1.0, abs=0.25)
     assert pt["gamma"][0] == pytest.approx(pt["amplitude"][1] / pt["amplitude"][0], rel=1e-12)
-    assert 0.5 < pt["gamma"][0] < 1.2
+    # The PID with V2V from its predecessor passes the oscillation on almost unchanged, slightly
+    # damped at 0.2 Hz by the spacing policy and the actuator lag: measured 0.955 and 0.944 (the
+    # brake demo's string of 7: 0.935-0.964 at 0.2 Hz). Each follower's |Gamma| in (0.9, 1.0):
+    # string stable at this frequency, and not the FLC's amplification (> 1.3 in
+    # crates/flc-sim/tests/platoon.rs).
+    assert all(0.9 < g < 1.0 for g in pt["gamma"]), pt["gamma"]
     with pytest.raises(ScenarioError, match="frequencies_hz"):
         flc.frequency_response(sc, [50.0])
 
