@@ -101,14 +101,21 @@ def test_a_platoon_is_driven_follower_by_follower() -> None:
     obs = sim.reset()
     assert set(obs) == set(range(1, 8))
     # Follower 3 holds its speed; the others keep their law (None).
+    sent = []
     while not obs[1].done:
+        if obs[3].fresh:
+            sent.append(obs[3].own_speed)
         obs = sim.step({3: flc.SpeedCommand(obs[3].own_speed)} if obs[3].fresh else {})
     r = sim.result()
     assert r.platoon is not None and reference.platoon is not None
-    # Followers 1-2 are unaffected bit for bit, follower 3 is not (it stops following).
+    # Followers 1-2 are unaffected bit for bit, follower 3 is not (it stops following) ...
     for k in (0, 1):
         assert np.array_equal(r.platoon.series["gap"][k], reference.platoon.series["gap"][k])
     assert not np.array_equal(r.platoon.series["gap"][2], reference.platoon.series["gap"][2])
+    # ... because its speed commands are exactly the ones sent, one per fresh frame, in order.
+    cmd = np.asarray(r.platoon.series["speed_command"][2])
+    changes = [cmd[0]] + [cmd[i] for i in range(1, len(cmd)) if cmd[i] != cmd[i - 1]]
+    assert len(sent) > 100 and np.array_equal(np.array(changes), np.array(sent))
 
 
 def test_bad_use_is_an_error_naming_it() -> None:
