@@ -123,4 +123,3 @@ fn baselines_ignore_v2v() {
         assert_eq!(bits(&ra.series.follower_speed), bits(&rb.series.follower_speed), "{}", c.as_str());
     }
 }
-

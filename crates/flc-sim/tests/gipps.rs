@@ -88,4 +88,3 @@ fn gipps_in_the_paper_experiment() {
     assert_eq!(bits(&ra.series.follower_speed), bits(&rb.series.follower_speed));
     assert!(!ra.metrics.collision && ra.metrics.final_clearance.is_some_and(|c| c > 0.5), "{:?}", ra.metrics.final_clearance);
 }
-

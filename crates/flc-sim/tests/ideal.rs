@@ -2,8 +2,8 @@
 //! true bumper gap and the true speed of the vehicle in front, whatever the LiDAR does, and every
 //! output says so.
 
-use flc_sim::report::RunRecord;
 use flc_core::longitudinal::Frame;
+use flc_sim::report::RunRecord;
 use flc_sim::{ControllerKind, Perception, Phase, Scenario, run};
 
 fn steady(controller: ControllerKind, perception: Perception) -> Scenario {
