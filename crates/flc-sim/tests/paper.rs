@@ -83,6 +83,55 @@ fn share_all_eight(file: &str) -> f64 {
     100.0 * rows.iter().filter(|&&m| m == 8).count() as f64 / rows.len() as f64
 }
 
+/// The committed rows of `file` (header -> value).
+fn committed_rows(file: &str) -> Vec<std::collections::HashMap<String, String>> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps").join(file);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().expect("header").split(',').map(String::from).collect();
+    lines.map(|l| header.iter().cloned().zip(l.split(',').map(String::from)).collect()).collect()
+}
+
+/// The region the printed size counts, recomputed here (the Python generator's twin in
+/// `tests/python/test_reproduction.py` also checks its grid neighbours): every all-8 row of the
+/// committed map, run with the realistic preset and the row's brake authority and actuator
+/// response (the other constants of the map are the realistic values), gives the committed
+/// outcome, clearance and impact speed of each cell, bit for bit.
+#[test]
+fn the_all_8_rows_of_the_committed_map_are_what_the_code_computes() {
+    let rows: Vec<_> = committed_rows("paper-reproduction-map.csv").into_iter().filter(|r| r["matches"] == "8").collect();
+    assert!(!rows.is_empty());
+    let base = Scenario::paper_experiment(50.0, ControllerKind::Flc, Calibration::Realistic);
+    for r in &rows {
+        let num = |k: &str| r[k].parse::<f64>().unwrap_or_else(|e| panic!("{k}: {e}"));
+        // The map's other constants are the realistic preset's (sweeps/paper-reproduction.toml bases).
+        assert_eq!(
+            (num("negative_multiplier"), num("speed_kp"), num("lidar_rate"), num("lidar_latency"), num("pid_kd")),
+            (base.flc.negative_multiplier, base.follower.speed_controller.kp, base.lidar.rate_hz, 0.0, base.pid.near.kd)
+        );
+        let (brake, response) = (num("brake_authority"), num("actuator_response"));
+        let scenarios: Vec<Scenario> = CELLS
+            .iter()
+            .map(|&(c, v)| {
+                let mut s = Scenario::paper_experiment(v, c, Calibration::Realistic);
+                s.follower.speed_controller.max_decel = brake;
+                s.follower.vehicle.dead_time = response * 0.3333333333333333;
+                s.follower.vehicle.lag = response * 0.6666666666666666;
+                s
+            })
+            .collect();
+        let ms: Vec<Metrics> = RunOptions::default().run_batch(&scenarios).into_iter().map(|x| x.expect("run").metrics).collect();
+        assert!(mismatches(&ms).is_empty(), "brake {brake}, response {response}: {:?}", mismatches(&ms));
+        for ((c, v), m) in CELLS.iter().zip(&ms) {
+            let tag = format!("{}{}", c.as_str(), *v as u32);
+            let clearance = m.final_clearance.filter(|_| !m.collision).map_or(String::new(), |x| format!("{x:?}"));
+            assert_eq!(r[&format!("{tag}_collision")], if m.collision { "1" } else { "0" }, "{tag} at {brake}/{response}");
+            assert_eq!(r[&format!("{tag}_clearance")], clearance, "{tag} clearance at {brake}/{response}");
+            assert_eq!(r[&format!("{tag}_impact")], format!("{:?}", m.impact_speed), "{tag} impact at {brake}/{response}");
+        }
+    }
+}
+
 #[test]
 fn the_printed_region_sizes_are_those_of_the_committed_map() {
     let (map, random) = PAPER_MATCHING_REGION;
