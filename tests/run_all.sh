@@ -54,6 +54,9 @@ echo "== Python: stubs match the built module"
 "$VENV/bin/python" -m mypy.stubtest flc._flc --ignore-missing-stub
 "$VENV/bin/python" -m mypy python/flc --ignore-missing-imports
 
+echo "== Docs: every generated block equals the code's output (python -m flc docs --check; docs/README.md)"
+"$VENV/bin/python" -m flc docs --check
+
 echo "== Python: tests"
 "$VENV/bin/python" -m pytest -q tests/python
 

@@ -1,6 +1,8 @@
 """``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``,
 ``python -m flc reproduction --out DIR``,
-``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``.
+``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``,
+``python -m flc docs [--check] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
+(the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs).
 
 Exit status 0 on success, 2 on bad arguments (argparse) or a bad sweep file, 1 if an optional
 dependency (matplotlib, pyarrow, distributed) is missing.
@@ -43,6 +45,12 @@ def _freqs(text: str) -> list[float]:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["docs"] and argv[1:2] not in (["-h"], ["--help"]):
+        # Its own small grammar (`--check`, `show NAME ARG...`): flc.docs parses it.
+        from . import docs
+
+        return docs.main(argv[1:])
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser(
@@ -62,6 +70,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sw.add_argument("--chunk-size", type=int, default=None, help="runs per task (default: automatic, flc.sweep_file)")
     sw.add_argument("--threads", type=int, default=None, help="local threads without --dask (default: all cores); results do not depend on it")
     sw.add_argument("--series", action="store_true", help="also write every run's series as <out stem>-series/<run_id>.parquet")
+    dc = sub.add_parser(
+        "docs",
+        help="rewrite (or with --check, compare) the generated blocks of README.md and docs/*.md; `docs show NAME [ARG ...]` prints one block (docs/README.md)",
+    )
+    dc.add_argument("docs_args", nargs=argparse.REMAINDER, help="[--check] [FILE ...] | show NAME [ARG ...] | list")
     fig = sub.add_parser("figures", help="write the paper's figures (Fig. 2, Fig. 4, Lyapunov), the safety-envelope maps and the platoon figures as PNG")
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
@@ -87,10 +100,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         help="frequencies of the platoon's |Gamma(jw)|, Hz, comma separated (default: the brake demo's 0.05,0.1,0.2,0.3,0.5)",
     )
     args = parser.parse_args(argv)
-    if args.threads is not None and args.threads < 1:
+    if getattr(args, "threads", None) is not None and args.threads < 1:
         parser.error("--threads: expected a positive number")
     if args.command == "sweep":
         return _sweep(parser, args)
+    if args.command == "docs":
+        from . import docs
+
+        return docs.main(args.docs_args)
     if args.command == "reproduction":
         try:
             from .figures import make_reproduction

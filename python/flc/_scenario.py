@@ -77,6 +77,14 @@ class Scenario:
         return cls._patched(_flc.paper_scenario(float(speed_kmh), controller, preset), overrides)
 
     @classmethod
+    def paper_tracking(cls, controller: str = "flc", preset: str = "paper", **overrides: Any) -> "Scenario":
+        """The curved-route run of the paper's tracking errors (Sec. IV, Fig. 3a), as
+        ``cargo run --release --bin scenario`` prints them under its table: the lead accelerates to
+        50 km/h through the curves, covers 1600 m and stops; ``controller`` follows from 7 m (the
+        PID with working V2V). Its metrics ``rot_error_deg`` / ``trans_error_m`` are the errors."""
+        return cls._patched(_flc.paper_tracking_scenario(controller, preset), overrides)
+
+    @classmethod
     def brakedemo(cls, **overrides: Any) -> "Scenario":
         """The platoon brake demo (``scenarios/platoon-brakedemo.toml``, ``docs/platoon.md``): the lead
         and 7 followers at 120 km/h, the lead brakes at -6 m/s² after 20 s; three variants

@@ -82,20 +82,19 @@ struct Repr {
 fn repr<const NX: usize>(name: &'static str, params: DetectorParams) -> Repr {
     let mut det = Box::new(LeadDetector::<NX, 60>::new(params).expect("valid parameters"));
     let reach = det.x_range().1;
-    Repr { name, bytes: std::mem::size_of::<LeadDetector<NX, 60>>(), reach, detect: Box::new(move |pts| det.detect(pts, 0.0).detection.map(|d| d.distance)) }
+    Repr {
+        name,
+        bytes: std::mem::size_of::<LeadDetector<NX, 60>>(),
+        reach,
+        detect: Box::new(move |pts| det.detect(pts, 0.0).detection.map(|d| d.distance)),
+    }
 }
 
 fn representations() -> Vec<Repr> {
     let new = DetectorParams::defaults();
     // The detector before issue 23: 350 x 0.2 m columns to 70.5 m, min_width 0.8 m, a fixed 3 x 3
     // dilation and a fixed 3-point threshold (a tiny beam spacing keeps min_points_at at 3).
-    let old = DetectorParams {
-        far_start: 70.5,
-        min_width: 0.8,
-        max_dilation_radius: 1,
-        beam_spacing_deg: 1e-6,
-        ..new
-    };
+    let old = DetectorParams { far_start: 70.5, min_width: 0.8, max_dilation_radius: 1, beam_spacing_deg: 1e-6, ..new };
     vec![
         repr::<350>("before issue 23: 350 x 0.2 m to 70.5 m, fixed dilation and threshold", old),
         repr::<1000>("uniform: 1000 x 0.2 m to 200.5 m", DetectorParams { far_start: 200.5, ..new }),
@@ -108,8 +107,12 @@ fn representations() -> Vec<Repr> {
 fn tables() -> String {
     let mut out = String::new();
     let ranges = [20.0, 40.0, 60.0, 80.0, 100.0, 120.0, 150.0, 180.0];
-    let cases: [(&str, f64, f64); 4] =
-        [("car, clean", 1.8, 0.0), ("car, 50 % dropout", 1.8, 0.5), ("motorcycle (0.8 m), clean", 0.8, 0.0), ("motorcycle, 25 % dropout", 0.8, 0.25)];
+    let cases: [(&str, f64, f64); 4] = [
+        ("car, clean", 1.8, 0.0),
+        ("car, 50 % dropout", 1.8, 0.5),
+        ("motorcycle (0.8 m), clean", 0.8, 0.0),
+        ("motorcycle, 25 % dropout", 0.8, 0.25),
+    ];
     let mut reprs = representations();
     for (case, width, dropout) in cases {
         let _ = writeln!(out, "Detection rate, {case} (5 cm noise, guard rails at ±5 m, {SCANS} scans per cell):\n");

@@ -248,7 +248,13 @@ impl DetectorParams {
     pub fn min_points_at(&self, x: f64) -> usize {
         let beams = self.min_width / (x.max(1e-3) * self.beam_spacing());
         let half = 0.5 * beams;
-        let n = if half >= self.min_cluster_points as f64 { self.min_cluster_points } else if half >= 2.0 { half as usize } else { 2 };
+        let n = if half >= self.min_cluster_points as f64 {
+            self.min_cluster_points
+        } else if half >= 2.0 {
+            half as usize
+        } else {
+            2
+        };
         n.min(self.min_cluster_points)
     }
 
@@ -608,11 +614,7 @@ impl Geometry {
         };
         let d = self.offset(x, y)?;
         let fy = (d - self.d_lo) / self.cell;
-        if ix < self.nx && fy >= 0.0 && fy < self.ny as f64 {
-            Some((ix, (fy as usize).min(self.ny.saturating_sub(1)), d))
-        } else {
-            None
-        }
+        if ix < self.nx && fy >= 0.0 && fy < self.ny as f64 { Some((ix, (fy as usize).min(self.ny.saturating_sub(1)), d)) } else { None }
     }
 }
 
@@ -1651,8 +1653,7 @@ mod tests {
         // At 65 m the 0.2 deg beams are 0.227 m apart, more than a cell: without dilation the rear
         // face breaks into single-cell clusters, each too narrow.
         let scan = rear_face(65.0, 0.0, 1.9);
-        let mut no_dil =
-            <LeadDetector>::new(DetectorParams { dilation_radius: 0, max_dilation_radius: 0, ..Default::default() }).unwrap();
+        let mut no_dil = <LeadDetector>::new(DetectorParams { dilation_radius: 0, max_dilation_radius: 0, ..Default::default() }).unwrap();
         let out = no_dil.detect(&scan, 0.0);
         assert!(out.clusters > 1);
         // At best a fragment survives the width check.

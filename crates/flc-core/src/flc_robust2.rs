@@ -216,7 +216,8 @@ impl RobustFallbackController2 {
             (false, false) => gap_speed,
         };
         let a = law.acceleration(target_speed, v);
-        self.terms = RobustFlc2Terms { distance: d, gap_speed, envelope_speed, target_speed, held: false, pending: false, revealed, latched, a };
+        self.terms =
+            RobustFlc2Terms { distance: d, gap_speed, envelope_speed, target_speed, held: false, pending: false, revealed, latched, a };
         self.command(v, a, Status::Ok)
     }
 
@@ -226,7 +227,8 @@ impl RobustFallbackController2 {
         let p = self.params;
         let limit = p.law.envelope_speed(p.sight_distance);
         let a = if v > limit { -p.sight_decel } else { 0.0 };
-        self.terms = RobustFlc2Terms { held: true, pending: self.pending.is_some(), latched: self.latched(), a, ..RobustFlc2Terms::default() };
+        self.terms =
+            RobustFlc2Terms { held: true, pending: self.pending.is_some(), latched: self.latched(), a, ..RobustFlc2Terms::default() };
         self.command(v, a, status)
     }
 
@@ -250,7 +252,17 @@ impl RobustFlc2Terms {
         let t = self;
         Terms::new(
             Self::NAMES,
-            &[t.distance, t.gap_speed, t.envelope_speed, t.target_speed, flag(t.held), flag(t.pending), flag(t.revealed), flag(t.latched), t.a],
+            &[
+                t.distance,
+                t.gap_speed,
+                t.envelope_speed,
+                t.target_speed,
+                flag(t.held),
+                flag(t.pending),
+                flag(t.revealed),
+                flag(t.latched),
+                t.a,
+            ],
         )
     }
 }

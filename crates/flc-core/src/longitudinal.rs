@@ -318,7 +318,14 @@ mod tests {
     }
 
     fn frame((distance, own_speed, dt, m): (Option<f64>, f64, f64, Option<(f64, u32)>)) -> Frame {
-        Frame { distance, own_speed, dt, v2v: m.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)), lead_speed: None, own_fix: None }
+        Frame {
+            distance,
+            own_speed,
+            dt,
+            v2v: m.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)),
+            lead_speed: None,
+            own_fix: None,
+        }
     }
 
     proptest! {

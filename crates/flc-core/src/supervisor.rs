@@ -198,9 +198,7 @@ impl Supervisor {
         let previous = self.active;
         self.active = match self.active {
             ActiveController::Pid if !fresh || not_associated => ActiveController::Flc,
-            ActiveController::Flc if fresh && !not_associated && self.fresh_count >= self.params.return_after => {
-                ActiveController::Pid
-            }
+            ActiveController::Flc if fresh && !not_associated && self.fresh_count >= self.params.return_after => ActiveController::Pid,
             same => same,
         };
         let switched = previous != self.active;

@@ -16,8 +16,8 @@ use serde::de::DeserializeOwned;
 
 mod laws;
 mod sim;
-mod sweep;
 mod step;
+mod sweep;
 
 create_exception!(_flc, FlcError, PyException, "Base class of every error raised by flc.");
 create_exception!(_flc, ParameterError, FlcError, "A parameter is out of range, of the wrong type or unknown; the message names it.");

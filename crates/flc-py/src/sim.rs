@@ -31,13 +31,26 @@ fn paper_scenario(speed_kmh: f64, controller: &str, preset: &str) -> PyResult<St
     if !(speed_kmh.is_finite() && speed_kmh > 0.0 && speed_kmh <= 250.0) {
         return Err(ScenarioError::new_err(format!("`speed_kmh`: must be in (0, 250] km/h, got {speed_kmh}")));
     }
-    let c = ControllerKind::parse(controller).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let (c, p) = controller_and_preset(controller, preset)?;
+    to_json(&Scenario::paper_experiment(speed_kmh, c, p))
+}
+
+/// The curved-route run of the paper's tracking errors (`Scenario::paper_tracking`, what
+/// `scenario` prints under its table) as scenario JSON.
+#[pyfunction]
+fn paper_tracking_scenario(controller: &str, preset: &str) -> PyResult<String> {
+    let (c, p) = controller_and_preset(controller, preset)?;
+    to_json(&Scenario::paper_tracking(c, p))
+}
+
+fn controller_and_preset(controller: &str, preset: &str) -> PyResult<(ControllerKind, Calibration)> {
+    let c = ControllerKind::parse(controller).map_err(|e| ScenarioError::new_err(format!("`controller`: {e}")))?;
     let p = match preset {
         "realistic" => Calibration::Realistic,
         "paper" => Calibration::Paper,
         other => return Err(ScenarioError::new_err(format!("`preset`: must be realistic or paper, got `{other}`"))),
     };
-    to_json(&Scenario::paper_experiment(speed_kmh, c, p))
+    Ok((c, p))
 }
 
 /// Reads a TOML scenario file and returns it as JSON.
@@ -78,7 +91,11 @@ fn import_openscenario(
 fn run_suite(py: Python<'_>, name: &str, controllers: Option<Vec<String>>, root: Option<PathBuf>) -> PyResult<Vec<String>> {
     let kinds = match controllers {
         None => ControllerKind::ALL.to_vec(),
-        Some(list) => list.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>().map_err(|e| ScenarioError::new_err(e.to_string()))?,
+        Some(list) => list
+            .iter()
+            .map(|c| ControllerKind::parse(c))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| ScenarioError::new_err(e.to_string()))?,
     };
     let root = root.unwrap_or_else(flc_sim::suite::default_root);
     let suites = flc_sim::suite::Suite::find(&root, name).map_err(scenario_err)?;
@@ -317,6 +334,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep_run_seed, m)?)?;
     m.add_function(wrap_pyfunction!(metrics_from_series, m)?)?;
     m.add_function(wrap_pyfunction!(paper_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(paper_tracking_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(load_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(import_openscenario, m)?)?;
     m.add_function(wrap_pyfunction!(run_suite, m)?)?;

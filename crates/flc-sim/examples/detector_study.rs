@@ -80,7 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let body = markdown(&curves, &clutter, &args.label, &figures, &command);
         let text = std::fs::read_to_string(doc)?;
         let name = format!("{p}-study");
-        let new = replace_block(&text, &name, &body).ok_or_else(|| format!("{}: no <!-- {name} --> ... <!-- /{name} --> block", doc.display()))?;
+        let new = replace_block(&text, &name, &body)
+            .ok_or_else(|| format!("{}: no <!-- {name} --> ... <!-- /{name} --> block", doc.display()))?;
         std::fs::write(doc, new)?;
     }
     eprintln!("written into {} ({:.0} s)", args.out.display(), t0.elapsed().as_secs_f64());

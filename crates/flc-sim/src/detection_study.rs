@@ -425,7 +425,14 @@ pub fn run_range_study(study: &RangeStudy) -> Vec<Curve> {
                     let seed = mix(&[study.seed, 2, b as u64, k as u64, c as u64]);
                     let scan = Lidar::new(cond.lidar.clone(), seed).capture(0.0, &bench.world, bench.ego, &ego);
                     let det = bench.detector.detect(&scan.points, tr.curvature).detection;
-                    let mut r = BinResult { lo, hi, frames: 1, visible: usize::from(visible), partly_hidden: usize::from(partly), ..Default::default() };
+                    let mut r = BinResult {
+                        lo,
+                        hi,
+                        frames: 1,
+                        visible: usize::from(visible),
+                        partly_hidden: usize::from(partly),
+                        ..Default::default()
+                    };
                     if let Some(d) = det {
                         if on_target(&tr, &t, [d.position.x, d.position.y], ASSOCIATION_GATE) {
                             r.partly_detected = usize::from(partly);
@@ -639,7 +646,12 @@ fn panels(curves: &[Curve], y: impl Fn(&BinResult) -> f64, extra: Extra<'_>) -> 
                 let i = conditions.iter().position(|n| *n == c.condition).unwrap_or(0);
                 let color = COLORS[i % COLORS.len()];
                 let mid = |b: &BinResult| (b.lo + b.hi) / 2.0;
-                lines.push(Line { label: c.condition.clone(), color, dashed: false, points: c.bins.iter().map(|b| (mid(b), y(b))).collect() });
+                lines.push(Line {
+                    label: c.condition.clone(),
+                    color,
+                    dashed: false,
+                    points: c.bins.iter().map(|b| (mid(b), y(b))).collect(),
+                });
                 if let Some((suffix, f)) = extra {
                     lines.push(Line {
                         label: format!("{} ({suffix})", c.condition),
@@ -716,7 +728,12 @@ pub fn false_svg(runs: &[ClutterResult], label: &str) -> String {
         rows.push((format!("{} ({:.2} km), path = road curvature", r.track, r.km), road, "#d62728"));
         rows.push((format!("{} ({:.2} km), path = straight", r.track, r.km), zero, "#ff7f0e"));
     }
-    bars(&format!("False lead detections per km, no lead on the road — {label}"), "Guard rails, posts, parked cars in the next lane; 30-130 km/h, one scan per 1/20 s of driving. Target: none.", "/km", &rows)
+    bars(
+        &format!("False lead detections per km, no lead on the road — {label}"),
+        "Guard rails, posts, parked cars in the next lane; 30-130 km/h, one scan per 1/20 s of driving. Target: none.",
+        "/km",
+        &rows,
+    )
 }
 
 fn pct(x: f64) -> String {
@@ -738,7 +755,11 @@ pub fn markdown(curves: &[Curve], clutter: &[ClutterResult], label: &str, figure
     let _ = writeln!(out, "![false detections per km]({figures}-false-per-km.svg)\n");
     out.push_str("**Against the targets** (rates over visible frames; *accurate*: detected within 0.3 m; *visible*: the scan without impairments sees the nearest point and at least half the width; *partly hidden*: rays on the target but not visible, with the share of them in which the target was detected):\n\n");
     out.push_str("| target | track | condition | ranges | visible / frames | detected | accurate | max \\|error\\| m | partly hidden: frames, detected | required |\n|---|---|---|---|---|---|---|---|---|---|\n");
-    let checks: [(&str, &str, f64, &str); 3] = [("car", "clean", 150.0, "≥ 99.5 % accurate"), ("car", "50 % dropout", 100.0, "≥ 98 % accurate"), ("motorcycle", "clean", 80.0, "≥ 99 % accurate")];
+    let checks: [(&str, &str, f64, &str); 3] = [
+        ("car", "clean", 150.0, "≥ 99.5 % accurate"),
+        ("car", "50 % dropout", 100.0, "≥ 98 % accurate"),
+        ("motorcycle", "clean", 80.0, "≥ 99 % accurate"),
+    ];
     for (target, cond, up_to, req) in checks {
         for c in curves.iter().filter(|c| c.target.name == target && c.condition == cond) {
             let p = c.pooled(up_to);
@@ -762,7 +783,15 @@ pub fn markdown(curves: &[Curve], clutter: &[ClutterResult], label: &str, figure
     let (mut km, mut frames, mut a, mut b) = (0.0, 0, 0, 0);
     for r in clutter {
         let (ra, rb) = r.per_km();
-        let _ = writeln!(out, "| {} | {:.2} | {} | {} | {ra:.3} | {} | {rb:.3} |", r.track, r.km, r.frames, r.false_road_curvature.len(), r.false_zero_curvature.len());
+        let _ = writeln!(
+            out,
+            "| {} | {:.2} | {} | {} | {ra:.3} | {} | {rb:.3} |",
+            r.track,
+            r.km,
+            r.frames,
+            r.false_road_curvature.len(),
+            r.false_zero_curvature.len()
+        );
         km += r.km;
         frames += r.frames;
         a += r.false_road_curvature.len();
@@ -779,7 +808,12 @@ pub fn markdown(curves: &[Curve], clutter: &[ClutterResult], label: &str, figure
             .map(|f| format!("s = {:.0} m: ({:.1}, {:.1}) m, {:.2} m wide", f.s, f.position[0], f.position[1], f.width))
             .collect();
         if !first.is_empty() {
-            let _ = writeln!(out, "\nFirst false detections on the {} track (path = road curvature; sensor frame): {}.", r.track, first.join("; "));
+            let _ = writeln!(
+                out,
+                "\nFirst false detections on the {} track (path = road curvature; sensor frame): {}.",
+                r.track,
+                first.join("; ")
+            );
         }
     }
     out.push('\n');
@@ -799,12 +833,17 @@ pub fn markdown(curves: &[Curve], clutter: &[ClutterResult], label: &str, figure
             .collect();
         let _ = writeln!(out, "| {} | {} | {} | {} |", c.target.name, c.track, c.condition, cells.join(" | "));
     }
-    let _ = writeln!(out, "\nColumn heads: lower edge of the 10 m range bin, m; {} frames per bin.", first.bins.first().map_or(0, |b| b.frames));
+    let _ = writeln!(
+        out,
+        "\nColumn heads: lower edge of the 10 m range bin, m; {} frames per bin.",
+        first.bins.first().map_or(0, |b| b.frames)
+    );
     out.push_str("\n**Mean |distance error| by range**, m:\n\n");
     let _ = writeln!(out, "| target | track | condition | {} |", heads.join(" | "));
     let _ = writeln!(out, "|---|---|---|{}", "---|".repeat(heads.len()));
     for c in curves {
-        let cells: Vec<String> = c.bins.iter().map(|b| if b.detected == 0 { "-".into() } else { format!("{:.3}", b.mean_abs_error()) }).collect();
+        let cells: Vec<String> =
+            c.bins.iter().map(|b| if b.detected == 0 { "-".into() } else { format!("{:.3}", b.mean_abs_error()) }).collect();
         let _ = writeln!(out, "| {} | {} | {} | {} |", c.target.name, c.track, c.condition, cells.join(" | "));
     }
     out

@@ -170,7 +170,14 @@ impl ExternalFollower {
             let (distance, lead_speed) = if ideal { (input.gap, input.front_speed) } else { (seen, None) };
             let dt = self.last_tick_t.map_or(1.0 / self.cfg.lidar.rate_hz, |p| t - p);
             self.last_tick_t = Some(t);
-            let o = self.longitudinal.step(&Frame { distance, own_speed: input.own_speed, v2v: self.mailbox.take(), dt, lead_speed, own_fix: None });
+            let o = self.longitudinal.step(&Frame {
+                distance,
+                own_speed: input.own_speed,
+                v2v: self.mailbox.take(),
+                dt,
+                lead_speed,
+                own_fix: None,
+            });
             self.speed_cmd = Some(o.command.speed);
             self.out.switches += u32::from(o.switched);
             self.out.active = o.active;

@@ -119,20 +119,35 @@ impl Scenario {
     }
 }
 
+/// One tracking run of [`Scenario::paper_tracking`] for [`other_numbers`].
+pub struct TrackingRun<'a> {
+    /// `flc` or `pid`.
+    pub controller: &'a str,
+    /// Mean |heading error|, deg.
+    pub rot_error_deg: Option<f64>,
+    /// Mean |lateral offset|, m.
+    pub trans_error_m: Option<f64>,
+    /// How the run ended ([`crate::RunRecord::outcome`]): the errors are averages up to that end.
+    pub outcome: String,
+    /// Simulated time of the run, s.
+    pub duration: f64,
+}
+
 /// The paper's other numbers next to the simulated ones: the tracking errors of `tracking` (runs
-/// of [`Scenario::paper_tracking`]) and, from `impacts` (controller, impact speed at 90 km/h),
-/// whether the FLC's crash at 90 km/h is less severe than the PID's.
-pub fn other_numbers(tracking: &[(&str, Option<f64>, Option<f64>)], impacts: &[(&str, f64)]) -> String {
+/// of [`Scenario::paper_tracking`], with how each run ended) and, from `impacts` (controller,
+/// impact speed at 90 km/h), whether the FLC's crash at 90 km/h is less severe than the PID's.
+pub fn other_numbers(tracking: &[TrackingRun<'_>], impacts: &[(&str, f64)]) -> String {
     let mut out = String::from("the paper's other numbers:\n");
-    for (c, rot, trans) in tracking {
+    for TrackingRun { controller: c, rot_error_deg: rot, trans_error_m: trans, outcome, duration } in tracking {
         let paper = PAPER_TRACKING.iter().find(|(n, _, _)| n == c);
         let f = |x: &Option<f64>, d: usize| x.map_or("-".to_string(), |v| format!("{v:.d$}"));
         out.push_str(&format!(
-            "  tracking on the curved route, {c}: rotational {} deg, translational {} m (paper {} deg, {} m)\n",
+            "  tracking on the curved route, {c}: rotational {} deg, translational {} m (paper {} deg, {} m); the run ends after {duration:.2} s: {}\n",
             f(rot, 4),
             f(trans, 4),
             paper.map_or("-".into(), |p| p.1.to_string()),
-            paper.map_or("-".into(), |p| p.2.to_string())
+            paper.map_or("-".into(), |p| p.2.to_string()),
+            outcome.split_whitespace().collect::<Vec<_>>().join(" ")
         ));
     }
     let get = |n: &str| impacts.iter().find(|(c, _)| *c == n).map(|(_, v)| *v);

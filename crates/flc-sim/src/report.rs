@@ -159,6 +159,12 @@ impl RunRecord {
         }
     }
 
+    /// How follower 1's run ended, as the results table's outcome column says it
+    /// (`stop,  4.66 m`, `collision  5.20 m/s, guard_rail #1`, `no stop, min  3.00 m`).
+    pub fn outcome(&self) -> String {
+        outcome(&self.metrics, self.collision_info.as_ref(), 1)
+    }
+
     /// Some vehicle collided (follower 1, or any follower of a platoon).
     pub fn any_collision(&self) -> bool {
         self.metrics.collision || self.platoon.as_ref().is_some_and(|p| p.any_collision)

@@ -102,7 +102,13 @@ impl Chart {
             let top = head + cell_h * r as f64 + mt;
             let sx = |x: f64| left + (x - x0) / (x1 - x0) * pw;
             let sy = |y: f64| top + ph - (y.clamp(y0, y1) - y0) / (y1 - y0) * ph;
-            let _ = writeln!(out, r#"<text x="{}" y="{}" text-anchor="middle" font-weight="bold">{}</text>"#, left + pw / 2.0, top - 8.0, esc(&p.title));
+            let _ = writeln!(
+                out,
+                r#"<text x="{}" y="{}" text-anchor="middle" font-weight="bold">{}</text>"#,
+                left + pw / 2.0,
+                top - 8.0,
+                esc(&p.title)
+            );
             let _ = writeln!(out, r##"<rect x="{left}" y="{top}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>"##);
             for &t in &self.x_ticks {
                 let x = sx(t);
@@ -116,12 +122,23 @@ impl Chart {
             }
             for (v, label) in &self.h_refs {
                 let y = sy(*v);
-                let _ = writeln!(out, r##"<line x1="{left}" y1="{y:.1}" x2="{}" y2="{y:.1}" stroke="#888" stroke-dasharray="2,3"/>"##, left + pw);
-                let _ = writeln!(out, r##"<text x="{}" y="{:.1}" text-anchor="end" fill="#666" font-size="9">{}</text>"##, left + pw - 3.0, y - 3.0, esc(label));
+                let _ = writeln!(
+                    out,
+                    r##"<line x1="{left}" y1="{y:.1}" x2="{}" y2="{y:.1}" stroke="#888" stroke-dasharray="2,3"/>"##,
+                    left + pw
+                );
+                let _ = writeln!(
+                    out,
+                    r##"<text x="{}" y="{:.1}" text-anchor="end" fill="#666" font-size="9">{}</text>"##,
+                    left + pw - 3.0,
+                    y - 3.0,
+                    esc(label)
+                );
             }
             for (v, label) in &self.v_refs {
                 let x = sx(*v);
-                let _ = writeln!(out, r##"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{}" stroke="#888" stroke-dasharray="2,3"/>"##, top + ph);
+                let _ =
+                    writeln!(out, r##"<line x1="{x:.1}" y1="{top}" x2="{x:.1}" y2="{}" stroke="#888" stroke-dasharray="2,3"/>"##, top + ph);
                 let _ = writeln!(out, r##"<text x="{:.1}" y="{}" fill="#666" font-size="9">{}</text>"##, x + 3.0, top + 10.0, esc(label));
             }
             for l in &p.lines {
@@ -130,7 +147,12 @@ impl Chart {
                 let mut run: Vec<String> = Vec::new();
                 let flush = |run: &mut Vec<String>, out: &mut String| {
                     if !run.is_empty() {
-                        let _ = writeln!(out, r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.6"{dash}/>"#, run.join(" "), l.color);
+                        let _ = writeln!(
+                            out,
+                            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.6"{dash}/>"#,
+                            run.join(" "),
+                            l.color
+                        );
                         run.clear();
                     }
                 };
@@ -144,9 +166,19 @@ impl Chart {
                 }
                 flush(&mut run, &mut out);
             }
-            let _ = writeln!(out, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, left + pw / 2.0, top + ph + 28.0, esc(&self.x_label));
+            let _ = writeln!(
+                out,
+                r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+                left + pw / 2.0,
+                top + ph + 28.0,
+                esc(&self.x_label)
+            );
             let (lx, ly) = (left - 38.0, top + ph / 2.0);
-            let _ = writeln!(out, r#"<text x="{lx}" y="{ly}" text-anchor="middle" transform="rotate(-90 {lx} {ly})">{}</text>"#, esc(&self.y_label));
+            let _ = writeln!(
+                out,
+                r#"<text x="{lx}" y="{ly}" text-anchor="middle" transform="rotate(-90 {lx} {ly})">{}</text>"#,
+                esc(&self.y_label)
+            );
         }
         // Legend: every distinct label once, in order of first appearance.
         let mut seen: Vec<(&str, &str, bool)> = Vec::new();

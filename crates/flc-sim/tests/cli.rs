@@ -89,3 +89,30 @@ fn sweep_to_parquet_points_to_the_python_command() {
     assert!(err.contains("--out") && err.contains("python -m flc sweep"), "{err}");
     assert!(!d.join("x.parquet").exists());
 }
+
+/// `docs/paper-reproduction.md`'s tracking table (a generated block, `python -m flc docs`) says
+/// what `scenario` prints under its table: the same errors to the printed digits, and how each
+/// run ends.
+#[test]
+fn paper_reproduction_tracking_table_equals_what_scenario_prints() {
+    let out = scenario().args(["--speeds", "30", "--preset", "paper", "--controllers", "flc"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/paper-reproduction.md")).unwrap();
+    for c in ["flc", "pid"] {
+        let line = text
+            .lines()
+            .find(|l| l.contains(&format!("tracking on the curved route, {c}:")))
+            .unwrap_or_else(|| panic!("no tracking line for {c} in:\n{text}"));
+        let num = |key: &str| line.split(key).nth(1).and_then(|r| r.split_whitespace().next()).unwrap().to_string();
+        let (rot, trans) = (num("rotational "), num("translational "));
+        let ends = line.split("s: ").last().unwrap().trim().replace("  ", " ");
+        let row = doc
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} |", c.to_uppercase())) && l.contains("after"))
+            .unwrap_or_else(|| panic!("no tracking row for {c} in docs/paper-reproduction.md"));
+        assert!(row.starts_with(&format!("| {} | {rot} | {trans} | ", c.to_uppercase())), "doc row `{row}` vs printed `{line}`");
+        let ends_doc = ends.replace("stop, ", "stop, ").replace("collision ", "collision, ");
+        assert!(row.contains(&ends_doc), "doc row `{row}` does not say how the run ends: `{ends}`");
+    }
+}

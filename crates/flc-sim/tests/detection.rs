@@ -19,7 +19,12 @@ use flc_sim::{ControllerKind, Scenario, run};
 const FRAMES: usize = 100;
 
 fn study(track: TrackKind, target: Target, condition: Condition, up_to: f64, frames: usize) -> Curve {
-    let s = RangeStudy { conditions: vec![condition], bins: range_bins(10.0, up_to, 10.0), frames_per_bin: frames, ..RangeStudy::new(track, target) };
+    let s = RangeStudy {
+        conditions: vec![condition],
+        bins: range_bins(10.0, up_to, 10.0),
+        frames_per_bin: frames,
+        ..RangeStudy::new(track, target)
+    };
     run_range_study(&s).remove(0)
 }
 
@@ -52,7 +57,14 @@ fn require(tracks: &[TrackKind], target: Target, condition: Condition, up_to: f6
     for &track in tracks {
         let c = study(track, target, condition.clone(), up_to, FRAMES);
         let p = c.pooled(up_to);
-        assert!(p.visible >= p.frames / 4, "{}: the target is visible in only {} of {} frames\n{}", track.name(), p.visible, p.frames, table(&c));
+        assert!(
+            p.visible >= p.frames / 4,
+            "{}: the target is visible in only {} of {} frames\n{}",
+            track.name(),
+            p.visible,
+            p.frames,
+            table(&c)
+        );
         let rate = p.accurate_rate();
         eprintln!(
             "{} {} {} to {up_to} m: {:.2} % accurate ({} / {} visible, {} frames), max |err| {:.3} m",
@@ -139,7 +151,10 @@ fn no_false_detection(tracks: &[TrackKind]) {
     let mut failures = Vec::new();
     for r in &runs {
         let (road, zero) = r.per_km();
-        eprintln!("{}: {:.2} km, {} frames, {road:.3} false/km (road curvature), {zero:.3} false/km (straight path)", r.track, r.km, r.frames);
+        eprintln!(
+            "{}: {:.2} km, {} frames, {road:.3} false/km (road curvature), {zero:.3} false/km (straight path)",
+            r.track, r.km, r.frames
+        );
         for (name, list) in [("road curvature", &r.false_road_curvature), ("straight path", &r.false_zero_curvature)] {
             if !list.is_empty() {
                 let first: Vec<String> = list
@@ -147,7 +162,13 @@ fn no_false_detection(tracks: &[TrackKind]) {
                     .take(5)
                     .map(|f| format!("s {:.1} m: at ({:.1}, {:.1}) m, {:.2} m wide", f.s, f.position[0], f.position[1], f.width))
                     .collect();
-                failures.push(format!("{} ({name}): {} false detections ({:.3}/km), first: {}", r.track, list.len(), list.len() as f64 / r.km, first.join("; ")));
+                failures.push(format!(
+                    "{} ({name}): {} false detections ({:.3}/km), first: {}",
+                    r.track,
+                    list.len(),
+                    list.len() as f64 / r.km,
+                    first.join("; ")
+                ));
             }
         }
     }
@@ -235,7 +256,10 @@ fn stop_failures(scenario: impl Fn(&str) -> Scenario) -> Vec<String> {
         let n = r.series.len();
         let (gap, v) = (r.series.gap[n - 1], r.series.follower_speed[n - 1]);
         let seen = r.series.detected_distance.iter().filter(|d| d.is_finite()).count();
-        eprintln!("{name}: collision {}, final gap {gap:.2} m, final speed {v:.2} m/s, lead detected in {seen} / {n} steps", r.metrics.collision);
+        eprintln!(
+            "{name}: collision {}, final gap {gap:.2} m, final speed {v:.2} m/s, lead detected in {seen} / {n} steps",
+            r.metrics.collision
+        );
         if r.metrics.collision || v > 0.5 {
             failures.push(format!(
                 "{name}: collision {} (impact {:.2} m/s), final gap {gap:.2} m, speed {v:.2} m/s, lead detected in {seen} of {n} steps",

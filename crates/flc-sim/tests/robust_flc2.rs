@@ -31,7 +31,8 @@ fn failures(kind: ControllerKind, patch: &Patch) -> (usize, Vec<String>) {
             runs.push((format!("{}/{}", suite.spec.name, r.run), s));
         }
     }
-    let results: Vec<_> = RunOptions::default().run_batch(&runs.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>()).into_iter().map(|r| r.unwrap()).collect();
+    let results: Vec<_> =
+        RunOptions::default().run_batch(&runs.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>()).into_iter().map(|r| r.unwrap()).collect();
     let mut bad = Vec::new();
     for (pair, res) in runs.chunks(2).zip(results.chunks(2)) {
         if let ([(name, _), _], [refr, own]) = (pair, res) {
@@ -119,7 +120,12 @@ fn v2_closes_in_from_twice_its_gap_within_20_s() {
         let (gap, desired) = (r.series.gap[n], r.series.desired_gap[n]);
         println!("{kmh} km/h: gap {gap:.1} m after 20 s, desired {desired:.1} m, max decel {:.2} m/s²", r.metrics.max_decel);
         if (gap - desired).abs() > 0.1 * desired || r.metrics.max_decel > 0.5 || r.metrics.collision {
-            bad.push(format!("{kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m (start {:.1}), max decel {:.2} m/s², speed {:.1} km/h", 2.0 * s.flc_robust2.law.desired_gap(v), r.metrics.max_decel, r.series.follower_speed[n] * 3.6));
+            bad.push(format!(
+                "{kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m (start {:.1}), max decel {:.2} m/s², speed {:.1} km/h",
+                2.0 * s.flc_robust2.law.desired_gap(v),
+                r.metrics.max_decel,
+                r.series.follower_speed[n] * 3.6
+            ));
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("; "));

@@ -5,8 +5,8 @@ use core::ptr;
 
 use super::storage::{check_ptr, get_mut, init, storage, tri, write_out};
 use super::{FlcFallbackParams, FlcLongitudinalCommand, FlcParamError, FlcPidParams, FlcResult};
-use crate::params::ParamError;
 use crate::association::{AssociationParams, AssociationState};
+use crate::params::ParamError;
 use crate::supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
 
 // ---------------------------------------------------------------------------------------------

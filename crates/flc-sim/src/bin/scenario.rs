@@ -365,7 +365,14 @@ fn paper_numbers(records: &[RunRecord]) -> Result<String, SimError> {
     let mut tracking = Vec::new();
     for (k, r) in kinds.iter().zip(results) {
         let r = r?;
-        tracking.push((k.as_str(), r.metrics.rot_error_deg, r.metrics.trans_error_m));
+        let record = RunRecord::from_run(None, &r);
+        tracking.push(flc_sim::paper::TrackingRun {
+            controller: k.as_str(),
+            rot_error_deg: r.metrics.rot_error_deg,
+            trans_error_m: r.metrics.trans_error_m,
+            outcome: record.outcome(),
+            duration: r.metrics.duration,
+        });
     }
     let impacts: Vec<(&str, f64)> = records
         .iter()

@@ -1,0 +1,223 @@
+"""The generators of the documents' generated blocks (:mod:`flc.docs`): one function per block
+kind, registered under the NAME of ``python -m flc docs show NAME [ARG ...]``.
+
+A generator returns Markdown text. It runs the simulator (the same Rust functions the CLI and
+the tests use; seconds at most) or reads a committed data file (named in its docstring, with the
+command that regenerates that file). Runs are cached within one ``python -m flc docs`` call.
+"""
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+from ._run import RunResult, sweep
+from ._scenario import Scenario
+from .reproduction import PAPER, ROOT, read_csv
+
+GENERATORS: dict[str, Callable[..., str]] = {}
+
+
+def generator(name: str) -> Callable[[Callable[..., str]], Callable[..., str]]:
+    def reg(f: Callable[..., str]) -> Callable[..., str]:
+        GENERATORS[name] = f
+        return f
+
+    return reg
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared helpers
+
+
+@functools.lru_cache(maxsize=None)
+def _runs(key: tuple[str, ...]) -> list[RunResult]:
+    return sweep([Scenario.from_dict(json.loads(k)) for k in key])
+
+
+def run_all(scenarios: Sequence[Scenario]) -> list[RunResult]:
+    """Runs (in parallel, in Rust) and caches by scenario: equal scenarios run once per call."""
+    return _runs(tuple(s.to_json() for s in scenarios))
+
+
+def outcome(r: RunResult) -> str:
+    """``stop, 4.54 m`` / ``collision, 4.36 m/s`` (with what was hit unless the vehicle ahead) /
+    ``no stop, min 3.00 m``, as the CLI's outcome column says it."""
+    m = r.metrics
+    if m["collision"]:
+        hit = (r.collision or {}).get("object") or {}
+        if hit.get("kind") == "vehicle":
+            label = "" if hit.get("name") == "lead" else f", {hit.get('name')}"
+        else:
+            label = f", {hit.get('kind')} #{hit.get('index')}" if hit else ""
+        return f"collision, {m['impact_speed']:.2f} m/s{label}"
+    if m.get("final_clearance") is not None:
+        return f"stop, {m['final_clearance']:.2f} m"
+    return f"no stop, min {m['min_gap']:.2f} m"
+
+
+def table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: Optional[str] = None) -> str:
+    """A Markdown table; ``align`` is one letter per column (``l`` / ``r``), left by default."""
+    al = align or "l" * len(header)
+    sep = ["---:" if a == "r" else "---" for a in al]
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(sep) + "|"]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _paper_text(c: Optional[float]) -> str:
+    return "collision" if c is None else f"{c} m"
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/paper-reproduction.md
+
+
+def _paper_runs(preset: str, controllers: Sequence[str] = ("flc", "pid")) -> dict[tuple[str, float], RunResult]:
+    cells = [(c, v) for c in controllers for v in (30.0, 50.0, 70.0, 90.0)]
+    res = run_all([Scenario.paper(v, c, preset) for (c, v) in cells])
+    return dict(zip(cells, res))
+
+
+@generator("paper-cells")
+def paper_cells(preset: str = "paper") -> str:
+    """The paper experiment's eight cells at ``preset`` (seed 1) beside the paper's (Sec. IV)."""
+    runs = _paper_runs(preset)
+    rows = []
+    for (c, v), r in runs.items():
+        paper = PAPER[(c, v)]
+        rows.append((f"{c.upper()} {v:.0f} km/h", outcome(r), "collision" if paper is None else f"stop, {paper} m"))
+    return table(("cell", "flc-sim", "paper"), rows)
+
+
+@generator("paper-impact-90")
+def paper_impact_90(preset: str = "paper") -> str:
+    """The sentence on the 90 km/h crashes (the paper: the FLC's is the less severe)."""
+    runs = _paper_runs(preset)
+    f, p = runs[("flc", 90.0)].metrics, runs[("pid", 90.0)].metrics
+    if not (f["collision"] and p["collision"]):
+        return f"**At 90 km/h at the preset, not both collide** (FLC: {outcome(runs[('flc', 90.0)])}; PID: {outcome(runs[('pid', 90.0)])}).\n"
+    verdict = "less severe" if f["impact_speed"] < p["impact_speed"] else "not less severe"
+    return (
+        f"**At 90 km/h the FLC's crash is {verdict} than the PID's:** {f['impact_speed']:.2f} vs "
+        f"{p['impact_speed']:.2f} m/s impact speed at the preset (seed 1; `crates/flc-sim/tests/paper.rs` "
+        "asserts the order for seeds 1–5).\n"
+    )
+
+
+@generator("paper-tracking")
+def paper_tracking() -> str:
+    """The tracking errors on the curved route, as ``cargo run --release --bin scenario`` prints
+    them (``Scenario::paper_tracking``, paper preset), with how each run ends."""
+    paper = {"flc": "0.0176 deg / 0.2258 m", "pid": "0.0199 deg / 0.2876 m"}
+    rows = []
+    for c, r in zip(("flc", "pid"), run_all([Scenario.paper_tracking(c, "paper") for c in ("flc", "pid")])):
+        m = r.metrics
+        rows.append((c.upper(), f"{m['rot_error_deg']:.4f}", f"{m['trans_error_m']:.4f}", f"{outcome(r)} after {m['duration']:.2f} s", paper[c]))
+    return table(("", "rotational (deg)", "translational (m)", "the run ends", "paper"), rows, "lrrll")
+
+
+def _share(rows: Sequence[dict[str, str]], at_least: int) -> tuple[int, int]:
+    return sum(1 for r in rows if int(r["matches"]) >= at_least), len(rows)
+
+
+@generator("reproduction-verdict")
+def reproduction_verdict() -> str:
+    """The region sizes, from the committed ``sweeps/paper-reproduction-{map,random}.csv``
+    (regenerated by ``python -m flc reproduction --out docs/figures``)."""
+    m8, mn = _share(read_csv(ROOT / "sweeps" / "paper-reproduction-map.csv"), 8)
+    rnd = read_csv(ROOT / "sweeps" / "paper-reproduction-random.csv")
+    r8, rn = _share(rnd, 8)
+    r7, _ = _share(rnd, 7)
+    return (
+        f"All 8 cells match on **{100 * m8 / mn:.1f} %** ({m8} of {mn} grid points) of the brake authority × "
+        f"actuator response map, and on **{100 * r8 / rn:.1f} %** ({r8} of {rn}) of a random sample over "
+        f"all seven constants; {100 * r7 / rn:.1f} % of that sample matches at least 7.\n"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/baselines.md and the scenario files
+
+
+@generator("paper-matrix")
+def paper_matrix(preset: str, controllers: str) -> str:
+    """The paper experiment's outcome per speed (rows) and controller (columns, comma separated),
+    as ``scenario --controllers ... --preset PRESET`` prints them (seed 1)."""
+    names = [c for c in controllers.split(",") if c]
+    speeds = (30.0, 50.0, 70.0, 90.0)
+    res = run_all([Scenario.paper(v, c, preset) for v in speeds for c in names])
+    rows = [[f"{v:.0f}", *(outcome(r) for r in res[i * len(names):(i + 1) * len(names)])] for i, v in enumerate(speeds)]
+    return table(("km/h", *names), rows, "r" + "l" * len(names))
+
+
+@generator("scenario-outcome")
+def scenario_outcome(path: str, *overrides: str) -> str:
+    """One line: how the scenario file ends (``KEY=VALUE`` overrides, values as TOML/JSON), e.g.
+    ``scenarios/robust-cut-out.toml controller=flc``."""
+    ov = {}
+    for o in overrides:
+        k, _, v = o.partition("=")
+        try:
+            ov[k] = json.loads(v)
+        except ValueError:
+            ov[k] = v
+    sc = Scenario.load(ROOT / path, **ov)
+    (r,) = run_all([sc])
+    what = " ".join(f"`{o}`" for o in overrides)
+    return f"`{path}`{' with ' + what if what else ''}: {outcome(r)} (after {r.metrics['duration']:.2f} s)\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/platoon.md
+
+
+def _brakedemo() -> list[tuple[str, RunResult]]:
+    vs = Scenario.brakedemo().variants()
+    return list(zip([v.variant or "" for v in vs], run_all(vs)))
+
+
+@generator("platoon-brakedemo")
+def platoon_brakedemo() -> str:
+    """The brake demo's variants (``scenarios/platoon-brakedemo.toml``, seed 1): collisions,
+    clearances, the largest counted error ratio and the time-domain verdict."""
+    rows = []
+    for name, r in _brakedemo():
+        assert r.platoon is not None
+        per = r.platoon.metrics
+        hits = [str(k + 1) for k, m in enumerate(per) if m["collision"]]
+        cl = [m["final_clearance"] for m in per if m.get("final_clearance") is not None]
+        ss = r.string_stability or {}
+        rows.append((
+            f"`{name}`",
+            "none" if not hits else "followers " + ", ".join(hits),
+            f"{min(cl):.2f}–{max(cl):.2f} m" if cl else "–",
+            f"{ss.get('max_ratio', float('nan')):.3f}",
+            "string stable" if ss.get("time_domain_stable") else "not string stable",
+        ))
+    return table(("variant", "collisions", "clearances (followers 1–7)", "max counted ratio", "verdict (time domain)"), rows)
+
+
+@generator("platoon-gamma")
+def platoon_gamma() -> str:
+    """|Gamma(jw)| per frequency of the brake demo's variants (max over the counted followers;
+    ``flc.frequency_response``)."""
+    from ._run import frequency_response
+
+    cols = []
+    names = []
+    for v in Scenario.brakedemo().variants():
+        names.append(f"`{v.variant}`")
+        pts = frequency_response(v)
+        cols.append({p["freq_hz"]: p for p in pts})
+    freqs = sorted({f for c in cols for f in c})
+    rows = []
+    for f in freqs:
+        cells = []
+        for c in cols:
+            p = c.get(f)
+            g = None if p is None else p.get("max_gamma")
+            cells.append("–" if g is None else f"{g:.3f}")
+        rows.append((f"{f:g}", *cells))
+    return table(("Hz", *names), rows, "r" * (1 + len(names)))
