@@ -221,3 +221,43 @@ def platoon_gamma() -> str:
             cells.append("–" if g is None else f"{g:.3f}")
         rows.append((f"{f:g}", *cells))
     return table(("Hz", *names), rows, "r" * (1 + len(names)))
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/robust-flc.md
+
+
+def steady_following(controller: str, kmh: float, decel: float) -> Scenario:
+    """Steady following at the controller's own gap on a straight road, no V2V; the lead holds
+    for 2 s and brakes at ``decel`` to a stop (its brakes raised to 15 m/s²)."""
+    v = kmh / 3.6
+    gap = 3 + 1.5 * v if controller == "flc-robust" else 1.4 * v + 6  # the own gap (above 20 km/h)
+    return Scenario.from_dict({
+        "controller": controller, "duration": 90.0, "v2v": {"enabled": False},
+        "track": {"kind": "straight", "length": 5000.0},
+        "lead": {"initial_speed": v, "vehicle": {"max_brake": 15.0},
+                 "phases": [{"kind": "hold", "duration": 2.0}, {"kind": "brake", "decel": float(decel)}]},
+        "follower": {"initial_speed": v, "initial_gap": gap},
+    })
+
+
+@generator("steady-following-grid")
+def steady_following_grid(controller: str) -> str:
+    """Minimum gap (m) per lead deceleration (rows) and speed (columns), ``X`` + impact speed for
+    a collision, ``no stop`` when the follower does not stop behind the lead within 90 s."""
+    speeds = (30, 50, 70, 90, 110, 130, 140, 150, 160, 170)
+    decels = (2, 6, 8, 9, 10, 12, 15)
+    res = run_all([steady_following(controller, k, b) for b in decels for k in speeds])
+    rows = []
+    for i, b in enumerate(decels):
+        cells = []
+        for r in res[i * len(speeds):(i + 1) * len(speeds)]:
+            m = r.metrics
+            if m["collision"]:
+                cells.append(f"X{m['impact_speed']:.1f}")
+            elif m.get("final_clearance") is None:
+                cells.append("no stop")
+            else:
+                cells.append(f"{m['min_gap']:.2f}")
+        rows.append((f"−{b}", *cells))
+    return table((controller, *(str(k) for k in speeds)), rows, "l" + "r" * len(speeds))
