@@ -20,7 +20,7 @@ cargo clippy --locked --workspace --all-targets -- -D warnings
 echo "== Rust: flc-core C interface (feature capi): no_std build, clippy, C API == Rust API properties"
 cargo build --locked -p flc-core --no-default-features --features capi
 cargo clippy --locked -p flc-core --all-targets --features capi -- -D warnings
-cargo test --locked -p flc-core --features capi --test capi_properties
+cargo test --locked -p flc-core --features capi --test capi_properties --test firmware_doc
 
 echo "== Rust: flc-core firmware checks (header up to date, C example == Rust, no panic path, no alloc, stack bounds)"
 cargo test --locked -p flc-core --test c_header --test c_api

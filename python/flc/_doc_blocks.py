@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import functools
 import json
+import os
+import re
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
@@ -68,6 +70,32 @@ def table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: Optional[
 
 def _paper_text(c: Optional[float]) -> str:
     return "collision" if c is None else f"{c} m"
+
+
+# ---------------------------------------------------------------------------------------------
+# Committed data files written by Rust (the detector study, the suites' report, the esmini table)
+
+_LINK_RE = re.compile(r"\]\((?P<target>[^)\s]+)\)")
+
+
+@generator("include")
+def include(path: str) -> str:
+    """The committed file PATH (relative to the repository) as it is, for results that a Rust
+    command or test writes into a data file (``docs/README.md`` lists each file's command). Its
+    relative Markdown links are made relative to ``docs/``, where the including documents live."""
+    file = ROOT / path
+    if not file.is_file():
+        raise FileNotFoundError(f"include: {path} is not a file of the repository")
+    text = file.read_text(encoding="utf-8")
+    base = os.path.relpath(file.parent, ROOT / "docs")
+
+    def relink(m: "re.Match[str]") -> str:
+        t = m.group("target")
+        if base == "." or re.match(r"^([a-z]+:|/|#)", t):
+            return m.group(0)
+        return f"]({Path(base, t).as_posix()})"
+
+    return _LINK_RE.sub(relink, text)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -261,3 +289,108 @@ def steady_following_grid(controller: str) -> str:
                 cells.append(f"{m['min_gap']:.2f}")
         rows.append((f"−{b}", *cells))
     return table((controller, *(str(k) for k in speeds)), rows, "l" + "r" * len(speeds))
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/safety-envelope.md
+
+
+@generator("envelope-highest")
+def envelope_highest(stem: str) -> str:
+    """The highest collision-free speed (km/h) per controller and second-axis value, read from the
+    committed ``docs/figures/<stem>-summary.md`` (``python -m flc figures --out docs/figures``
+    writes it; "none": already the lowest speed collided)."""
+    path = ROOT / "docs" / "figures" / f"{stem}-summary.md"
+    if not path.is_file():
+        raise FileNotFoundError(f"envelope-highest: {path.relative_to(ROOT)} is missing (python -m flc figures writes it)")
+    rows = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in path.read_text(encoding="utf-8").splitlines() if ln.startswith("|")]
+    head, body = rows[0], [r for r in rows[2:]]
+    group, value = head[1], head.index("highest_safe_speed_kmh")
+    ctrls: list[str] = []
+    groups: list[str] = []
+    cell: dict[tuple[str, str], str] = {}
+    for r in body:
+        ctrls += [r[0]] if r[0] not in ctrls else []
+        groups += [r[1]] if r[1] not in groups else []
+        cell[(r[0], r[1])] = "none" if r[value] == "nan" else r[value]
+    del group
+    return table(["controller", *groups], [[c, *(cell.get((c, g), "-") for g in groups)] for c in ctrls])
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/paper-reproduction.md: the constants around the preset
+
+
+def _lost(cells: Sequence[tuple[tuple[str, float], bool]]) -> str:
+    """``FLC 70 collides, PID 90 stops``: the cells whose outcome differs from the paper's."""
+    from .reproduction import PAPER
+
+    out = [f"{c.upper()} {v:g} {'collides' if hit else 'stops'}" for (c, v), hit in cells if hit != (PAPER[(c, v)] is None)]
+    return ", ".join(out) or "none"
+
+
+def _lines_rows() -> list[dict[str, str]]:
+    return read_csv(ROOT / "sweeps" / "paper-reproduction-lines.csv")
+
+
+def _center(rows: Sequence[dict[str, str]]) -> dict[str, float]:
+    """The point the lines run through (the preset): the constants of the ``seed`` rows."""
+    from .reproduction import base_point, load_spec
+
+    seed_row = next(r for r in rows if r["varied"] == "seed")
+    return {k: float(seed_row[k]) for k in base_point(load_spec())}
+
+
+def _row_cells(r: dict[str, str]) -> list[tuple[tuple[str, float], bool]]:
+    from .reproduction import CELLS
+
+    return [((c, v), r[f"{c}{int(v)}_collision"] == "1") for (c, v) in CELLS]
+
+
+@generator("reproduction-lines")
+def reproduction_lines() -> str:
+    """One constant at a time through the preset, from the committed
+    ``sweeps/paper-reproduction-lines.csv`` (``python -m flc reproduction --out docs/figures``):
+    the sampled values where all 8 cells match, and what the nearest sampled value outside loses."""
+    from .reproduction import constants, load_spec
+
+    rows, cs = _lines_rows(), constants(load_spec())
+    out = []
+    for name in [*cs, "seed"]:
+        line = sorted((r for r in rows if r["varied"] == name), key=lambda r: float(r[name]))
+        if not line:
+            continue
+        vals = [float(r[name]) for r in line]
+        ok = [i for i, r in enumerate(line) if r["matches"] == "8"]
+        label = cs[name]["label"] if name in cs else "seed"
+        if not ok:
+            out.append([label, "none", "-", "-"])
+            continue
+        lo, hi = ok[0], ok[-1]
+        gaps = [i for i in range(lo, hi + 1) if i not in ok]
+        match = f"{vals[lo]:g}–{vals[hi]:g}" if lo != hi else f"{vals[lo]:g}"
+        if gaps:
+            match += " (not at " + ", ".join(f"{vals[i]:g}" for i in gaps) + ")"
+        below = f"{vals[lo - 1]:g}: {_lost(_row_cells(line[lo - 1]))}" if lo > 0 else "(lowest sampled)"
+        above = f"{vals[hi + 1]:g}: {_lost(_row_cells(line[hi + 1]))}" if hi + 1 < len(line) else "(highest sampled)"
+        out.append([label, match, below, above])
+    return table(["constant", "all 8 match at", "next value below: lost", "next value above: lost"], out)
+
+
+@generator("reproduction-neighbours")
+def reproduction_neighbours() -> str:
+    """The preset with brake authority or actuator response moved by ±10 % (8 cells each, run
+    now): the cells lost. The preset is the point the committed lines CSV runs through."""
+    from .reproduction import CELLS, evaluate, load_spec
+
+    spec = load_spec()
+    center = _center(_lines_rows())
+    moves = [("brake authority", "brake_authority", f, "m/s²") for f in (0.9, 1.1)]
+    moves += [("actuator response", "actuator_response", f, "s") for f in (0.9, 1.1)]
+    points = [dict(center, **{k: center[k] * f}) for (_, k, f, _) in moves]
+    res = evaluate(spec, points)
+    out = []
+    for (label, k, f, unit), cells in zip(moves, res):
+        lost = _lost([(cell, c["collision"]) for cell, c in zip(CELLS, cells)])
+        out.append([f"{label} {'−' if f < 1 else '+'}10 % ({center[k] * f:.3g} {unit})", lost])
+    return table(["change", "cells lost"], out)

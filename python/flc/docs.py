@@ -100,7 +100,7 @@ def render(args: Sequence[str]) -> str:
         raise DocsError(f"unknown block `{name}` (known: {', '.join(sorted(_doc_blocks.GENERATORS))})")
     try:
         text = gen(*rest)
-    except TypeError as e:
+    except (TypeError, FileNotFoundError) as e:
         raise DocsError(f"block `{name}`: {e}") from None
     return text if text.endswith("\n") else text + "\n"
 

@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release -p flc-core --example detector_design            # print the tables
-//! cargo run --release -p flc-core --example detector_design -- --write  # rewrite docs/detector.md
+//! cargo run --release -p flc-core --example detector_design -- --write  # rewrite docs/figures/detector-design.md (included by docs/detector.md)
 //! ```
 //!
 //! Scans: the rear face of a car (1.8 m) or a motorcycle (0.8 m) on the path at range r, seen by
@@ -177,13 +177,9 @@ fn main() {
         print!("{block}");
         return;
     }
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/detector.md");
-    let doc = std::fs::read_to_string(path).expect("docs/detector.md");
-    let (begin, end) = ("<!-- detector-design -->\n", "<!-- /detector-design -->");
-    let (Some(a), Some(b)) = (doc.find(begin), doc.find(end)) else {
-        eprintln!("error: docs/detector.md: no {begin:?} ... {end:?} block");
+    // The committed data file that `docs/detector.md` includes (`python -m flc docs`).
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/figures/detector-design.md");
+    if let Err(e) = std::fs::write(path, block) {
+        eprintln!("error: writing docs/figures/detector-design.md: {e}");
         std::process::exit(2);
-    };
-    let new = format!("{}{begin}{block}{}", &doc[..a], &doc[b..]);
-    std::fs::write(path, new).expect("write docs/detector.md");
-}
+    }

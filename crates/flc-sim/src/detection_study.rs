@@ -849,15 +849,6 @@ pub fn markdown(curves: &[Curve], clutter: &[ClutterResult], label: &str, figure
     out
 }
 
-/// Replaces the text between `<!-- name -->` and `<!-- /name -->` in `doc` by `body` (`None` if
-/// the markers are missing).
-pub fn replace_block(doc: &str, name: &str, body: &str) -> Option<String> {
-    let (open, close) = (format!("<!-- {name} -->"), format!("<!-- /{name} -->"));
-    let start = doc.find(&open)? + open.len();
-    let end = start + doc[start..].find(&close)?;
-    Some(format!("{}\n{}\n{}", &doc[..start], body.trim_end(), &doc[end..]))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -871,12 +862,5 @@ mod tests {
         let tr = truth(&sensor, &target, &CAR);
         assert!((tr.distance - 40.0).abs() < 1e-12 && tr.curvature == 0.0);
         assert!(on_target(&tr, &CAR, [40.0, 0.9], 0.01) && !on_target(&tr, &CAR, [39.9, 0.0], 0.01));
-    }
-
-    #[test]
-    fn blocks_are_replaced_between_their_markers() {
-        let doc = "a\n<!-- x -->\nold\n<!-- /x -->\nb\n";
-        assert_eq!(replace_block(doc, "x", "new\n").as_deref(), Some("a\n<!-- x -->\nnew\n<!-- /x -->\nb\n"));
-        assert_eq!(replace_block(doc, "y", "new"), None);
     }
 }

@@ -44,6 +44,12 @@ desired_speed = 22.2222
 
 /// The hand computation (`docs/careful-driver.md`): `v 1.15 + (v T - A T² / 6) + (v - A T / 2)² / (2 A)`
 /// with `A = 0.774 * 9.81`, `T = 0.6`.
+/// Whether docs/careful-driver.md contains `sentence` (its line breaks read as spaces).
+fn doc_says(sentence: &str) -> bool {
+    let doc = include_str!("../../../docs/careful-driver.md");
+    doc.split_whitespace().collect::<Vec<_>>().join(" ").contains(sentence)
+}
+
 fn by_hand(v: f64) -> f64 {
     let (a, t) = (0.774 * 9.81, 0.6);
     v * 1.15 + (v * t - a * t * t / 6.0) + (v - a * t / 2.0).powi(2) / (2.0 * a)
@@ -67,10 +73,10 @@ fn stop(sight: f64) -> (flc_sim::RunResult, f64, f64, f64) {
 }
 
 /// From about 80 km/h the careful driver stops in the hand-computed distance plus what the
-/// vehicle model adds. Measured: the car comes into sight at 21.84 m/s (78.6 km/h: driving
-/// resistance slowed the cruise, the speed command `v + 1 s * a` follows the measured speed and
-/// the integrator is slow), where the hand computation gives 62.96 m; the driver travels 66.78 m
-/// (+3.8 m) and stops 12.3 m short of the car. What the vehicle model adds:
+/// vehicle model adds. The car comes into sight below 80 km/h (driving resistance slowed the
+/// cruise, the speed command `v + 1 s * a` follows the measured speed and the integrator is
+/// slow); the measured figures are in docs/careful-driver.md, checked here. What the vehicle
+/// model adds:
 /// * the actuator's dead time (0.1 s) and first-order lag (0.2 s) delay the braking by about
 ///   0.3 s: `v * 0.3 = 6.7 m`;
 /// * the speed interface: the command `v + 1 s * a` is 0 below `A * 1 s = 7.59 m/s`, and the
@@ -91,6 +97,11 @@ fn the_careful_driver_stops_in_the_hand_computed_distance_plus_the_actuators() {
     assert!(travelled > hand && travelled < hand + actuators, "travelled {travelled} m, hand {hand} m, + actuators {actuators} m");
     // The car stood 80 m (less up to one frame's travel) ahead at the onset.
     assert!((gap - (80.0 - travelled)).abs() < v * 0.05 + 0.01, "gap {gap}");
+    // The figures docs/careful-driver.md ("In the closed loop") states are this run's.
+    let claim = format!(
+        "travels {travelled:.2} m from the frame the car comes into sight (at {v:.2} m/s: driving resistance slowed the cruise) to standstill, where the hand computation at that speed gives {hand:.2} m, and stops {gap:.1} m short."
+    );
+    assert!(doc_says(&claim), "docs/careful-driver.md should say: {claim}");
     // The record says the reference saw the ground truth.
     let rec = RunRecord::from_run(None, &r);
     assert_eq!(rec.perception.as_deref(), Some("truth"));
@@ -116,8 +127,9 @@ fn the_normal_mode_stops_gently() {
     let r = run(&s).expect("run");
     assert!(!r.metrics.collision);
     let hardest = r.series.follower_accel.iter().copied().fold(f64::INFINITY, f64::min);
-    // Measured: the hardest deceleration 2.25 m/s², stopped 5.4 m behind the car.
     assert!(hardest > -3.5, "{hardest}");
+    let claim = format!("the IDM stops behind it braking at most {:.2} m/s²", -hardest);
+    assert!(doc_says(&claim), "docs/careful-driver.md should say: {claim}");
     assert!(r.metrics.min_gap > 2.0, "{}", r.metrics.min_gap);
 }
 

@@ -165,25 +165,10 @@ fn scripted_traffic() {
     check("mcap-traffic-10.csv", &mcap_digest("mcap-traffic", "scenarios/traffic-10.toml"));
 }
 
-/// Replaces the text between `begin` and `end` in `path` (with `FLC_BLESS=1`) or checks it.
-fn check_between(path: &Path, begin: &str, end: &str, actual: &str) {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let (Some(a), Some(b)) = (text.find(begin), text.find(end)) else { panic!("{} lacks the markers {begin} .. {end}", path.display()) };
-    if blessing() {
-        std::fs::write(path, format!("{}{begin}{actual}{}", &text[..a], &text[b..])).expect("write");
-    } else {
-        assert_eq!(
-            &text[a + begin.len()..b],
-            actual,
-            "{}: the text between {begin} and {end} is stale (FLC_BLESS=1 rewrites it)",
-            path.display()
-        );
-    }
-}
-
 /// `scenario suite all`: the same files on 1 and 2 threads, equal to the committed report in
-/// `docs/standard-suites/` (made by `scenario suite all --out docs/standard-suites`), whose
-/// summaries `docs/standard-suites.md` and the README show.
+/// `docs/standard-suites/` (made by `scenario suite all --out docs/standard-suites`), including
+/// `summary.md` and `summary-line.md`, which `docs/standard-suites.md` and the README include as
+/// generated blocks (`python -m flc docs --check` compares them).
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn standard_suites_report() {
@@ -192,32 +177,25 @@ fn standard_suites_report() {
     assert_eq!(summary, scenario(&["suite", "all", "--threads", "2", "--out", two.to_str().expect("utf-8")]), "summary depends on threads");
     let docs = root().join("docs/standard-suites");
     let mut reports = Vec::new();
-    for name in ["ncap-ccr", "r157"] {
-        for ext in ["md", "json", "svg"] {
-            let file = format!("{name}.{ext}");
-            let a = std::fs::read_to_string(one.join(&file)).expect("report");
-            assert_eq!(a, std::fs::read_to_string(two.join(&file)).expect("report"), "{file} depends on the thread count");
-            let committed = docs.join(&file);
-            if blessing() {
-                std::fs::create_dir_all(&docs).expect("mkdir");
-                std::fs::write(&committed, &a).expect("write");
-            } else {
-                let c =
-                    std::fs::read_to_string(&committed).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", committed.display()));
-                assert!(c == a, "{} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test golden rewrites it", committed.display());
-            }
-            if ext == "json" {
-                reports.push(serde_json::from_str::<flc_sim::suite::SuiteReport>(&a).expect("report json"));
-            }
+    let mut files: Vec<String> = ["ncap-ccr", "r157"].iter().flat_map(|n| ["md", "json", "svg"].map(|e| format!("{n}.{e}"))).collect();
+    files.extend(["summary.md".to_string(), "summary-line.md".to_string()]);
+    for file in &files {
+        let a = std::fs::read_to_string(one.join(file)).expect("report");
+        assert_eq!(a, std::fs::read_to_string(two.join(file)).expect("report"), "{file} depends on the thread count");
+        let committed = docs.join(file);
+        if blessing() {
+            std::fs::create_dir_all(&docs).expect("mkdir");
+            std::fs::write(&committed, &a).expect("write");
+        } else {
+            let c = std::fs::read_to_string(&committed).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", committed.display()));
+            assert!(c == a, "{} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test golden rewrites it", committed.display());
+        }
+        if file.ends_with(".json") {
+            reports.push(serde_json::from_str::<flc_sim::suite::SuiteReport>(&a).expect("report json"));
         }
     }
-    assert_eq!(summary, flc_sim::suite::summary_table(&reports));
-    check_between(
-        &root().join("docs/standard-suites.md"),
-        "<!-- suite-summary: written by tests/golden.rs -->\n",
-        "<!-- end suite-summary -->",
-        &summary,
-    );
-    check_between(&root().join("README.md"), "<!-- suite-line -->", "<!-- end suite-line -->", &flc_sim::suite::summary_line(&reports));
+    assert_eq!(summary, flc_sim::suite::summary_table(&reports), "the printed summary is the table of the reports");
+    let line = std::fs::read_to_string(one.join("summary-line.md")).expect("summary line");
+    assert_eq!(line, format!("Standard suites, runs passed: {}\n", flc_sim::suite::summary_line(&reports)));
     let _ = (std::fs::remove_dir_all(&one), std::fs::remove_dir_all(&two));
 }

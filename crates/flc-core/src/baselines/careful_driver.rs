@@ -593,10 +593,31 @@ mod tests {
     /// stopping distance; a disturbance threshold of 0.5 m/s² makes it one at every speed.
     #[test]
     fn the_documented_table() {
-        let table = [(30.0, 16.542), (50.0, 32.728), (60.0, 42.345), (80.0, 64.627), (100.0, 90.975), (130.0, 138.117)];
-        for (kmh, metres) in table {
+        // The table of docs/careful-driver.md ("Stopping distances"), read from the document:
+        // every column to its printed 3 decimals, and the driver's own stop at the last one.
+        let doc = include_str!("../../../../docs/careful-driver.md");
+        let rows: std::vec::Vec<[f64; 5]> = doc
+            .lines()
+            .filter(|l| l.starts_with("| ") && l.contains(" km/h |"))
+            .map(|l| {
+                let cells: std::vec::Vec<f64> = l
+                    .split('|')
+                    .map(|c| c.trim().trim_end_matches(" km/h").trim_end_matches(" m"))
+                    .filter(|c| !c.is_empty())
+                    .map(|c| c.parse().unwrap_or_else(|e| panic!("docs/careful-driver.md: {l}: {e}")))
+                    .collect();
+                assert_eq!(cells.len(), 5, "docs/careful-driver.md: {l}");
+                [cells[0], cells[1], cells[2], cells[3], cells[4]]
+            })
+            .collect();
+        assert_eq!(rows.len(), 6, "the stopping-distance table of docs/careful-driver.md");
+        for [kmh, reaction, ramp, full, metres] in rows {
             let v = kmh / 3.6;
-            assert!((by_hand(v) - metres).abs() < 5e-4, "{kmh}: {}", by_hand(v));
+            let parts = [v * 1.15, v * T - A * T * T / 6.0, (v - A * T / 2.0).powi(2) / (2.0 * A), by_hand(v)];
+            for (doc, code) in [reaction, ramp, full, metres].into_iter().zip(parts) {
+                assert!((code - doc).abs() <= 5e-4 + 1e-9, "docs/careful-driver.md at {kmh} km/h: {doc} printed, {code:.4} computed");
+            }
+            assert!((CarefulDriverParams::default().stopping_distance(v) - by_hand(v)).abs() < 1e-12);
             let p = CarefulDriverParams { risk_decel: 0.5, ..cruising(v) };
             let stop = against_obstacle(p, v, metres + 10.0);
             assert!((stop.distance - metres).abs() < 0.05, "{kmh}: {} vs {metres}", stop.distance);

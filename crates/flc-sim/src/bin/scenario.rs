@@ -246,7 +246,7 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
 /// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
 /// reports into `--out`.
 fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
-    use flc_sim::suite::{Suite, default_root, markdown, summary_table, svg};
+    use flc_sim::suite::{Suite, default_root, markdown, summary_line, summary_table, svg};
     // The cases fix their own parameters, ego and road: the per-file options do not apply.
     for (given, flag) in
         [(cli.record.is_some(), "--record"), (!cli.param.is_empty(), "--param"), (cli.ego.is_some(), "--ego"), (cli.json, "--json")]
@@ -288,16 +288,22 @@ fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
             let picked = cli.controllers.as_ref().map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
             format!("cargo run --release --bin scenario -- suite {n}{picked} --out DIR")
         };
+        let mut files: Vec<(String, String)> = Vec::new();
         for r in &reports {
-            let files = [("md", markdown(r, &command(&r.name))), ("json", r.to_json() + "\n"), ("svg", svg(r))];
-            for (ext, text) in files {
-                let path = dir.join(format!("{}.{ext}", r.name));
-                if let Err(e) = std::fs::write(&path, text) {
-                    eprintln!("error: writing {}: {e}", path.display());
-                    return ExitCode::FAILURE;
-                }
-                eprintln!("{}", path.display());
+            files.push((format!("{}.md", r.name), markdown(r, &command(&r.name))));
+            files.push((format!("{}.json", r.name), r.to_json() + "\n"));
+            files.push((format!("{}.svg", r.name), svg(r)));
+        }
+        // The summaries the README and docs/standard-suites.md include (`python -m flc docs`).
+        files.push(("summary.md".into(), summary_table(&reports)));
+        files.push(("summary-line.md".into(), format!("Standard suites, runs passed: {}\n", summary_line(&reports))));
+        for (name, text) in files {
+            let path = dir.join(name);
+            if let Err(e) = std::fs::write(&path, text) {
+                eprintln!("error: writing {}: {e}", path.display());
+                return ExitCode::FAILURE;
             }
+            eprintln!("{}", path.display());
         }
     }
     ExitCode::SUCCESS
