@@ -1,10 +1,16 @@
 #!/usr/bin/env python3
 """A small OpenSCENARIO XML writer (stdlib only): elements, the document frame and the few actions,
-conditions and storyboard pieces the standard suites use. `tools/suite_cases.py` writes the suites
-with it; it is not a runnable tool itself.
+conditions and storyboard pieces the standard suites and the test fixtures use.
+`tools/suite_cases.py` writes the suites and `tools/fixture_cases.py` five of the fixtures in
+tests/data/openscenario/ with it; it is not a runnable tool itself.
 """
 
 DATE = "2026-12-01T00:00:00"
+
+
+def escape(value):
+    """An attribute value with `&`, `<`, `>` and `"` written as entities."""
+    return str(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
 class X:
@@ -15,7 +21,7 @@ class X:
 
     def lines(self, depth=0):
         pad = "  " * depth
-        attrs = "".join(f' {k.rstrip("_")}="{v}"' for k, v in self.attrs.items())
+        attrs = "".join(f' {k.rstrip("_")}="{escape(v)}"' for k, v in self.attrs.items())
         if not self.children:
             return [f"{pad}<{self.tag}{attrs}/>"]
         out = [f"{pad}<{self.tag}{attrs}>"]
@@ -26,13 +32,49 @@ class X:
 
 
 def document(comment, minor, description, *body):
+    if "--" in comment:
+        raise ValueError("an XML comment cannot hold `--`")
     head = X("FileHeader", revMajor="1", revMinor=str(minor), date=DATE, author="flc", description=description)
     text = "\n".join(X("OpenSCENARIO", head, *body).lines())
     return f'<?xml version="1.0" encoding="UTF-8"?>\n<!-- {comment.strip()}\n-->\n{text}\n'
 
 
 def params(*decls):
-    return X("ParameterDeclarations", *[X("ParameterDeclaration", name=n, parameterType=t, value=v) for n, t, v in decls])
+    """ParameterDeclarations: each a `(name, type, value)` or an element (`constrained`)."""
+    return X("ParameterDeclarations", *[d if isinstance(d, X) else X("ParameterDeclaration", name=d[0], parameterType=d[1], value=d[2])
+                                        for d in decls])
+
+
+def constrained(name, type_, value, *groups):
+    """A ParameterDeclaration with ConstraintGroups, each a list of `(rule, value)` (ANDed in a
+    group, the groups ORed)."""
+    return X("ParameterDeclaration", *[X("ConstraintGroup", *[X("ValueConstraint", rule=r, value=v) for r, v in g]) for g in groups],
+             name=name, parameterType=type_, value=value)
+
+
+def catalog_locations(**dirs):
+    """CatalogLocations: `vehicle="catalogs"` -> <VehicleCatalog><Directory path="catalogs"/>."""
+    return X("CatalogLocations", *[X(f"{k.capitalize()}Catalog", X("Directory", path=d)) for k, d in dirs.items()])
+
+
+def road_network(path):
+    return X("RoadNetwork", X("LogicFile", filepath=path))
+
+
+def assignments(pairs):
+    return X("ParameterAssignments", *[X("ParameterAssignment", parameterRef=n, value=v) for n, v in pairs])
+
+
+def catalog_ref(catalog, entry, *pairs):
+    """A CatalogReference with ParameterAssignments `(name, value)` (none: an empty element)."""
+    return X("CatalogReference", *([assignments(pairs)] if pairs else []), catalogName=catalog, entryName=entry)
+
+
+def catalog_object(name, entry, *pairs, controller=None):
+    """A ScenarioObject from the VehicleCatalog (`entry`, parameters overridden by `pairs`), with an
+    ObjectController from a catalog when `controller` = a CatalogReference."""
+    more = [X("ObjectController", controller)] if controller is not None else []
+    return X("ScenarioObject", catalog_ref("VehicleCatalog", entry, *pairs), *more, name=name)
 
 
 def car(name, vehicle):
@@ -64,12 +106,37 @@ def speed(target, shape="step", dimension="time", value="0.0"):
     )
 
 
+def lane_position(lane, s, offset="0.0", road="1"):
+    return X("LanePosition", roadId=road, laneId=str(lane), offset=offset, s=s)
+
+
+def teleport_to(position):
+    """A TeleportAction to `position` (a LanePosition, WorldPosition, Relative...Position element)."""
+    return X("PrivateAction", X("TeleportAction", X("Position", position)))
+
+
 def teleport(lane, s):
-    return X("PrivateAction", X("TeleportAction", X("Position", X("LanePosition", roadId="1", laneId=str(lane), offset="0.0", s=s))))
+    return teleport_to(lane_position(lane, s))
 
 
 def place(entity, lane, s, v, *more):
-    return X("Private", teleport(lane, s), speed(v), *more, entityRef=entity)
+    return place_at(entity, lane_position(lane, s), v, *more)
+
+
+def place_at(entity, position, v, *more):
+    """Init of one entity: teleported to `position`, at speed `v` (None: no speed), then `more`."""
+    return X("Private", teleport_to(position), *([speed(v)] if v is not None else []), *more, entityRef=entity)
+
+
+def activate(longitudinal, lateral="false"):
+    return X("PrivateAction", X("ControllerAction", X("ActivateControllerAction", longitudinal=longitudinal, lateral=lateral)))
+
+
+def lane_change(target_entity, value, time="$LaneChangeTime"):
+    """A sinusoidal LaneChangeAction by time to the lane `value` lanes left of `target_entity`'s."""
+    return X("PrivateAction", X("LateralAction", X("LaneChangeAction",
+        X("LaneChangeActionDynamics", dynamicsShape="sinusoidal", dynamicsDimension="time", value=time),
+        X("LaneChangeTarget", X("RelativeTargetLane", entityRef=target_entity, value=value)))))
 
 
 def condition(name, inner, edge="none", delay="0"):
@@ -85,18 +152,26 @@ def by_entity(entity, inner):
              X("EntityCondition", inner))
 
 
+def gap_below(entity, of, value):
+    """`entity`'s longitudinal freespace distance to `of` (entity coordinates) below `value`."""
+    return by_entity(entity, X("RelativeDistanceCondition", entityRef=of, value=value, freespace="true", rule="lessThan",
+                               relativeDistanceType="longitudinal", coordinateSystem="entity"))
+
+
 def trigger(tag, *groups):
     return X(tag, *[X("ConditionGroup", *g) for g in groups])
 
 
-def event(name, action_name, action, start, priority="override"):
-    return X("Event", X("Action", action, name=action_name), trigger("StartTrigger", [start]), name=name, priority=priority,
-             maximumExecutionCount="1")
+def event(name, action_name, action, start, priority="override", count="1"):
+    """An Event of one Action; `start` is a Condition or a list of them (one ANDed group)."""
+    group = start if isinstance(start, list) else [start]
+    return X("Event", X("Action", action, name=action_name), trigger("StartTrigger", group), name=name, priority=priority,
+             maximumExecutionCount=count)
 
 
-def story(name, act, actor, maneuver, events, act_start=None):
+def story(name, act, actor, maneuver, events, act_start=None, group_name=None):
     group = X("ManeuverGroup", X("Actors", X("EntityRef", entityRef=actor), selectTriggeringEntities="false"),
-              X("Maneuver", *events, name=maneuver), name=f"{actor}Group", maximumExecutionCount="1")
+              X("Maneuver", *events, name=maneuver), name=group_name or f"{actor}Group", maximumExecutionCount="1")
     act_el = X("Act", group, *( [trigger("StartTrigger", [act_start])] if act_start is not None else []), name=act)
     return X("Story", act_el, name=name)
 

@@ -22,7 +22,8 @@ import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from osc_writer import X, after, by_entity, car, condition, document, event, params, place, speed, story, storyboard, trigger  # noqa: E402
+from osc_writer import (X, activate, after, by_entity, car, condition, document, event, gap_below, lane_change, params, place,  # noqa: E402
+                        road_network, speed, story, storyboard)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "scenarios" / "suites"
@@ -93,17 +94,7 @@ def road_file():
 """
 
 
-ROAD = X("RoadNetwork", X("LogicFile", filepath="../roads/straight.xodr"))
-
-
-def activate(longitudinal):
-    return X("PrivateAction", X("ControllerAction", X("ActivateControllerAction", longitudinal=longitudinal, lateral="false")))
-
-
-def lane_change(target_entity, value, time="$LaneChangeTime"):
-    return X("PrivateAction", X("LateralAction", X("LaneChangeAction",
-        X("LaneChangeActionDynamics", dynamicsShape="sinusoidal", dynamicsDimension="time", value=time),
-        X("LaneChangeTarget", X("RelativeTargetLane", entityRef=target_entity, value=value)))))
+ROAD = road_network("../roads/straight.xodr")
 
 
 def maneuver_story(name, actor, events):
@@ -284,8 +275,7 @@ def cut_in():
     vrel = "(($EgoSpeed_kmh - $IntruderSpeed_kmh) / 3.6)"
     trigger_gap = f"${{{vrel} * ({INTRUSION_FRACTION:.6f} * $LaneChangeTime + {vrel} / 12.0 + 0.35 + $Margin)}}"
     start_s = f"${{50 + {FRONT + REAR} + {vrel} * ({INTRUSION_FRACTION:.6f} * $LaneChangeTime + {vrel} / 12.0 + 0.35 + $Margin + 1.0)}}"
-    gap = by_entity("Ego", X("RelativeDistanceCondition", entityRef="Intruder", value=trigger_gap, freespace="true", rule="lessThan",
-                             relativeDistanceType="longitudinal", coordinateSystem="entity"))
+    gap = gap_below("Ego", "Intruder", trigger_gap)
     change = event("ChangeIn", "ChangeInAction", lane_change("Ego", "0"), condition("GapBelow", gap))
     hand_over = event("HandOver", "HandOverAction", activate("true"), condition("GapBelowToo", gap))
     hit = stops("Ego", "Intruder", "20.0")
@@ -312,8 +302,7 @@ def cut_out():
     its controller drives. Stop: contact with the Blocker, the Ego standing for 1 s, or 30 s."""
     lead_s = f"${{50 + {FRONT + REAR} + $TimeGap * $EgoSpeed_kmh / 3.6}}"
     blocker_s = f"${{50 + {FRONT + REAR} + $TimeGap * $EgoSpeed_kmh / 3.6 + {FRONT + REAR} + 200.0}}"
-    near = by_entity("Lead", X("RelativeDistanceCondition", entityRef="Blocker", value="$CutOutGap", freespace="true", rule="lessThan",
-                               relativeDistanceType="longitudinal", coordinateSystem="entity"))
+    near = gap_below("Lead", "Blocker", "$CutOutGap")
     change = event("CutOut", "CutOutAction", lane_change("Lead", "1"), condition("NearBlocker", near))
     hand_over = event("HandOver", "HandOverAction", activate("true"), condition("NearBlockerToo", near))
     return scenario_doc(

@@ -933,11 +933,11 @@ mod tests {
         let run = &imp.runs[0];
         let s = &run.scenario;
         let info = |n: &str| run.entities.iter().find(|e| e.osc_name == n).cloned().expect("entity");
-        let lead = info("Lead");
+        let lead = info("CarAhead");
         assert_eq!(lead.flc_name, "lead");
         assert!(close(lead.length, 5.2) && close(lead.ref_offset[0], 1.5), "{lead:?}");
         assert!(close(s.lead.vehicle.max_brake, 8.0));
-        let van = info("Van");
+        let van = info("VanBeside");
         assert!(close(van.length, 6.0) && close(van.ref_offset[0], 1.9), "{van:?}");
         // Ego: the catalog defaults, centre 1.4 m ahead of s = 20.
         assert!(close(s.follower.start_s.unwrap_or(0.0), 21.4));
