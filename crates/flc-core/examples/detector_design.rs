@@ -183,3 +183,4 @@ fn main() {
         eprintln!("error: writing docs/figures/detector-design.md: {e}");
         std::process::exit(2);
     }
+}
