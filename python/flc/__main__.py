@@ -1,11 +1,12 @@
 """``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``,
 ``python -m flc reproduction --out DIR``,
+``python -m flc sumo-tables --out DIR`` (every SUMO result the documents state, ``DIR/sumo-tables.json``; :mod:`flc.sumo`),
 ``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``,
 ``python -m flc docs [--check] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
 (the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs).
 
 Exit status 0 on success, 2 on bad arguments (argparse) or a bad sweep file, 1 if an optional
-dependency (matplotlib, pyarrow, distributed) is missing.
+dependency (matplotlib, pyarrow, distributed, SUMO) is missing.
 """
 from __future__ import annotations
 
@@ -60,6 +61,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     rep.add_argument("--out", required=True, help="figure directory (created if needed)")
     rep.add_argument("--data", default=None, help="CSV directory (default: the repository's sweeps/)")
     rep.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores); results do not depend on it")
+    st = sub.add_parser(
+        "sumo-tables",
+        help="run the SUMO comparisons the documents state (docs/sumo.md, docs/v2v-and-metrics.md): DIR/sumo-tables.json (needs flc[sumo])",
+    )
+    st.add_argument("--out", required=True, help="output directory (created if needed); the documents read docs/figures")
     sw = sub.add_parser(
         "sweep",
         help="run a sweep file (TOML) or OpenSCENARIO distribution with the Rust sweep engine, here or on a Dask cluster (docs/distributed.md)",
@@ -108,6 +114,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from . import docs
 
         return docs.main(args.docs_args)
+    if args.command == "sumo-tables":
+        try:
+            from . import sumo
+
+            path = sumo.write_tables(args.out, progress=lambda text: print(f"{text} done", file=sys.stderr))
+        except ImportError as e:
+            print(f"error: {e} (install flc[sumo])", file=sys.stderr)
+            return 1
+        print(path)
+        return 0
     if args.command == "reproduction":
         try:
             from .figures import make_reproduction

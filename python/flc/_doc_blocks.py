@@ -394,3 +394,174 @@ def reproduction_neighbours() -> str:
         lost = _lost([(cell, c["collision"]) for cell, c in zip(CELLS, cells)])
         out.append([f"{label} {'−' if f < 1 else '+'}10 % ({center[k] * f:.3g} {unit})", lost])
     return table(["change", "cells lost"], out)
+# docs/sumo.md, docs/v2v-and-metrics.md (§3.1) and docs/baselines.md: the SUMO results
+#
+# They read the committed docs/figures/sumo-tables.json (`python -m flc sumo-tables --out
+# docs/figures`, ~30 s of SUMO runs; flc.sumo.compute_tables), so the check needs no SUMO;
+# tests/python/test_sumo.py and test_ssm.py recompute the rows against the file.
+
+
+def _sumo_tables() -> dict[str, Any]:
+    from .sumo import read_tables
+
+    return read_tables()
+
+
+def _sci(x: Optional[float]) -> str:
+    """``1.8e-15``, ``3.7e-3``, ``0``: one decimal, the exponent without padding."""
+    if x is None:
+        return "–"
+    if x == 0:
+        return "0"
+    mant, exp = f"{x:.1e}".split("e")
+    return f"{mant}e{int(exp)}"
+
+
+def _sig(x: float) -> str:
+    """Two significant digits, no exponent."""
+    return f"{x:.2g}" if abs(x) >= 1e-4 else f"{x:.1e}"
+
+
+@generator("sumo-replay")
+def sumo_replay() -> str:
+    """docs/sumo.md: flc in SUMO against flc's own ideal run (``flc.sumo.replay_ideal_run``;
+    docs/figures/sumo-tables.json)."""
+    rows = []
+    reps = _sumo_tables()["replay"]
+    for r in reps:
+        first = "none" if r["first_difference"] is None else f"{_sci(r['first_difference'])} m/s at {r['first_difference_t']:.2f} s"
+        rows.append((r["controller"], f"{r['speed_kmh']:.0f}", _sig(r["speed_rms"]), f"{_sig(r['speed_max'])} ({r['speed_max_t']:.2f} s)",
+                     _sig(r["gap_max"]), f"{r['final_gap_flc']:.2f} / {r['final_gap_sumo']:.2f}", first))
+    before = max(r["gap_before_first"] for r in reps)
+    return (table(("controller", "v (km/h)", "speed RMS (m/s)", "speed max (m/s, at)", "gap max (m)", "final gap flc / SUMO (m)",
+                   "first speed difference > 1e-12 m/s"), rows, "lrrrrrl")
+            + f"\nBefore each row's first speed difference the two worlds' gaps differ by at most {_sci(before)} m.\n")
+
+
+def _closed_loop_max(law: str) -> float:
+    return max(c["max_difference"] for c in _sumo_tables()["closed_loop"] if c["law"] == law)
+
+
+@generator("sumo-closed-loop")
+def sumo_closed_loop() -> str:
+    """docs/sumo.md: the largest speed difference (m/s) between flc's law and SUMO's model of the
+    same name in closed loop, per speed (``flc.sumo.closed_loop_difference``)."""
+    cells = _sumo_tables()["closed_loop"]
+    speeds = sorted({c["speed_kmh"] for c in cells})
+    laws = list(dict.fromkeys(c["law"] for c in cells))
+    by = {(c["law"], c["speed_kmh"]): c for c in cells}
+    rows = [(law.upper(), *(_sci(by[(law, v)]["max_difference"]) for v in speeds)) for law in laws]
+    steps = "the same number of steps" if all(c["steps_sumo"] == c["steps_flc"] for c in cells) else "different numbers of steps"
+    return (table(("law (m/s)", *(f"{v:.0f} km/h" for v in speeds)), rows, "l" + "r" * len(speeds))
+            + f"\nEvery pair of runs took {steps} to the stop.\n")
+
+
+@generator("sumo-closed-loop-max")
+def sumo_closed_loop_max() -> str:
+    """docs/baselines.md: the closed-loop table's largest difference per law."""
+    cells = _sumo_tables()["closed_loop"]
+    lo, hi = min(c["speed_kmh"] for c in cells), max(c["speed_kmh"] for c in cells)
+    return (f"- IDM: at most {_sci(_closed_loop_max('idm'))} m/s at any speed from {lo:.0f} to {hi:.0f} km/h;\n"
+            f"- ACC: at most {_sci(_closed_loop_max('acc'))} m/s.\n")
+
+
+def _ssm_cells(s: dict[str, Any]) -> tuple[str, str]:
+    """SSM min TTC and max DRAC of a follower; ``-`` for both without a conflict."""
+    ttc, drac = s.get("min_ttc"), s.get("max_drac")
+    if ttc is None and not drac:
+        return "-", "-"
+    return ("-" if ttc is None else f"{ttc:.2f}"), f"{drac:.2f}"
+
+
+def _collisions(p: dict[str, Any]) -> str:
+    return "none" if not p["collisions"] else ", ".join(p["collisions"])
+
+
+@generator("sumo-platoon-outage")
+def sumo_platoon_outage() -> str:
+    """docs/sumo.md: the CACC platoon whose V2V drops, beside SUMO's CACC on the same script
+    (``flc.sumo.cacc_platoon(**flc.sumo.PLATOON_OUTAGE)``)."""
+    data = _sumo_tables()["platoon_outage"]
+    ours, ref = data["flc"], data["sumo_cacc"]
+    rows = []
+    for f, g in zip(ours["followers"], ref["followers"]):
+        ttc, drac = _ssm_cells(f["ssm"])
+        rttc, _ = _ssm_cells(g["ssm"])
+        after = "-" if f.get("switch_to_flc_after") is None else f"{f['switch_to_flc_after']:.2f} s"
+        rows.append((f["vehicle"], f["switches"], after, f"{f['min_gap']:.2f}", f"{f['max_decel']:.1f}", ttc, drac,
+                     f"{g['min_gap']:.2f} m / {rttc} s"))
+    n = sum(1 for f in ours["followers"] if f.get("active_after_outage") == "flc")
+    return (table(("follower", "hand-overs", "to FLC after the outage", "min gap (m)", "max decel (m/s²)", "SSM min TTC (s)",
+                   "SSM max DRAC (m/s²)", "SUMO CACC min gap / min TTC"), rows, "lrrrrrrl")
+            + f"\nOn the FLC 1 s after the outage: {n} of {len(ours['followers'])} followers. SUMO's collisions: "
+            f"{_collisions(ours)} (SUMO's CACC: {_collisions(ref)}).\n")
+
+
+@generator("sumo-platoon-join")
+def sumo_platoon_join() -> str:
+    """docs/sumo.md: a car without V2V joins the platoon (``flc.sumo.cacc_platoon(**flc.sumo.PLATOON_JOIN)``),
+    and the same run with the association off (``flc.sumo.NO_ASSOCIATION``)."""
+    data = _sumo_tables()["platoon_join"]
+    ours, off = data["flc"], data["no_association"]
+    rows = []
+    for f in ours["followers"]:
+        ttc, drac = _ssm_cells(f["ssm"])
+        on = f.get("active_after_join") == "flc"
+        after = "-" if f.get("switch_to_flc_after_join") is None else f"{f['switch_to_flc_after_join']:.2f} s"
+        rows.append((f["vehicle"], f["switches"], "**yes**" if on else "no", after, f"{f['time_not_associated']:.2f} s",
+                     f"{f['min_gap']:.2f}", f"{f['max_decel']:.1f}", ttc, drac))
+    k = data["arguments"]["join_after"]  # the follower behind the joining car is follower k + 1
+    f3 = off["followers"][k]
+    return (table(("follower", "hand-overs", "on the FLC 1 s after the join", "to FLC after the join", "not associated", "min gap (m)",
+                   "max decel (m/s²)", "SSM min TTC (s)", "SSM max DRAC (m/s²)"), rows, "lrlrrrrrr")
+            + f"\nSUMO's collisions: {_collisions(ours)}. With the association off: collisions {_collisions(off)}, "
+            f"{f3['vehicle']}'s min gap {f3['min_gap']:.2f} m, on the FLC 1 s after the join: "
+            f"{'yes' if f3.get('active_after_join') == 'flc' else 'no'}.\n")
+
+
+#: docs/v2v-and-metrics.md §3.1: flc metric, SUMO output, same definition?, unit.
+_SSM_ROWS = (
+    ("min_ttc", "s", "`<conflict>` → `minTTC` (measure `TTC`)", "yes, for following: `g / (v_f − v_l)` at the current speeds, bumper gap"),
+    ("max_drac", "m/s²", "`<conflict>` → `maxDRAC` (measure `DRAC`)", "yes, for following: `(v_f − v_l)² / (2 g)`"),
+    ("min_gap", "m", "`<globalMeasures>` → `minSGAP` (measure `SGAP`, spacing)", "yes: bumper to bumper, without `minGap`"),
+    ("min_time_headway", "s", "`<globalMeasures>` → `minTGAP` (measure `TGAP`, time headway)", "yes: `g / v_f`; flc skips `v_f <= 0.5 m/s`"),
+    ("pet", "s", "`<conflict>` → `PET` (measure `PET`)",
+     "no: SUMO's PET is for crossing and merging conflicts at junctions only; flc's is the cut-in PET above. Neither computes one for plain following"),
+    ("tet", "s", "not output (rebuilt here from `TTCSpan` with `--device.ssm.trajectories true`: step length × number of values ≤ 3 s)", "—"),
+    ("tit", "s²", "not output (rebuilt from `TTCSpan`: step length × Σ (3 s − value) over values ≤ 3 s)", "—"),
+)
+
+
+def _six(x: float) -> str:
+    """SUMO's ``--precision 6`` value without trailing zeros."""
+    return f"{x:.6f}".rstrip("0").rstrip(".")
+
+
+@generator("sumo-ssm")
+def sumo_ssm() -> str:
+    """docs/v2v-and-metrics.md §3.1: flc's metrics against SUMO's SSM device on one trajectory
+    (``flc.sumo.ssm_comparison``; docs/figures/sumo-tables.json)."""
+    s = _sumo_tables()["ssm"]
+    rows = []
+    for key, unit, out, same in _SSM_ROWS:
+        if key == "pet":
+            diff = f"flc `{'null' if s['flc_pet'] is None else s['flc_pet']}`, SUMO `value=\"{s['sumo_pet']}\"` on this trajectory"
+        else:
+            fv, sv = s["flc"][key], s["sumo"][key]
+            diff = f"{fv - sv:.1e} ({_six(sv)} {unit})"
+        rows.append((f"`{key}` ({unit})", out, same, diff))
+    return (table(("flc metric", "SUMO SSM output", "same definition?", "flc − SUMO on the trajectory below (SUMO's value)"), rows)
+            + f"\nWith `vehicle.getLeader`'s distance (the gap minus the follower's `minGap`, 2.5 m) the min TTC would read "
+            f"{s['min_ttc_leader_distance']:.2f} s instead of SUMO's {s['sumo']['min_ttc']:.2f} s.\n")
+
+
+@generator("scenario-pet")
+def scenario_pet(*paths: str) -> str:
+    """docs/v2v-and-metrics.md: the cut-in PET of scenario files (``flc.run(flc.Scenario.load(path))``,
+    what ``scenario --json --config FILE`` reports)."""
+    res = run_all([Scenario.load(ROOT / p) for p in paths])
+    parts = []
+    for p, r in zip(paths, res):
+        pet = r.metrics.get("pet")
+        parts.append(f"`{Path(p).name}` {'`null`' if pet is None else f'{pet:.3f} s'}")
+    return "PET of the scenario files: " + "; ".join(parts) + ".\n"

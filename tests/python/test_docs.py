@@ -17,7 +17,8 @@ def test_every_generated_block_matches_the_code() -> None:
     assert docs.update(docs.documents(ROOT), check=True, out=out.append) == 0, "\n".join(out)
     # The blocks the drifts were in are generated (not only "some block somewhere").
     commands = {b.command for p in docs.documents(ROOT) for b in docs.blocks(p)}
-    for name in ("paper-tracking", "paper-cells paper", "reproduction-verdict", "platoon-brakedemo", "platoon-gamma"):
+    for name in ("paper-tracking", "paper-cells paper", "reproduction-verdict", "platoon-brakedemo", "platoon-gamma", "sumo-replay",
+                 "sumo-closed-loop", "sumo-platoon-outage", "sumo-platoon-join", "sumo-ssm"):
         assert f"{docs.PREFIX}{name}" in commands
 
 

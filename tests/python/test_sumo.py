@@ -6,69 +6,57 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
-import libsumo as traci
+import libsumo  # noqa: F401  (SUMO is a test dependency, the `test` extra: a missing one fails, no skip)
 import numpy as np
 import pytest
 
 import flc
 from flc import sumo as fs
 
-#: Ideal perception, no actuator dynamics, a clean sensor schedule: the validation setting.
-IDEAL = {
-    "follower_perception": "ideal",
-    "follower.vehicle.dead_time": 0.0,
-    "follower.vehicle.lag": 0.0,
-    "lidar_jitter": 0.0,
-    "lidar_scan_drop_prob": 0.0,
-    "lidar_latency_frames": 0,
-}
+#: The committed SUMO tables the documents render (docs/figures/sumo-tables.json, written by
+#: `python -m flc sumo-tables --out docs/figures`); each test below that computes one of their rows
+#: compares it with the file, so the documents' numbers cannot drift from the code silently.
+TABLES = fs.read_tables()
 
 
-def _replay_in_sumo(tmp_path: Path, sc: flc.Scenario, r: flc.RunResult, step: float) -> tuple[np.ndarray, np.ndarray, fs.FlcVehicle]:
-    """A scripted SUMO lead replaying flc's lead speed, the follower driven by flc; returns the
-    follower's speed and gap after each step, and its driver."""
-    L = float(sc["lead"]["vehicle"]["length"])
-    Lf = float(sc["follower"]["vehicle"]["length"])
-    gap0 = float(sc["follower"]["initial_gap"])
-    net = fs.straight_road(tmp_path, 3000.0)
-    rou = tmp_path / "r.rou.xml"
-    common = 'minGap="2.5" accel="10" decel="10" emergencyDecel="10" maxSpeed="60" speedFactor="1" speedDev="0" sigma="0"'
-    rou.write_text(
-        "<routes>\n"
-        f'<vType id="leadT" length="{L}" {common}/>\n<vType id="follT" length="{Lf}" {common}/>\n<route id="r" edges="e"/>\n'
-        f'<vehicle id="lead" type="leadT" route="r" depart="0" departPos="{100.0 + gap0 + L}" departSpeed="0" insertionChecks="none"/>\n'
-        '<vehicle id="foll" type="follT" route="r" depart="0" departPos="100" departSpeed="0" insertionChecks="none"/>\n</routes>\n'
-    )
-    traci.start([fs.sumo_binary(), "-n", str(net), "-r", str(rou), "--step-length", str(step), "--step-method.ballistic", "true",
-                 "--no-step-log", "--no-warnings", "--collision.action", "warn"])
-    try:
-        traci.simulationStep()
-        traci.vehicle.setSpeedMode("lead", 0)
-        drv = fs.FlcVehicle("foll", sc)
-        speeds, gaps = [], []
-        for k in range(len(r.t)):
-            traci.vehicle.setSpeed("lead", float(r.lead_speed[k]))
-            drv.step(traci)
-            traci.simulationStep()
-            speeds.append(traci.vehicle.getSpeed("foll"))
-            gaps.append(traci.vehicle.getLanePosition("lead") - L - traci.vehicle.getLanePosition("foll"))
-    finally:
-        traci.close()
-    return np.array(speeds), np.array(gaps), drv
+def _same(fresh: Any, stored: Any, where: str = "") -> None:
+    """``fresh`` equals the committed ``stored`` (floats to 1e-9 relative, 1e-12 absolute: the
+    same computation, allowing for a platform's last-bit differences)."""
+    if isinstance(stored, dict):
+        assert isinstance(fresh, dict) and set(fresh) == set(stored), (where, fresh, stored)
+        for k in stored:
+            _same(fresh[k], stored[k], f"{where}.{k}")
+    elif isinstance(stored, list):
+        assert isinstance(fresh, list) and len(fresh) == len(stored), (where, fresh, stored)
+        for i, (a, b) in enumerate(zip(fresh, stored)):
+            _same(a, b, f"{where}[{i}]")
+    elif isinstance(stored, float) and isinstance(fresh, float):
+        assert fresh == pytest.approx(stored, rel=1e-9, abs=1e-12), (where, fresh, stored)
+    else:
+        assert fresh == stored, (where, fresh, stored)
+
+
+def test_the_committed_tables_hold_every_row_the_documents_render() -> None:
+    assert [(r["controller"], r["speed_kmh"]) for r in TABLES["replay"]] == list(fs.REPLAY_CASES)
+    assert [(c["law"], c["speed_kmh"]) for c in TABLES["closed_loop"]] == [(law, v) for law in fs.SUMO_MODELS for v in fs.CLOSED_LOOP_SPEEDS_KMH]
+    assert TABLES["platoon_outage"]["arguments"] == fs.PLATOON_OUTAGE
+    assert TABLES["platoon_join"]["arguments"] == fs.PLATOON_JOIN
 
 
 @pytest.mark.parametrize("controller,speed_kmh", [("flc", 50.0), ("flc", 90.0), ("flc-robust", 70.0), ("idm", 50.0)])
 def test_flc_driving_a_sumo_vehicle_matches_flcs_own_ideal_run(tmp_path: Path, controller: str, speed_kmh: float) -> None:
-    # Tolerance: the two worlds do the same arithmetic except SUMO's own position bookkeeping
-    # (lane positions, insertion), which differs from flc's at the 1e-8 m level; the laws' branch
-    # points (the stop hold at standstill, the FLC's brake regions) amplify that to a few cm/s at
-    # most. Measured: speed RMS 0.003 m/s, max 0.036 m/s, gap max 0.016 m (FLC, 50 km/h).
-    sc = flc.Scenario.paper(speed_kmh=speed_kmh, controller=controller, **IDEAL)
-    r = flc.run(sc)
-    speeds, gaps, drv = _replay_in_sumo(tmp_path, sc, r, float(sc["physics_dt"]))
-    dv = speeds - r.follower_speed
-    dg = gaps - r.gap
+    # Tolerance: the two worlds do the same arithmetic on positions that agree to rounding; what
+    # differs is SUMO's clock, one step ahead of the motion (the insertion step), so that every
+    # measurement after the first sees the state one step earlier (docs/sumo.md, "The SUMO
+    # differences"); the laws' branch points (the stop hold at standstill, the FLC's brake
+    # regions) amplify that to a few cm/s at most. The measured figures are the committed table's
+    # (docs/figures/sumo-tables.json), compared below.
+    rep = fs.replay_ideal_run(controller, speed_kmh, directory=tmp_path)
+    sc, r, speeds, gaps, drv = rep.vehicle.scenario, rep.run, rep.speed, rep.gap, rep.vehicle
+    dv = rep.speed_difference
+    dg = rep.gap_difference
     assert math.sqrt(float(np.mean(dv**2))) < 0.01
     assert float(np.abs(dv).max()) < 0.1
     assert float(np.abs(dg).max()) < 0.05
@@ -89,14 +77,16 @@ def test_flc_driving_a_sumo_vehicle_matches_flcs_own_ideal_run(tmp_path: Path, c
     every = round(1.0 / (float(sc["lidar.rate_hz"]) * float(sc["physics_dt"])))
     # Every measurement of a moving scene is an update (at standstill the gap repeats itself).
     assert updates > 0.9 * len(seen) / every * float(np.mean(speeds > 0.01)), updates
+    # The documents' row of this case is this run's.
+    (stored,) = [row for row in TABLES["replay"] if (row["controller"], row["speed_kmh"]) == (controller, speed_kmh)]
+    _same(fs.replay_record(controller, speed_kmh, rep), stored, f"replay {controller} {speed_kmh}")
 
 
 def test_the_gap_sensor_delays_blurs_and_drops(tmp_path: Path) -> None:
     sc = flc.Scenario.paper(speed_kmh=50.0, controller="flc", lidar_range_noise_std=0.1, lidar_latency_frames=2, lidar_scan_drop_prob=0.2,
                             lidar_jitter=0.0)
-    r = flc.run(flc.Scenario.paper(speed_kmh=50.0, controller="flc", **IDEAL))
-    _, _, drv = _replay_in_sumo(tmp_path, sc, r, 0.01)
-    tr = drv.trace
+    r = flc.run(flc.Scenario.paper(speed_kmh=50.0, controller="flc", **fs.VALIDATION))
+    tr = fs.replay_run(sc, r, step=0.01, directory=tmp_path).vehicle.trace
     t, gap, seen = tr.array("t"), tr.array("gap"), tr.array("distance")
     # Measurements every 5 steps (20 Hz), delivered two scans (10 steps) late; 20 % dropped.
     ticks = [k for k in range(10, len(t)) if k % 5 == 0]
@@ -135,68 +125,11 @@ def test_a_v2v_outage_hands_every_platoon_follower_to_the_flc(tmp_path: Path) ->
     # SUMO's own CACC on the same script, for reference (perfect information).
     ref = fs.cacc_platoon(5, controller="sumo-cacc", directory=tmp_path / "ref")
     assert ref.switched_to_flc == 0 and ref.collisions == []
-
-
-#: SUMO's vType parameters of each model and the flc law's keyword overrides that mean the same
-#: (docs/baselines.md, "Checking the baselines against SUMO"); the SUMO step is the law's
-#: `command_gain`.
-SUMO_MODELS = {
-    "idm": ('carFollowModel="IDM" accel="2.6" decel="4.5" emergencyDecel="9" tau="1.0" minGap="2.5" delta="4" stepping="0.25"',
-            {"idm_desired_speed": 50.0, "idm_time_headway": 1.0, "idm_min_gap": 2.5, "idm_max_accel": 2.6, "idm_comfort_decel": 4.5,
-             "idm_delta": 4.0, "idm_max_decel": 9.0}),
-    "acc": ('carFollowModel="ACC" accel="2.6" decel="8" emergencyDecel="9" tau="1.0" minGap="2.5"',
-            {"acc_desired_speed": 50.0, "acc_headway_time": 1.0, "acc_min_gap": 2.5, "acc_decel": 8.0, "acc_lead_decel": 10.0,
-             "acc_max_accel": 2.6}),
-}
-
-
-def _paper_lead(t: float, x: float, v: float, step: float, v_max: float, state: dict[str, bool]) -> float:
-    if state.get("braking") or x >= 650.0:
-        state["braking"] = True
-        return max(0.0, v - 6.0 * step)
-    return min(v_max, v + 2.5 * step)
-
-
-def _closed_loop(tmp_path: Path, law: str, speed_kmh: float, flc_drives: bool, step: float = 0.1) -> np.ndarray:
-    """The paper experiment in SUMO (Euler steps, SUMO's default), the follower either SUMO's own
-    model or flc's law of the same name with ideal perception and direct actuation."""
-    vtype, params = SUMO_MODELS[law]
-    net = fs.straight_road(tmp_path, 5000.0)
-    rou = tmp_path / f"{law}-{flc_drives}.rou.xml"
-    common = 'length="5.0" maxSpeed="50" speedFactor="1" speedDev="0"'
-    rou.write_text(
-        "<routes>\n"
-        f'<vType id="leadT" {common} carFollowModel="Krauss" accel="10" decel="10" emergencyDecel="10" sigma="0" minGap="2.5"/>\n'
-        f'<vType id="follT" {common} {vtype}/>\n<route id="r" edges="e"/>\n'
-        '<vehicle id="lead" type="leadT" route="r" depart="0" departPos="112" departSpeed="0" insertionChecks="none"/>\n'
-        '<vehicle id="foll" type="follT" route="r" depart="0" departPos="100" departSpeed="0" insertionChecks="none"/>\n</routes>\n'
-    )
-    traci.start([fs.sumo_binary(), "-n", str(net), "-r", str(rou), "--step-length", str(step), "--no-step-log", "--no-warnings",
-                 "--collision.action", "warn"])
-    speeds = []
-    try:
-        traci.simulationStep()
-        traci.vehicle.setSpeedMode("lead", 0)
-        drv = None
-        if flc_drives:
-            sc = flc.Scenario.paper(controller=law, follower_perception="ideal", lidar_rate_hz=1.0 / step, lidar_jitter=0.0,
-                                    lidar_scan_drop_prob=0.0, lidar_latency_frames=0, **{f"{law}_command_gain": step}, **params)
-            drv = fs.FlcVehicle("foll", sc, actuation="direct")
-        state: dict[str, bool] = {}
-        t = 0.0
-        while t < 160.0:
-            v, x = traci.vehicle.getSpeed("lead"), traci.vehicle.getLanePosition("lead")
-            traci.vehicle.setSpeed("lead", _paper_lead(t, x - 112.0, v, step, speed_kmh / 3.6, state))
-            if drv is not None:
-                drv.step(traci)
-            traci.simulationStep()
-            t = traci.simulation.getTime()
-            speeds.append(traci.vehicle.getSpeed("foll"))
-            if v == 0.0 and speeds[-1] == 0.0 and t > 10.0:
-                break
-    finally:
-        traci.close()
-    return np.array(speeds)
+    # The documents' platoon table is these two runs.
+    stored = TABLES["platoon_outage"]
+    assert stored["arguments"] == {"followers": 5, "cruise_kmh": 100.0, "outage_at": 40.0, "brake_at": 45.0}
+    _same(fs.platoon_record(o), stored["flc"], "platoon_outage.flc")
+    _same(fs.platoon_record(ref), stored["sumo_cacc"], "platoon_outage.sumo_cacc")
 
 
 @pytest.mark.parametrize("law,speed_kmh", [("idm", 50.0), ("idm", 130.0), ("acc", 50.0), ("acc", 130.0)])
@@ -204,13 +137,16 @@ def test_flc_baselines_in_sumo_reproduce_sumos_models_in_closed_loop(tmp_path: P
     # The same law on the same inputs, so the only differences are floating-point order (IDM:
     # measured 0 m/s) and, for the ACC, the residual of SUMO's ACC internals the step-by-step check
     # bounds at 0.005 m/s per step (tests/sumo.rs); closed loop they stay below 0.01 m/s.
-    ref = _closed_loop(tmp_path, law, speed_kmh, flc_drives=False)
-    ours = _closed_loop(tmp_path, law, speed_kmh, flc_drives=True)
-    n = min(len(ref), len(ours))
+    d = fs.closed_loop_difference(law, speed_kmh, directory=tmp_path)
+    ref, ours = d.sumo, d.flc
     assert abs(len(ref) - len(ours)) <= 1
-    err = np.abs(ours[:n] - ref[:n])
+    err = d.difference
     tol = 1e-6 if law == "idm" else 0.01
+    assert d.max_difference == float(err.max())
     assert float(err.max()) < tol, f"{law} {speed_kmh}: max {err.max():.3e} m/s at step {err.argmax()}"
+    # The documents' cell is this pair of runs.
+    (stored,) = [c for c in TABLES["closed_loop"] if (c["law"], c["speed_kmh"]) == (law, speed_kmh)]
+    _same(fs.closed_loop_record(d), stored, f"closed_loop {law} {speed_kmh}")
 
 
 def test_a_car_without_v2v_joining_the_platoon_hands_only_the_follower_behind_it_to_the_flc(tmp_path: Path) -> None:
@@ -230,3 +166,7 @@ def test_a_car_without_v2v_joining_the_platoon_hands_only_the_follower_behind_it
     assert o.collisions == []
     assert all(f["min_gap"] > 2.0 for f in o.followers)
     assert all(f["ssm"]["min_ttc"] > 1.0 for f in o.followers)
+    # The documents' join table is this run.
+    stored = TABLES["platoon_join"]
+    assert stored["arguments"] == {"followers": 5, "cruise_kmh": 100.0, "outage_at": None, "join_at": 30.0, "join_after": 2, "brake_at": 45.0}
+    _same(fs.platoon_record(o), stored["flc"], "platoon_join.flc")
