@@ -565,3 +565,51 @@ def scenario_pet(*paths: str) -> str:
         pet = r.metrics.get("pet")
         parts.append(f"`{Path(p).name}` {'`null`' if pet is None else f'{pet:.3f} s'}")
     return "PET of the scenario files: " + "; ".join(parts) + ".\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/baselines.md: the paper experiment, SUMO's models against flc's baselines
+
+
+def _sumo_final(law: str, v: int) -> str:
+    """The outcome of SUMO's own model in ``tests/data/sumo/<law>-paper-<v>.csv`` (written by
+    ``tools/sumo_reference.py``): the gap at the last sample, or the first contact."""
+    rows = [ln.split(",") for ln in (ROOT / "tests" / "data" / "sumo" / f"{law}-paper-{v}.csv").read_text().splitlines()[2:]]
+    gaps = [(float(r[0]), float(r[5]), float(r[4]) - float(r[2])) for r in rows]
+    hit = next((g for g in gaps if g[1] <= 0.0), None)
+    if hit is not None:
+        return f"contact {hit[2]:.1f} m/s"
+    return f"stop {gaps[-1][1]:.1f} m"
+
+
+#: The follower without its vehicle model's delays and resistances, with the true gap and lead
+#: speed: the closest flc's closed loop comes to SUMO's (which moves the car as the law says).
+IDEAL_FOLLOWER: dict[str, Any] = {
+    "follower.perception": "ideal",
+    "follower.vehicle.dead_time": 0.0,
+    "follower.vehicle.lag": 0.0,
+    "follower.vehicle.drag_cd": 0.0,
+    "follower.vehicle.rolling_resistance": 0.0,
+}
+
+
+@generator("sumo-paper-baselines")
+def sumo_paper_baselines() -> str:
+    """SUMO's ACC and IDM (committed reference data) beside flc's ``acc`` and ``idm`` on the paper
+    experiment (realistic preset, seed 1), with the LiDAR and with :data:`IDEAL_FOLLOWER`."""
+    speeds = (30, 50, 70, 90, 110, 130)
+    scs = [Scenario.paper(speed_kmh=float(v), controller=law, preset="realistic", **ov) for law in ("acc", "idm") for ov in ({}, IDEAL_FOLLOWER) for v in speeds]
+    res = iter(run_all(scs))
+
+    def short(r: RunResult) -> str:
+        m = r.metrics
+        if m["collision"]:
+            return f"contact {m['impact_speed']:.1f} m/s"
+        return f"stop {m['final_clearance']:.1f} m" if m.get("final_clearance") is not None else f"no stop, min {m['min_gap']:.1f} m"
+
+    rows = []
+    for law, name in (("acc", "ACC"), ("idm", "IDM")):
+        rows.append([f"SUMO `{name}`", *(_sumo_final(law, v) for v in speeds)])
+        rows.append([f"flc `{law}`, realistic vehicle + LiDAR", *(short(next(res)) for _ in speeds)])
+        rows.append([f"flc `{law}`, ideal perception, no actuator dynamics or resistance", *(short(next(res)) for _ in speeds)])
+    return table(["v (km/h)", *(str(v) for v in speeds)], rows)
