@@ -13,9 +13,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use flc_sim::detection_study::{
-    CAR, ClutterRun, MOTORCYCLE, RangeStudy, TRUCK, TrackKind, error_svg, false_svg, markdown, rate_svg, run_clutter, run_range_study,
-};
+use flc_sim::detection_study::{error_svg, false_svg, full_study, markdown, rate_svg, study_command};
 
 #[derive(Parser)]
 #[command(about = "Detector study: detection rate and distance error vs range, false detections per km")]
@@ -23,7 +21,7 @@ struct Args {
     /// Directory the figures and the tables go to.
     #[arg(long, default_value = "docs/figures")]
     out: PathBuf,
-    /// File-name prefix of the outputs .
+    /// File-name prefix of the outputs.
     #[arg(long, default_value = "detector")]
     prefix: String,
     /// What was measured, shown in the titles (e.g. the commit).
@@ -37,23 +35,8 @@ struct Args {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let t0 = std::time::Instant::now();
-    let mut curves = Vec::new();
-    for track in TrackKind::ALL {
-        for target in [CAR, TRUCK, MOTORCYCLE] {
-            let study = RangeStudy { frames_per_bin: args.frames, ..RangeStudy::new(track, target) };
-            curves.extend(run_range_study(&study));
-            eprintln!("{} / {}: done ({:.0} s)", track.name(), target.name, t0.elapsed().as_secs_f64());
-        }
-    }
-    let clutter = run_clutter(&ClutterRun::default());
-    eprintln!("clutter run: done ({:.0} s)", t0.elapsed().as_secs_f64());
-    let command = format!(
-        "cargo run --release -p flc-sim --example detector_study -- --out {} --prefix {} --label \"{}\" --frames {}",
-        args.out.display(),
-        args.prefix,
-        args.label,
-        args.frames,
-    );
+    let (curves, clutter) = full_study(args.frames, |done| eprintln!("{done}: done ({:.0} s)", t0.elapsed().as_secs_f64()));
+    let command = study_command(&args.out.display().to_string(), &args.prefix, &args.label, args.frames);
     std::fs::create_dir_all(&args.out)?;
     let p = &args.prefix;
     std::fs::write(args.out.join(format!("{p}-rate-vs-range.svg")), rate_svg(&curves, &args.label))?;

@@ -744,6 +744,30 @@ fn metres(x: f64) -> String {
     if x.is_finite() { format!("{x:.3}") } else { "-".into() }
 }
 
+/// The whole study of `docs/detector.md`: every track and target (car, truck, motorcycle) with
+/// `frames` frames per range bin and condition, and the clutter run. `progress` is told what is
+/// done.
+pub fn full_study(frames: usize, mut progress: impl FnMut(&str)) -> (Vec<Curve>, Vec<ClutterResult>) {
+    let mut curves = Vec::new();
+    for track in TrackKind::ALL {
+        for target in [CAR, TRUCK, MOTORCYCLE] {
+            let study = RangeStudy { frames_per_bin: frames, ..RangeStudy::new(track, target) };
+            curves.extend(run_range_study(&study));
+            progress(&format!("{} / {}", track.name(), target.name));
+        }
+    }
+    let clutter = run_clutter(&ClutterRun::default());
+    progress("clutter run");
+    (curves, clutter)
+}
+
+/// The command line that writes the study (`examples/detector_study.rs`), as its tables cite it.
+pub fn study_command(out: &str, prefix: &str, label: &str, frames: usize) -> String {
+    format!(
+        "cargo run --release -p flc-sim --example detector_study -- --out {out} --prefix {prefix} --label \"{label}\" --frames {frames}"
+    )
+}
+
 /// The Markdown tables of a study: per track, target and condition the detection rate by range
 /// bin, the summary against the targets, and the clutter runs. `figures` is the file-name prefix
 /// of the figures (linked relative to the Markdown file that includes the tables).
