@@ -314,3 +314,29 @@ def make_all(
         cols = run_grid(y, values, controllers, speeds_kmh, preset, threads=threads)
         written += make_maps(cols, out_dir, "speed_kmh", y, stem + suffix)
     return written
+
+
+#: The robust FLC's own sweep files (``docs/robust-flc.md``, "Safety-envelope maps"): the paper's
+#: FLC and the robust FLC behind a lead able to brake at -9 m/s².
+ROBUST_SWEEPS = ("envelope-robust", "envelope-robust-paper")
+
+
+def robust_summaries(out_dir: PathLike, threads: Optional[int] = None) -> list[Path]:
+    """Runs ``sweeps/<stem>.toml`` for each of :data:`ROBUST_SWEEPS` and writes its metrics table
+    ``<stem>-summary.md`` into ``out_dir`` (``docs/figures``; ``docs/robust-flc.md`` includes them)."""
+    import tempfile
+
+    from ._sweep import sweep_file
+    from .reproduction import ROOT
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for stem in ROBUST_SWEEPS:
+        with tempfile.TemporaryDirectory() as tmp:
+            csv_path = Path(tmp) / f"{stem}.csv"
+            sweep_file(ROOT / "sweeps" / f"{stem}.toml", out=csv_path, threads=threads)
+            p = out / f"{stem}-summary.md"
+            p.write_text(write_table(summary(load_sweep(csv_path), "lead_decel")))
+        written.append(p)
+    return written

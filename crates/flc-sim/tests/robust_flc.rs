@@ -14,6 +14,21 @@ use flc_sim::{RunOptions, RunResult};
 use flc_sim::{Vehicle, VehicleParams, VehicleState};
 
 const KMH: f64 = 1.0 / 3.6;
+
+/// A table `docs/robust-flc.md` includes (`python -m flc docs`): `docs/figures/<name>` is written
+/// with `FLC_BLESS=1` and otherwise must equal `table`.
+fn check_doc_table(name: &str, table: &str) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/figures").join(name);
+    if std::env::var("FLC_BLESS").is_ok_and(|v| v == "1") {
+        std::fs::write(&path, table).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    } else {
+        let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", path.display()));
+        assert_eq!(
+            committed, table,
+            "docs/figures/{name} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test robust_flc rewrites it"
+        );
+    }
+}
 const ROBUST: ControllerKind = ControllerKind::FlcRobust;
 /// The robust FLC v2 (issue 24), held to v1's rate-invariance target and to the issue's stricter
 /// comfort figures.
@@ -213,6 +228,26 @@ fn rate_invariance() {
     let robust = batch(&make(ROBUST));
     let robust2 = batch(&make(ROBUST2));
     let paper = batch(&make(PAPER));
+    let mut table = String::from("| scenario | controller |");
+    for (name, ..) in VARIANTS {
+        table += &format!(" {} |", name.replace("+-", "±"));
+    }
+    table += &format!("\n|---|---|{}\n", "---|".repeat(VARIANTS.len()));
+    for (i, &(v, b)) in cases.iter().enumerate() {
+        for (k, (label, runs)) in [("flc-robust", &robust), ("flc-robust-v2", &robust2), ("paper's FLC", &paper)].into_iter().enumerate() {
+            let scenario = if k == 0 { format!("{v} km/h, −{b}") } else { String::new() };
+            table += &format!("| {scenario} | {label} |");
+            for r in &runs[i * VARIANTS.len()..(i + 1) * VARIANTS.len()] {
+                table += &match (r.metrics.collision, r.metrics.final_clearance) {
+                    (true, _) => format!(" X {:.1} m/s |", r.metrics.impact_speed),
+                    (false, Some(c)) => format!(" {c:.2} |"),
+                    (false, None) => " no stop |".to_string(),
+                };
+            }
+            table += "\n";
+        }
+    }
+    check_doc_table("robust-rate-invariance.md", &table);
     let mut paper_spread: f64 = 0.0;
     let mut paper_collided = false;
     for (i, &(v, b)) in cases.iter().enumerate() {
@@ -303,6 +338,19 @@ fn comfort_in_normal_following() {
     let paper = comfort_scenarios(PAPER);
     let r = batch(&robust.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
     let p = batch(&paper.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
+    // The table of docs/robust-flc.md ("Comfort"), v2 beside v1 (v2's own, stricter target is
+    // `comfort_in_normal_following_v2`).
+    let v2 = batch(&comfort_scenarios(ROBUST2).into_iter().map(|(_, s)| s).collect::<Vec<_>>());
+    let cell = |x: &RunResult| {
+        let gap = x.metrics.final_clearance.map_or("–".to_string(), |c| format!("{c:.2}"));
+        let hit = if x.metrics.collision { format!(", X {:.1} m/s", x.metrics.impact_speed) } else { String::new() };
+        format!("{:.2} / {:.2} / {gap}{hit}", x.metrics.max_decel, jerk_1s(x))
+    };
+    let mut table = String::from("| scenario | flc-robust | flc-robust-v2 | paper's FLC |\n|---|---|---|---|\n");
+    for ((((name, _), a), b), c) in robust.iter().zip(&r).zip(&v2).zip(&p) {
+        table += &format!("| {} | {} | {} | {} |\n", name.replace("+-", "±"), cell(a), cell(b), cell(c));
+    }
+    check_doc_table("robust-comfort.md", &table);
     let mut paper_worst_decel: f64 = 0.0;
     for (((name, _), a), b) in robust.iter().zip(&r).zip(&p) {
         let m = &a.metrics;
@@ -445,6 +493,7 @@ fn cut_out_reveals_a_standing_car() {
     let front = VehicleParams::default().length / 2.0;
     let mut paper_first_hit = f64::INFINITY;
     let mut robust_bound = 0.0;
+    let mut sentence = String::new();
     for c in [ROBUST, PAPER] {
         let runs: Vec<(Scenario, f64)> = speeds.iter().map(|&v| cut_out(c, v, 0.0)).collect();
         let r = batch(&runs.iter().map(|(s, _)| s.clone()).collect::<Vec<_>>());
@@ -468,6 +517,9 @@ fn cut_out_reveals_a_standing_car() {
             );
         }
         eprintln!("{}: first contact at {first_hit} km/h, physics bound {bound} km/h", c.as_str());
+        let hit =
+            if first_hit.is_finite() { format!("first contact at {first_hit} km/h") } else { "no contact up to 100 km/h".to_string() };
+        sentence += &format!("- `{}`: {hit}; the physics bound (an ideal follower, one frame late) is {bound} km/h.\n", c.as_str());
         if c == ROBUST {
             assert!(bound >= 80.0, "bound {bound}");
             assert!(first_hit > 0.9 * bound, "flc-robust hit the car at {first_hit} km/h, bound {bound} km/h");
@@ -478,6 +530,7 @@ fn cut_out_reveals_a_standing_car() {
     }
     // The paper's FLC hits the car where the robust FLC stops.
     assert!(paper_first_hit < 0.9 * robust_bound, "paper FLC first contact {paper_first_hit} km/h");
+    check_doc_table("robust-cut-out.md", &format!("Cut-out at 60-100 km/h in steps of 4 km/h:\n\n{sentence}"));
 }
 
 /// `[flc_robust]` errors name the dotted key; `scenarios/robust-cut-out.toml` parses and stops
