@@ -439,7 +439,7 @@ impl ClusterInfo {
     }
 
     #[inline]
-    fn add_point(&mut self, x: f64, y: f64, d: f64, ix: usize, iy: usize) {
+    fn add_point(&mut self, x: f64, y: f64, d: f64) {
         // Plain comparisons: the values are finite and -0.0 is normalised by the caller, so this is
         // `min` / `max` without their NaN handling.
         if d < self.d_min {
@@ -468,11 +468,6 @@ impl ClusterInfo {
         if b > self.b_max {
             self.b_max = b;
         }
-        let (ix, iy) = (ix as u16, iy as u16);
-        self.ix_min = self.ix_min.min(ix);
-        self.ix_max = self.ix_max.max(ix);
-        self.iy_min = self.iy_min.min(iy);
-        self.iy_max = self.iy_max.max(iy);
         self.points += 1;
     }
 }
@@ -597,24 +592,40 @@ impl Geometry {
     /// The cell `(ix, iy)` of the point `(x, y)` and its path offset `d`, if inside the grid.
     #[inline]
     fn cell_of(&self, x: f64, y: f64) -> Option<(usize, usize, f64)> {
-        // Written so that NaN falls through to `None`. For fx, fy >= 0 the truncating cast is
-        // floor() (and much cheaper than libm's software floor).
+        let ix = self.column_of(x)?;
+        let d = self.offset(x, y)?;
+        Some((ix, self.row_of(d)?, d))
+    }
+
+    /// The column holding forward distance `x`, if inside the grid; non-decreasing in `x` (so the
+    /// column of a cluster's smallest x is its smallest column).
+    #[inline]
+    fn column_of(&self, x: f64) -> Option<usize> {
+        // Written so that NaN falls through to `None`. For fx >= 0 the truncating cast is floor()
+        // (and much cheaper than libm's software floor).
         let ix = if x < self.x_far {
             let fx = (x - self.x_lo) / self.cell;
             if fx.is_nan() || fx < 0.0 {
                 return None;
             }
-            (fx as usize).min(self.n_near.saturating_sub(1))
+            // `fx` is finite and in [0, n_near + 1): the signed cast is exact (and one instruction,
+            // where the unsigned one is several on x86-64).
+            (fx as i64 as usize).min(self.n_near.saturating_sub(1))
         } else {
             let fx = (x - self.x_far) / self.far_cell;
             if !(fx >= 0.0 && fx < (self.nx - self.n_near) as f64) {
                 return None;
             }
-            self.n_near + fx as usize
+            self.n_near + fx as i64 as usize
         };
-        let d = self.offset(x, y)?;
+        (ix < self.nx).then_some(ix)
+    }
+
+    /// The lateral cell holding path offset `d`, if inside the grid; non-decreasing in `d`.
+    #[inline]
+    fn row_of(&self, d: f64) -> Option<usize> {
         let fy = (d - self.d_lo) / self.cell;
-        if ix < self.nx && fy >= 0.0 && fy < self.ny as f64 { Some((ix, (fy as usize).min(self.ny.saturating_sub(1)), d)) } else { None }
+        (fy >= 0.0 && fy < self.ny as f64).then(|| (fy as i64 as usize).min(self.ny.saturating_sub(1)))
     }
 }
 
@@ -821,21 +832,39 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         // (5): 8-connected components.
         let overflow = self.label(span);
 
-        // (6): statistics of the original points.
+        // (6): statistics of the original points. Neighbouring rays often fall into one cell: its
+        // cluster is looked up once.
+        let mut last: Option<((usize, usize), Option<usize>)> = None;
         for &[x, y] in scan {
             if !(x.is_finite() && y.is_finite()) {
                 continue;
             }
             let Some((ix, iy, d)) = g.cell_of(x, y) else { continue };
-            let Some(c) = self.cluster_at(ix, iy) else { continue };
+            let owner = match last {
+                Some((cell, owner)) if cell == (ix, iy) => owner,
+                _ => {
+                    let owner = self.cluster_at(ix, iy);
+                    last = Some(((ix, iy), owner));
+                    owner
+                }
+            };
+            let Some(c) = owner else { continue };
             if let Some(info) = self.clusters.get_mut(c) {
                 // `+ 0.0` maps -0.0 to +0.0, so that min/max cannot depend on the order of points.
-                info.add_point(x + 0.0, y + 0.0, d + 0.0, ix, iy);
+                info.add_point(x + 0.0, y + 0.0, d + 0.0);
             }
         }
 
-        // (7): geometric constraints; (7b): fragments joined.
+        // The cells' index extents, from the points' extents: a point's column depends only on its
+        // x and its row only on its offset d, both monotonically.
         let n_clusters = self.n_clusters;
+        for c in self.clusters.iter_mut().take(n_clusters).filter(|c| c.points > 0) {
+            let index = |i: Option<usize>| i.map_or(0, |i| i as u16);
+            (c.ix_min, c.ix_max) = (index(g.column_of(c.x_min)), index(g.column_of(c.x_max)));
+            (c.iy_min, c.iy_max) = (index(g.row_of(c.d_min)), index(g.row_of(c.d_max)));
+        }
+
+        // (7): geometric constraints; (7b): fragments joined.
         for c in self.clusters.iter_mut().take(n_clusters) {
             if c.points == 0 {
                 *c = ClusterInfo { x_min: 0.0, x_max: 0.0, y_min: 0.0, y_max: 0.0, d_min: 0.0, d_max: 0.0, b_min: 0.0, b_max: 0.0, ..*c };
