@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
-"""Writes five of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
-from_catalogs, lane_leave_reveal, merge_in, parameters and positions_arc, with the project's XML
+"""Writes eight of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
+from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority, standing_car and
+target_brakes, with the project's XML
 writer `tools/osc_writer.py` (as `tools/suite_cases.py` writes the standard suites).
 
-    python3 tools/fixture_cases.py      # rewrites the five files (same bytes on every run)
+    python3 tools/fixture_cases.py      # rewrites the eight files (same bytes on every run)
 
 After a change, regenerate esmini's reference trajectories of them (tests/data/esmini/README.md):
 
     python3 tools/esmini_reference.py from_catalogs lane_leave_reveal merge_in parameters positions_arc \\
-        distribution_2x2 distribution_multi
+        priority standing_car target_brakes distribution_2x2 distribution_multi
 
 Every entity is the 4.5 x 1.8 x 1.5 m car (reference point on the rear axle, box centre 1.4 m
 ahead: front 3.65 m ahead of the reference point, rear 0.85 m behind), inline (osc_writer.car) or
@@ -20,9 +21,9 @@ import pathlib
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from osc_writer import (X, activate, after, car, catalog_locations, catalog_object, catalog_ref, condition, constrained,  # noqa: E402
-                        document, event, gap_below, lane_change, lane_position, params, place, place_at, road_network, speed,
-                        story, storyboard)
+from osc_writer import (X, activate, after, car, catalog_locations, catalog_object, catalog_ref, collides, condition,  # noqa: E402
+                        constrained, document, event, gap_below, lane_change, lane_position, maneuver_group, params, place,
+                        place_at, road_network, speed, story, story_of, storyboard)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "tests" / "data" / "openscenario"
@@ -244,12 +245,93 @@ def positions_arc():
                     road_network("roads/arc.xodr"), entities, storyboard(init, [], [[condition("TimeOut3s", after("3.0"))]]))
 
 
+def priority():
+    comment = header(
+        "priority", "event priorities (override, skip, parallel) and a repeated event",
+        "Straight 3-lane road, inline cars. Ego: lane -2, s 50, 20 m/s; four events in one Maneuver:",
+        "  Accelerate t > 1 s,   override: to 30 m/s, linear by time 4 s;",
+        "  Override   t > 2 s,   override: to 15 m/s, linear by time 2 s; ends the running Accelerate;",
+        "  Skipped    t > 3 s,   skip: step to 40 m/s, but Override still runs then (its start condition",
+        "             is evaluated again every step; it starts once no other event of the Maneuver runs);",
+        "  Parallel   t > 3.5 s, parallel: LaneOffsetAction to 0.5 m (sinusoidal, maxLateralAcc 0.5)",
+        "             while Override goes on.",
+        "Pulse: lane -3, s 300, 10 m/s; one event, maximumExecutionCount 2, start t > 5 s (true from then",
+        "on): RelativeTargetLane +1 to itself, sinusoidal by time 2 s; it starts again when it ends, so",
+        "Pulse moves lane -3 -> -2 -> -1. Stop at 10 s.",
+    )
+    offset = X("PrivateAction", X("LateralAction", X("LaneOffsetAction",
+        X("LaneOffsetActionDynamics", dynamicsShape="sinusoidal", maxLateralAcc="0.5"),
+        X("LaneOffsetTarget", X("AbsoluteTargetLaneOffset", value="0.5")), continuous="false")))
+    ego_events = [
+        event("Accelerate", "AccelerateAction", speed("30.0", "linear", "time", "4.0"), condition("AccelerateStart", after("1.0"))),
+        event("Override", "OverrideAction", speed("15.0", "linear", "time", "2.0"), condition("OverrideStart", after("2.0"))),
+        event("Skipped", "SkippedAction", speed("40.0"), condition("SkippedStart", after("3.0")), priority="skip"),
+        event("Parallel", "ParallelAction", offset, condition("ParallelStart", after("3.5")), priority="parallel"),
+    ]
+    pulse = event("Pulse", "PulseAction", lane_change("Pulse", "1", "2.0"), condition("PulseStart", after("5.0")), count="2")
+    groups = [maneuver_group("Ego", "EgoManeuver", ego_events), maneuver_group("Pulse", "PulseManeuver", [pulse])]
+    init = [place("Ego", -2, "50.0", "20.0"), place("Pulse", -3, "300.0", "10.0")]
+    stories = [story_of("PriorityStory", "PriorityAct", groups)]
+    return document(comment, 2, "Event priority override, skip, parallel; maximumExecutionCount", X("CatalogLocations"), STRAIGHT,
+                    X("Entities", car("Ego", "ego"), car("Pulse", "pulse")), storyboard(init, stories, [[condition("StopTime", after("10.0"))]]))
+
+
+def standing_car():
+    v, free = 50.0 / 3.6, 100.0 - 4.5
+    comment = header(
+        "standing_car", "a car stands in Ego's lane",
+        "Straight 3-lane road; both cars are the VehicleCatalog `car`. Ego drives at EgoSpeed_kmh (50) in",
+        "lane -2 from s 50; the standing car's reference point is Distance (100) m ahead of Ego's",
+        f"({free:g} m of free space). A player that does not control Ego keeps its speed: the run ends when",
+        f"the free space is under 2 m ({free - 2.0:g} m at {v:.3f} m/s: {(free - 2.0) / v:.2f} s), or at 10 s.",
+        "Revision 1.0: the Act has a StartTrigger, the priority is `overwrite`, the distance condition has",
+        "no coordinateSystem; Ego's speed is set in Init and again by an event at t > 0.",
+    )
+    kmh = "${$EgoSpeed_kmh / 3.6}"
+    init = [place("Ego", -2, "50.0", kmh), place("Standing", -2, "${50 + $Distance}", "0.0")]
+    drive = event("SetEgoSpeed", "EgoToSpeed", speed(kmh), condition("FromTheStart", after("0.0")), priority="overwrite")
+    stories = [story("DriveOn", "DriveOnAct", "Ego", "EgoSpeed", [drive], act_start=condition("ActFromTheStart", after("0.0")),
+                     group_name="EgoDrives")]
+    stops = [[condition("CloseToStanding", gap_below("Ego", "Standing", "2.0", coordinate_system=None))],
+             [condition("TenSeconds", after("10.0"))]]
+    return document(comment, 0, "standing_car: Ego at 50 km/h toward a car standing 100 m ahead",
+                    params(("EgoSpeed_kmh", "double", "50.0"), ("Distance", "double", "100.0")), catalog_locations(vehicle="catalogs"),
+                    STRAIGHT, X("Entities", catalog_object("Ego", "car"), catalog_object("Standing", "car")), storyboard(init, stories, stops))
+
+
+def target_brakes():
+    v, gap, decel, t_brake = 50.0 / 3.6, 12.0, 6.0, 2.0
+    comment = header(
+        "target_brakes", "the car ahead brakes to a stop",
+        "Straight 3-lane road. Ego (the VehicleCatalog `car`) and Lead (inline car) drive at EgoSpeed_kmh",
+        "(50) in lane -2 with Gap (12) m of free space between them (reference points on the rear axles:",
+        f"Lead at s = 50 + {FRONT} + Gap + {REAR}); at t > BrakeTime ({t_brake:g} s) Lead slows at Decel ({decel:g}) m/s2,",
+        "linear by rate, to 0. A player that does not control Ego keeps its speed and runs into Lead about",
+        f"{(2.0 * gap / decel) ** 0.5:.0f} s after the braking starts ({gap:g} m = {decel:g} t^2 / 2); the run ends on that collision,",
+        "or at 10 s. Revision 1.1: `overwrite` is the event priority's name there.",
+    )
+    kmh = "${$EgoSpeed_kmh / 3.6}"
+    init = [place("Ego", -2, "50.0", kmh), place("Lead", -2, f"${{50 + {FRONT} + $Gap + {REAR}}}", kmh)]
+    stop = event("TargetStops", "SlowToZero", speed("0.0", "linear", "rate", "$Decel"), condition("AfterBrakeTime", after("$BrakeTime")),
+                 priority="overwrite")
+    stories = [story("TargetStory", "TargetAct", "Lead", "TargetManeuver", [stop], act_start=condition("Immediately", after("0.0")),
+                     group_name="TargetGroup")]
+    stops = [[condition("EgoHitsLead", collides("Ego", "Lead"))], [condition("TenSeconds", after("10.0"))]]
+    decls = [("EgoSpeed_kmh", "double", "50.0"), ("Gap", "double", f"{gap}"), ("Decel", "double", f"{decel}"),
+             ("BrakeTime", "double", f"{t_brake}")]
+    return document(comment, 1, "target_brakes: Lead brakes to a stop in front of Ego", params(*decls), catalog_locations(vehicle="catalogs"),
+                    STRAIGHT, X("Entities", catalog_object("Ego", "car"), car("Lead", "lead")), storyboard(init, stories, stops))
+
+
 FIXTURES = {
     "from_catalogs.xosc": from_catalogs,
     "lane_leave_reveal.xosc": lane_leave_reveal,
     "merge_in.xosc": merge_in,
     "parameters.xosc": parameters,
     "positions_arc.xosc": positions_arc,
+    "priority.xosc": priority,
+    "standing_car.xosc": standing_car,
+    "target_brakes.xosc": target_brakes,
 }
 
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A small OpenSCENARIO XML writer (stdlib only): elements, the document frame and the few actions,
 conditions and storyboard pieces the standard suites and the test fixtures use.
-`tools/suite_cases.py` writes the suites and `tools/fixture_cases.py` five of the fixtures in
+`tools/suite_cases.py` writes the suites and `tools/fixture_cases.py` eight of the fixtures in
 tests/data/openscenario/ with it; it is not a runnable tool itself.
 """
 
@@ -152,10 +152,17 @@ def by_entity(entity, inner):
              X("EntityCondition", inner))
 
 
-def gap_below(entity, of, value):
-    """`entity`'s longitudinal freespace distance to `of` (entity coordinates) below `value`."""
+def gap_below(entity, of, value, coordinate_system="entity"):
+    """`entity`'s longitudinal freespace distance to `of` below `value`, in `coordinate_system`
+    (None: the attribute left out, as in revision 1.0, which does not have it)."""
+    system = {} if coordinate_system is None else {"coordinateSystem": coordinate_system}
     return by_entity(entity, X("RelativeDistanceCondition", entityRef=of, value=value, freespace="true", rule="lessThan",
-                               relativeDistanceType="longitudinal", coordinateSystem="entity"))
+                               relativeDistanceType="longitudinal", **system))
+
+
+def collides(entity, other):
+    """`entity` collides with `other`."""
+    return by_entity(entity, X("CollisionCondition", X("EntityRef", entityRef=other)))
 
 
 def trigger(tag, *groups):
@@ -169,10 +176,21 @@ def event(name, action_name, action, start, priority="override", count="1"):
              maximumExecutionCount=count)
 
 
+def maneuver_group(actor, maneuver, events, group_name=None):
+    """A ManeuverGroup of one actor with one Maneuver of `events`."""
+    return X("ManeuverGroup", X("Actors", X("EntityRef", entityRef=actor), selectTriggeringEntities="false"),
+             X("Maneuver", *events, name=maneuver), name=group_name or f"{actor}Group", maximumExecutionCount="1")
+
+
 def story(name, act, actor, maneuver, events, act_start=None, group_name=None):
-    group = X("ManeuverGroup", X("Actors", X("EntityRef", entityRef=actor), selectTriggeringEntities="false"),
-              X("Maneuver", *events, name=maneuver), name=group_name or f"{actor}Group", maximumExecutionCount="1")
-    act_el = X("Act", group, *( [trigger("StartTrigger", [act_start])] if act_start is not None else []), name=act)
+    """A Story of one Act with one ManeuverGroup (`actor`, `maneuver`, `events`)."""
+    return story_of(name, act, [maneuver_group(actor, maneuver, events, group_name)], act_start)
+
+
+def story_of(name, act, groups, act_start=None):
+    """A Story of one Act of the ManeuverGroups `groups`; `act_start` is the Act's StartTrigger
+    condition (None: none)."""
+    act_el = X("Act", *groups, *([trigger("StartTrigger", [act_start])] if act_start is not None else []), name=act)
     return X("Story", act_el, name=name)
 
 
