@@ -48,9 +48,9 @@
 #define FLC_PURSUIT_WORDS 5
 
 /**
- * Words (8 bytes each) of `FlcDetector::storage` (50.4 KiB).
+ * Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
  */
-#define FLC_DETECTOR_WORDS 6450
+#define FLC_DETECTOR_WORDS 8050
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -1178,7 +1178,7 @@ typedef struct FlcDetectorParams {
 
 /**
  * Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
- * `flc_detector_init`. About 50 KiB: prefer static storage on small stacks.
+ * `flc_detector_init`. About 63 KiB: prefer static storage on small stacks.
  */
 typedef struct FlcDetector {
     uint64_t magic;

@@ -51,6 +51,14 @@ pub const MAX_CURVATURE: f64 = 0.2;
 /// Most fragment candidates step 7b considers per scan (the nearest ones).
 pub const JOIN_CAPACITY: usize = 32;
 
+/// Points whose cell and path offset step 1 keeps for step 6 (the first ones of a scan), so that
+/// step 6 does not compute them again; later points are computed twice (same result). 1280 covers
+/// a whole scan of the default LiDAR (1201 rays) and takes 12.5 KiB.
+pub const POINT_CACHE: usize = 1280;
+
+/// A cached point outside the grid (or not finite).
+const NO_CELL: u16 = u16::MAX;
+
 const NO_CLUSTER: u16 = u16::MAX;
 
 /// How the selected cluster's grid ("pixel") coordinates are reprojected into metres (step 9).
@@ -633,7 +641,7 @@ impl Geometry {
 /// `far_start`, `far_cell_size` beyond), `NY` cells of `cell_size` across the predicted path
 /// (`NY <= 64`, checked at compile time). The default `LeadDetector<520, 60>` covers x in
 /// [0.5, 200.5] m (200 columns of 0.2 m, then 320 of 0.5 m) and 6 m either side of the path, and
-/// takes 51 600 bytes = 50.4 KiB on 64-bit targets (a test checks
+/// takes 64 400 bytes = 62.9 KiB on 64-bit targets (a test checks
 /// `size_of::<LeadDetector>() <= 64 KiB`).
 ///
 /// Each grid column is one `u64` bitmap (bit `iy` = lateral cell `iy`), so occupancy, edges and
@@ -659,6 +667,10 @@ pub struct LeadDetector<const NX: usize = 520, const NY: usize = 60> {
     pub(crate) col_len: [u8; NX],
     pub(crate) clusters: [ClusterInfo; CLUSTER_CAPACITY],
     pub(crate) n_clusters: usize,
+    /// Step 1's cell (`ix * NY + iy`, [`NO_CELL`] outside) and offset of the scan's first
+    /// [`POINT_CACHE`] points, read back by step 6 of the same scan (never across scans).
+    pub(crate) point_cell: [u16; POINT_CACHE],
+    pub(crate) point_offset: [f64; POINT_CACHE],
 }
 
 /// Fills `radius` with the lateral dilation radius of each column of a grid with `params`.
@@ -694,6 +706,8 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
             col_len: [0; NX],
             clusters: [ClusterInfo::EMPTY; CLUSTER_CAPACITY],
             n_clusters: 0,
+            point_cell: [NO_CELL; POINT_CACHE],
+            point_offset: [0.0; POINT_CACHE],
         })
     }
 
@@ -730,6 +744,8 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         self.col_len.fill(0);
         self.clusters.fill(ClusterInfo::EMPTY);
         self.n_clusters = 0;
+        self.point_cell.fill(NO_CELL);
+        self.point_offset.fill(0.0);
     }
 
     /// Grid size in cells, `(NX, NY)`.
@@ -808,18 +824,27 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         self.occupied = [0; NX];
         let (mut used, mut rejected) = (0usize, 0usize);
         let (mut lo, mut hi) = (NX, 0usize);
-        for &[x, y] in scan {
+        // The cell index `ix * NY + iy` fits the cache's u16 for the grids this is built for;
+        // larger grids compute every point twice.
+        let cache = const { NX * NY < NO_CELL as usize };
+        for (i, &[x, y]) in scan.iter().enumerate() {
+            let mut cell = NO_CELL;
             if !(x.is_finite() && y.is_finite()) {
                 rejected += 1;
-                continue;
-            }
-            if let Some((ix, iy, _)) = g.cell_of(x, y) {
+            } else if let Some((ix, iy, d)) = g.cell_of(x, y) {
                 used += 1;
                 lo = lo.min(ix);
                 hi = hi.max(ix + 1);
                 if let Some(col) = self.occupied.get_mut(ix) {
                     *col |= 1u64.checked_shl(iy as u32).unwrap_or(0);
                 }
+                if let (true, Some(o)) = (cache, self.point_offset.get_mut(i)) {
+                    *o = d;
+                    cell = (ix * NY + iy) as u16;
+                }
+            }
+            if let (true, Some(c)) = (cache, self.point_cell.get_mut(i)) {
+                *c = cell;
             }
         }
 
@@ -835,11 +860,15 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         // (6): statistics of the original points. Neighbouring rays often fall into one cell: its
         // cluster is looked up once.
         let mut last: Option<((usize, usize), Option<usize>)> = None;
-        for &[x, y] in scan {
-            if !(x.is_finite() && y.is_finite()) {
-                continue;
-            }
-            let Some((ix, iy, d)) = g.cell_of(x, y) else { continue };
+        for (i, &[x, y]) in scan.iter().enumerate() {
+            let cached = if cache { self.point_cell.get(i).copied().zip(self.point_offset.get(i).copied()) } else { None };
+            let cell = match cached {
+                Some((NO_CELL, _)) => None,
+                Some((c, d)) => Some((usize::from(c) / NY, usize::from(c) % NY, d)),
+                None if x.is_finite() && y.is_finite() => g.cell_of(x, y),
+                None => None,
+            };
+            let Some((ix, iy, d)) = cell else { continue };
             let owner = match last {
                 Some((cell, owner)) if cell == (ix, iy) => owner,
                 _ => {
@@ -1361,13 +1390,43 @@ mod tests {
         assert_eq!(RejectReason::OffPath.as_str(), "off_path");
     }
 
+    /// Step 6 reads the cell and offset of the first [`POINT_CACHE`] points back from step 1 and
+    /// computes those of later points again: a scan longer than the cache gives the same result
+    /// whichever side of the cache's end the car's points lie on, and a detector that has just
+    /// seen a long scan reads nothing of it on a shorter one.
+    #[test]
+    fn point_cache_changes_no_result() {
+        // Clutter inside the grid (a guard rail 5 m left) and outside it (far to the right).
+        let rail: Vec<[f64; 2]> = (0..400).map(|i| [5.0 + 0.4 * f64::from(i), 5.0]).collect();
+        let outside: Vec<[f64; 2]> = (0..1000).map(|i| [10.0 + 0.1 * f64::from(i), -40.0]).collect();
+        let car = rear_face(62.0, 0.3, 1.9);
+        let late: Vec<[f64; 2]> = rail.iter().chain(&outside).chain(&car).copied().collect();
+        let early: Vec<[f64; 2]> = car.iter().chain(&rail).chain(&outside).copied().collect();
+        assert!(late.len() > POINT_CACHE + car.len());
+        // Straight, and a gentle curve (the car 0.96 m off its arc, inside the corridor).
+        for curvature in [0.0, 0.0005] {
+            let (mut a, mut b) = (det(), det());
+            let (out_late, out_early) = (a.detect(&late, curvature), b.detect(&early, curvature));
+            assert!(out_late.detection.is_some(), "{out_late:?}");
+            assert_eq!(out_late, out_early);
+            assert_eq!(a.clusters(), b.clusters());
+            let (x, y) = (out_late.detection.unwrap(), out_early.detection.unwrap());
+            assert_eq!(x.distance.to_bits(), y.distance.to_bits());
+            // After the long scan, a short one: as on a fresh detector.
+            let short: Vec<[f64; 2]> = car.iter().chain(rail.iter().take(50)).copied().collect();
+            let mut fresh = det();
+            assert_eq!(a.detect(&short, curvature), fresh.detect(&short, curvature));
+            assert_eq!(a.clusters(), fresh.clusters());
+        }
+    }
+
     #[test]
     fn memory_fits_in_64_kib() {
         let size = core::mem::size_of::<LeadDetector>();
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
-        // The figure quoted in the docs (50.4 KiB on 64-bit targets).
+        // The figure quoted in the docs (62.9 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size, 51600);
+        assert_eq!(size, 64400);
     }
 
     #[test]

@@ -6,16 +6,15 @@
 //! `docs/openscenario.md` includes as a generated block.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use flc_sim::Simulation;
 use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::story::EgoMode;
 use flc_sim::trigger::ElementEvent;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+use common::repo;
 
 /// `(fixture, curved road)`.
 const FIXTURES: &[(&str, bool)] = &[
@@ -172,11 +171,5 @@ fn scripted_fixtures_match_esmini() {
     }
     assert!(failures.is_empty(), "differences beyond the limits:\n{}", failures.join("\n"));
     // The committed table that docs/openscenario.md includes (`python -m flc docs`).
-    let file = repo().join("tests/data/esmini/comparison.md");
-    if std::env::var("FLC_BLESS").is_ok_and(|v| v == "1") {
-        std::fs::write(&file, &table).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
-    } else {
-        let committed = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", file.display()));
-        assert_eq!(committed, table, "tests/data/esmini/comparison.md is stale: rerun with FLC_BLESS=1");
-    }
+    common::bless_or_compare("tests/data/esmini/comparison.md", &table, "FLC_BLESS=1 cargo test --release -p flc-sim --test esmini");
 }

@@ -17,16 +17,11 @@
 //! debug build would take minutes); in a debug `cargo test` it is ignored.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn golden_dir() -> PathBuf {
-    root().join("tests/golden")
-}
+mod common;
+use common::repo as root;
 
 fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("flc-golden-{tag}-{}", std::process::id()));
@@ -41,32 +36,9 @@ fn scenario(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
-/// `FLC_BLESS=1` rewrites the goldens; any other value (`FLC_BLESS=0`, empty) or none compares.
-fn blessing() -> bool {
-    std::env::var("FLC_BLESS").is_ok_and(|v| v == "1")
-}
-
 /// Compares `actual` with the golden file `name` (or writes it with `FLC_BLESS=1`).
 fn check(name: &str, actual: &str) {
-    let path = golden_dir().join(name);
-    if blessing() {
-        std::fs::create_dir_all(golden_dir()).expect("mkdir");
-        std::fs::write(&path, actual).expect("write golden");
-        return;
-    }
-    let expected = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (regenerate: see this file's docs)", path.display()));
-    if expected != actual {
-        let (el, al): (Vec<&str>, Vec<&str>) = (expected.lines().collect(), actual.lines().collect());
-        let first = el.iter().zip(&al).position(|(a, b)| a != b).unwrap_or(el.len().min(al.len()));
-        panic!(
-            "{name} differs from the golden output (lines {} vs {}); first difference at line {}:\n golden: {}\n now:    {}",
-            el.len(),
-            al.len(),
-            first + 1,
-            el.get(first).unwrap_or(&"<end>"),
-            al.get(first).unwrap_or(&"<end>")
-        );
-    }
+    common::bless_or_compare(&format!("tests/golden/{name}"), actual, "FLC_BLESS=1 cargo test --release -p flc-sim --test golden");
 }
 
 const ALL_CONTROLLERS: &str = "flc,pid,pipeline,idm,acc,rss,carla-behavior,flc-robust";
@@ -175,21 +147,13 @@ fn standard_suites_report() {
     let (one, two) = (tmpdir("suites-1"), tmpdir("suites-2"));
     let summary = scenario(&["suite", "all", "--threads", "1", "--out", one.to_str().expect("utf-8")]);
     assert_eq!(summary, scenario(&["suite", "all", "--threads", "2", "--out", two.to_str().expect("utf-8")]), "summary depends on threads");
-    let docs = root().join("docs/standard-suites");
     let mut reports = Vec::new();
     let mut files: Vec<String> = ["ncap-ccr", "r157"].iter().flat_map(|n| ["md", "json", "svg"].map(|e| format!("{n}.{e}"))).collect();
     files.extend(["summary.md".to_string(), "summary-line.md".to_string()]);
     for file in &files {
         let a = std::fs::read_to_string(one.join(file)).expect("report");
         assert_eq!(a, std::fs::read_to_string(two.join(file)).expect("report"), "{file} depends on the thread count");
-        let committed = docs.join(file);
-        if blessing() {
-            std::fs::create_dir_all(&docs).expect("mkdir");
-            std::fs::write(&committed, &a).expect("write");
-        } else {
-            let c = std::fs::read_to_string(&committed).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", committed.display()));
-            assert!(c == a, "{} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test golden rewrites it", committed.display());
-        }
+        common::bless_or_compare(&format!("docs/standard-suites/{file}"), &a, "FLC_BLESS=1 cargo test --release -p flc-sim --test golden");
         if file.ends_with(".json") {
             reports.push(serde_json::from_str::<flc_sim::suite::SuiteReport>(&a).expect("report json"));
         }

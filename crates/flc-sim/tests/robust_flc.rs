@@ -7,6 +7,8 @@
 //! follower that knows the lead's (or obstacle's) state one LiDAR frame after it changes and then
 //! demands full braking.
 
+mod common;
+
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::{Metrics, MetricsParams};
 use flc_sim::{RoadsideObject, Track};
@@ -18,16 +20,7 @@ const KMH: f64 = 1.0 / 3.6;
 /// A table `docs/robust-flc.md` includes (`python -m flc docs`): `docs/figures/<name>` is written
 /// with `FLC_BLESS=1` and otherwise must equal `table`.
 fn check_doc_table(name: &str, table: &str) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/figures").join(name);
-    if std::env::var("FLC_BLESS").is_ok_and(|v| v == "1") {
-        std::fs::write(&path, table).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    } else {
-        let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (FLC_BLESS=1 writes it)", path.display()));
-        assert_eq!(
-            committed, table,
-            "docs/figures/{name} is stale: FLC_BLESS=1 cargo test --release -p flc-sim --test robust_flc rewrites it"
-        );
-    }
+    common::bless_or_compare(&format!("docs/figures/{name}"), table, "FLC_BLESS=1 cargo test --release -p flc-sim --test robust_flc");
 }
 const ROBUST: ControllerKind = ControllerKind::FlcRobust;
 /// The robust FLC v2 (issue 24), held to v1's rate-invariance target and to the issue's stricter

@@ -176,11 +176,11 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcDetector::storage` (50.4 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 6450;
+/// Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
+pub const FLC_DETECTOR_WORDS: usize = 8050;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
-/// `flc_detector_init`. About 50 KiB: prefer static storage on small stacks.
+/// `flc_detector_init`. About 63 KiB: prefer static storage on small stacks.
 #[repr(C)]
 pub struct FlcDetector {
     magic: u64,
@@ -319,6 +319,8 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
             col_len: _,
             clusters: _,
             n_clusters: _,
+            point_cell: _,
+            point_offset: _,
         } = d;
     }
     // SAFETY: caller contract; each `addr_of_mut!` projects to a field of `*d` without creating a
@@ -346,6 +348,11 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
             clusters.add(i).write(ClusterInfo::EMPTY);
         }
         addr_of_mut!((*d).n_clusters).write(0);
+        let cells = addr_of_mut!((*d).point_cell).cast::<u16>();
+        for i in 0..crate::detector::POINT_CACHE {
+            cells.add(i).write(u16::MAX);
+        }
+        addr_of_mut!((*d).point_offset).write_bytes(0, 1);
     }
 }
 
