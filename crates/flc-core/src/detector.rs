@@ -57,7 +57,7 @@ pub const JOIN_CAPACITY: usize = 32;
 pub const POINT_CACHE: usize = 1280;
 
 /// A cached point outside the grid (or not finite).
-const NO_CELL: u16 = u16::MAX;
+pub(crate) const NO_CELL: u16 = u16::MAX;
 
 const NO_CLUSTER: u16 = u16::MAX;
 

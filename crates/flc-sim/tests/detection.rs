@@ -10,6 +10,8 @@
 //! frame counts when the target is detected within 0.3 m of its true distance. The range tests
 //! are heavy in debug builds: `tests/run_all.sh` runs them with `--release` (like the goldens).
 
+mod common;
+
 use flc_sim::detection_study::{
     ACCURATE, CAR, ClutterRun, Condition, Curve, MOTORCYCLE, RangeStudy, Target, TrackKind, range_bins, run_clutter, run_range_study,
 };
@@ -300,14 +302,9 @@ fn the_motorcycle_scenario_parses_with_its_vehicle() {
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn the_committed_detector_study_is_the_code_s() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/figures/detector-study.md");
-    let committed = std::fs::read_to_string(path).expect("docs/figures/detector-study.md");
     let (label, frames) = ("the detector in the tree", 200);
     let (curves, clutter) = flc_sim::detection_study::full_study(frames, |_| {});
     let command = flc_sim::detection_study::study_command("docs/figures", "detector", label, frames);
     let now = flc_sim::detection_study::markdown(&curves, &clutter, label, "detector", &command);
-    for (k, (a, b)) in committed.lines().zip(now.lines()).enumerate() {
-        assert_eq!(a, b, "docs/figures/detector-study.md line {} differs from the study (the example rewrites it)", k + 1);
-    }
-    assert_eq!(committed.lines().count(), now.lines().count(), "docs/figures/detector-study.md: line count");
+    common::compare("docs/figures/detector-study.md", &now, "cargo run --release -p flc-sim --example detector_study -- --out docs/figures");
 }

@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 mod common;
-use common::repo as root;
+use common::repo;
 
 fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("flc-golden-{tag}-{}", std::process::id()));
@@ -31,7 +31,7 @@ fn tmpdir(tag: &str) -> PathBuf {
 }
 
 fn scenario(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).current_dir(root()).args(args).output().expect("run scenario");
+    let out = Command::new(env!("CARGO_BIN_EXE_scenario")).current_dir(repo()).args(args).output().expect("run scenario");
     assert!(out.status.success(), "scenario {args:?}: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf-8")
 }

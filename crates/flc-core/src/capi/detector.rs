@@ -350,7 +350,7 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
         addr_of_mut!((*d).n_clusters).write(0);
         let cells = addr_of_mut!((*d).point_cell).cast::<u16>();
         for i in 0..crate::detector::POINT_CACHE {
-            cells.add(i).write(u16::MAX);
+            cells.add(i).write(crate::detector::NO_CELL);
         }
         addr_of_mut!((*d).point_offset).write_bytes(0, 1);
     }
