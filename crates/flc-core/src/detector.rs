@@ -1021,10 +1021,16 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     }
 
     /// Step 3: occupied cells with at least one free 4-neighbour (cells outside the grid are free).
-    /// Columns outside `span` have no occupied cell (so no edge).
+    /// Columns outside `span` have no occupied cell (so no edge): they are written 0 here, in the
+    /// same pass, rather than cleared beforehand.
     fn find_edges(&mut self, span: core::ops::Range<usize>) {
         let mask = column_mask(NY);
-        self.edges = [0; NX];
+        for e in self.edges.get_mut(..span.start.min(NX)).unwrap_or(&mut []) {
+            *e = 0;
+        }
+        for e in self.edges.get_mut(span.end.min(NX)..).unwrap_or(&mut []) {
+            *e = 0;
+        }
         for ix in span {
             let c = self.occupied.get(ix).copied().unwrap_or(0);
             let left = ix.checked_sub(1).and_then(|j| self.occupied.get(j)).copied().unwrap_or(0);
@@ -1039,11 +1045,16 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
 
     /// Step 4: dilation with a rectangle of `dilation_radius` columns either way and the column's
     /// lateral radius. Lateral dilation distributes over OR, so each dilated column is the lateral
-    /// dilation of the OR of the neighbouring edge columns. Columns outside `span` stay empty.
+    /// dilation of the OR of the neighbouring edge columns. Columns outside `span` are written 0.
     fn dilate(&mut self, span: core::ops::Range<usize>) {
         let r = usize::from(self.params.dilation_radius);
         let mask = column_mask(NY);
-        self.dilated = [0; NX];
+        for d in self.dilated.get_mut(..span.start.min(NX)).unwrap_or(&mut []) {
+            *d = 0;
+        }
+        for d in self.dilated.get_mut(span.end.min(NX)..).unwrap_or(&mut []) {
+            *d = 0;
+        }
         for ix in span {
             let lo = ix.saturating_sub(r);
             let hi = (ix + r + 1).min(NX);

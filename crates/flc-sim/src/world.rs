@@ -291,6 +291,8 @@ impl World {
             }
         }
         let region = Aabb::new(lo - Vector::splat(0.01), hi + Vector::splat(0.01));
+        // The directions in parry's f32, converted once per fan rather than once per collider.
+        let unit: Vec<Vector> = unit.iter().map(|d| Vector::new(d[0] as f32, d[1] as f32)).collect();
         for (_, co) in qp.intersect_aabb_conservative(region) {
             let (lo, hi) = angular_extent(co, origin, base);
             // Cuboids (vehicles, rails, parked cars): parry's `cast_ray` is `cast_local_ray` on the
@@ -309,7 +311,7 @@ impl World {
                 let first = angles.partition_point(|&a| a < l);
                 let last = angles.partition_point(|&a| a <= h);
                 let (Some(dirs), Some(slots)) = (unit.get(first..last), hits.get_mut(first..last)) else { continue };
-                let rays = dirs.iter().map(|d| Vector::new(d[0] as f32, d[1] as f32)).zip(slots);
+                let rays = dirs.iter().copied().zip(slots);
                 // The cast's `max_toi` is the nearest hit so far, `r` before the first (`NO_HIT` is
                 // infinite, every hit is <= r: `min(slot, r)`, written as a compare).
                 match &local {
