@@ -33,6 +33,7 @@ pub mod gnss;
 mod lead;
 mod lidar;
 mod metrics;
+mod noise;
 pub mod openscenario;
 pub mod paper;
 mod patch;

@@ -5,10 +5,10 @@ use std::collections::VecDeque;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::Normal;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, check_range};
+use crate::noise::NormalStream;
 use crate::vehicle::VehicleState;
 use crate::world::{Body, NO_HIT, RayFan, World};
 
@@ -168,18 +168,22 @@ pub struct Lidar {
     params: LidarParams,
     /// Independent streams per impairment, so that enabling one never reshuffles another and a
     /// disabled one costs nothing.
-    rng_noise: ChaCha8Rng,
+    /// Range noise: one standard-normal draw per ray ([`crate::noise`]).
+    rng_noise: NormalStream,
     rng_dropout: ChaCha8Rng,
     rng_scan: ChaCha8Rng,
-    noise: Option<Normal<f64>>,
+    /// `range_noise_std` when noise is on.
+    noise: Option<f64>,
     schedule: ScanSchedule<Scan>,
     /// Ray angles in the sensor frame, ascending, rad.
     angles: Vec<f64>,
     /// `(cos, sin)` of each ray's angle in the sensor frame.
     unit: Vec<[f64; 2]>,
     dirs: Vec<[f64; 2]>,
-    /// Hit distance per ray ([`crate::world::NO_HIT`]: none), m.
+    /// Hit distance per ray ([`crate::world::NO_HIT`]: none or dropped), m.
     hits: Vec<f32>,
+    /// This scan's range noise per ray (zero without noise), m.
+    noise_draws: Vec<f64>,
 }
 
 impl Lidar {
@@ -190,7 +194,7 @@ impl Lidar {
         let step = if n > 1 { params.fov_deg.to_radians() / (n - 1) as f64 } else { 0.0 };
         let angles: Vec<f64> = (0..n).map(|i| -half + step * i as f64).collect();
         let unit = angles.iter().map(|a| [a.cos(), a.sin()]).collect();
-        let noise = if params.range_noise_std > 0.0 { Normal::new(0.0, params.range_noise_std).ok() } else { None };
+        let noise = (params.range_noise_std > 0.0).then_some(params.range_noise_std);
         let stream = |k: u64| {
             let mut r = ChaCha8Rng::seed_from_u64(seed);
             r.set_stream(k);
@@ -198,7 +202,7 @@ impl Lidar {
         };
         Self {
             params,
-            rng_noise: stream(1),
+            rng_noise: NormalStream::new(stream(1).random()),
             rng_dropout: stream(2),
             rng_scan: stream(3),
             noise,
@@ -207,6 +211,7 @@ impl Lidar {
             unit,
             dirs: Vec::with_capacity(n),
             hits: Vec::with_capacity(n),
+            noise_draws: vec![0.0; n],
         }
     }
 
@@ -243,32 +248,34 @@ impl Lidar {
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
         world.cast_fan_f32(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
-        let mut points = Vec::with_capacity(self.hits.len());
-        // Range-dependent dropout (`dropout_at_max_range > 0`): `p(r) = p0 + (p1 - p0) (r / R)^2`.
-        let ranged = p.dropout_at_max_range > 0.0;
-        let draw = ranged || p.dropout_prob > 0.0;
-        let (p0, slope) = (p.dropout_prob, (p.dropout_at_max_range - p.dropout_prob) / (p.max_range * p.max_range));
-        for ([ca, sa], &hit) in self.unit.iter().zip(&self.hits) {
-            // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on
-            // what the other rays hit (and without range-dependent dropout the draws are exactly
-            // those of `dropout_prob` alone).
-            let u = if draw { self.rng_dropout.random::<f64>() } else { 1.0 };
-            // `std * z` with z standard normal: `Normal::sample` without its `mean + ` (mean 0, and
-            // `r + n` is the same either way), written out so that rustc inlines it here.
-            let n = match self.noise {
-                Some(d) => d.std_dev() * self.rng_noise.sample::<f64, _>(rand_distr::StandardNormal),
-                None => 0.0,
-            };
-            if hit == NO_HIT {
-                continue;
-            }
-            let r = f64::from(hit);
-            let drop = draw && u < if ranged { p0 + slope * r * r } else { p0 };
-            if !drop {
-                let r = (r + n).max(0.0);
-                points.push([r * ca, r * sa]);
+        // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on what
+        // the other rays hit (and without range-dependent dropout the draws are exactly those of
+        // `dropout_prob` alone). Each impairment is one pass over the rays.
+        if p.dropout_prob > 0.0 || p.dropout_at_max_range > 0.0 {
+            // Range-dependent dropout (`dropout_at_max_range > 0`): `p(r) = p0 + (p1 - p0) (r / R)^2`
+            // at the true range `r`.
+            let ranged = p.dropout_at_max_range > 0.0;
+            let (p0, slope) = (p.dropout_prob, (p.dropout_at_max_range - p.dropout_prob) / (p.max_range * p.max_range));
+            for hit in &mut self.hits {
+                let u = self.rng_dropout.random::<f64>();
+                let r = f64::from(*hit);
+                if *hit != NO_HIT && u < if ranged { p0 + slope * r * r } else { p0 } {
+                    *hit = NO_HIT;
+                }
             }
         }
+        if let Some(std) = self.noise {
+            self.rng_noise.fill(std, &mut self.noise_draws);
+        }
+        // Every ray's point, then the rays without a return (at infinity) left out: two passes
+        // without a branch or a capacity check per ray.
+        let mut points: Vec<[f64; 2]> = (self.unit.iter().zip(&self.hits).zip(&self.noise_draws))
+            .map(|(([ca, sa], &hit), &n)| {
+                let r = (f64::from(hit) + n).max(0.0);
+                [r * ca, r * sa]
+            })
+            .collect();
+        points.retain(|[x, y]| x.is_finite() && y.is_finite());
         Scan { t_captured: t, points }
     }
 }
@@ -371,14 +378,15 @@ mod tests {
     }
 
     /// The points of one capture computed here from the fan's hits and the documented draw order
-    /// (stream 1: one N(0, std^2) per ray; stream 2: one U[0, 1) per ray when `dropout_prob > 0`).
+    /// (a normal stream seeded by stream 1's first draw: one N(0, std^2) per ray; stream 2: one
+    /// U[0, 1) per ray when `dropout_prob > 0`).
     fn reference_capture(p: &LidarParams, seed: u64, w: &World, ego: Body, pose: &VehicleState) -> Vec<[f64; 2]> {
         let stream = |k: u64| {
             let mut r = ChaCha8Rng::seed_from_u64(seed);
             r.set_stream(k);
             r
         };
-        let (mut noise, mut dropout) = (stream(1), stream(2));
+        let (mut noise, mut dropout) = (NormalStream::new(stream(1).random()), stream(2));
         let l = Lidar::new(p.clone(), seed);
         let origin = [pose.x + p.mount_x, pose.y];
         let mut hits = Vec::new();
@@ -386,7 +394,7 @@ mod tests {
         let mut out = Vec::new();
         for (a, hit) in l.angles.iter().zip(&hits) {
             let drop = p.dropout_prob > 0.0 && dropout.random::<f64>() < p.dropout_prob;
-            let n = if p.range_noise_std > 0.0 { p.range_noise_std * noise.sample::<f64, _>(rand_distr::StandardNormal) } else { 0.0 };
+            let n = if p.range_noise_std > 0.0 { p.range_noise_std * noise.sample() } else { 0.0 };
             if let (Some(r), false) = (hit, drop) {
                 let r = (r + n).max(0.0);
                 out.push([r * a.cos(), r * a.sin()]);
