@@ -17,7 +17,7 @@
 //!   nothing is truncated.
 //!
 //! Against `rand_distr`'s ziggurat on a ChaCha8 stream (57 instructions per draw) a draw costs
-//! about 20 (`docs/benchmarks.md`).
+//! about 22 in the LiDAR's loop (`docs/benchmarks.md`).
 
 use std::sync::OnceLock;
 
