@@ -72,7 +72,7 @@ def test_paper_preset_outcome_table():
     assert [res[(v, "flc")]["collision"] for v in speeds] == [False, False, False, True]
     assert [res[(v, "pid")]["collision"] for v in speeds] == [False, False, True, True]
     assert res[(90, "flc")]["impact_speed"] < res[(90, "pid")]["impact_speed"]
-    # Stops (at 70 km/h with 0.11 m only: the preset sits on a narrow ridge, docs/paper-reproduction.md).
+    # Stops (at 70 km/h with 0.24 m only: the preset sits on a narrow ridge, docs/paper-reproduction.md).
     for v in (30, 50, 70):
         assert res[(v, "flc")]["final_clearance"] > 0.0
 

@@ -83,7 +83,7 @@ pub const PAPER_ACTUATOR_RESPONSE: f64 = 0.5;
 /// committed map data (`sweeps/paper-reproduction-{map,random}.csv`; checked against them by
 /// `crates/flc-sim/tests/paper.rs`): the share of the brake authority x actuator response map
 /// and of the random sample over all constants, in percent.
-pub const PAPER_MATCHING_REGION: (f64, f64) = (3.5, 1.0);
+pub const PAPER_MATCHING_REGION: (f64, f64) = (3.0, 1.0);
 
 /// Applies the paper preset: the follower's brake authority and actuator response (the same
 /// vehicle for every controller; no controller gain is changed).

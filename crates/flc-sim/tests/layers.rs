@@ -170,7 +170,7 @@ fn no_crate_has_an_import_cycle() {
 /// flc-sim's layers, lowest first (`docs/architecture.md`); a module may use its own layer and
 /// the layers below.
 const SIM_LAYERS: &[&[&str]] = &[
-    &["error", "units"],
+    &["error", "units", "noise"],
     &["track", "world", "vehicle", "lidar", "gap_sensor", "gnss", "v2v", "trigger", "lead", "story"],
     &["series", "metrics"],
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],

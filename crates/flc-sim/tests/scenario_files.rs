@@ -148,14 +148,14 @@ fn lead_brakes_on_gap() {
     assert!(run(&pid).expect("run").metrics.collision, "lead-brakes-on-gap with the PID");
 }
 
-/// "V2V is lost at brake onset": the pipeline hands over to the FLC, which stops it 4.6 m behind
+/// "V2V is lost at brake onset": the pipeline hands over to the FLC, which stops it 4.65 m behind
 /// the lead without contact.
 #[test]
 fn paper_70_pipeline() {
     let (s, r) = run_file("paper-70-pipeline.toml");
     assert_eq!(s.controller, ControllerKind::Pipeline);
     no_contact("paper-70-pipeline", &r);
-    stops_at("paper-70-pipeline", &r, 4.6);
+    stops_at("paper-70-pipeline", &r, 4.65);
     let x = &r.series;
     let onset = first(&r, 0.0, |i| x.lead_accel[i] < -3.0).expect("the lead brakes");
     let flc = first(&r, onset, |i| x.active[i] == ACTIVE_FLC).expect("hands over");
