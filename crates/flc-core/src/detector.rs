@@ -673,6 +673,18 @@ pub struct LeadDetector<const NX: usize = 520, const NY: usize = 60> {
     pub(crate) point_offset: [f64; POINT_CACHE],
 }
 
+/// Writes 0 into the columns of `columns` outside `span`: a pass that then writes every column in
+/// `span` leaves the whole array as a clear-then-write would, without writing the span twice.
+fn zero_outside(columns: &mut [u64], span: &core::ops::Range<usize>) {
+    let n = columns.len();
+    for c in columns.get_mut(..span.start.min(n)).unwrap_or(&mut []) {
+        *c = 0;
+    }
+    for c in columns.get_mut(span.end.min(n)..).unwrap_or(&mut []) {
+        *c = 0;
+    }
+}
+
 /// Fills `radius` with the lateral dilation radius of each column of a grid with `params`.
 pub(crate) fn column_radii<const NX: usize>(params: &DetectorParams, radius: &mut [u8; NX]) {
     let g = Geometry::new(params, NX, 1, 0.0);
@@ -1025,12 +1037,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     /// same pass, rather than cleared beforehand.
     fn find_edges(&mut self, span: core::ops::Range<usize>) {
         let mask = column_mask(NY);
-        for e in self.edges.get_mut(..span.start.min(NX)).unwrap_or(&mut []) {
-            *e = 0;
-        }
-        for e in self.edges.get_mut(span.end.min(NX)..).unwrap_or(&mut []) {
-            *e = 0;
-        }
+        zero_outside(&mut self.edges, &span);
         for ix in span {
             let c = self.occupied.get(ix).copied().unwrap_or(0);
             let left = ix.checked_sub(1).and_then(|j| self.occupied.get(j)).copied().unwrap_or(0);
@@ -1049,12 +1056,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     fn dilate(&mut self, span: core::ops::Range<usize>) {
         let r = usize::from(self.params.dilation_radius);
         let mask = column_mask(NY);
-        for d in self.dilated.get_mut(..span.start.min(NX)).unwrap_or(&mut []) {
-            *d = 0;
-        }
-        for d in self.dilated.get_mut(span.end.min(NX)..).unwrap_or(&mut []) {
-            *d = 0;
-        }
+        zero_outside(&mut self.dilated, &span);
         for ix in span {
             let lo = ix.saturating_sub(r);
             let hi = (ix + r + 1).min(NX);

@@ -10,7 +10,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{ConfigError, check_range};
 use crate::noise::NormalStream;
 use crate::vehicle::VehicleState;
-use crate::world::{Body, NO_HIT, RayFan, World};
+use crate::world::{Body, NO_HIT, RayFan, World, f32_dir};
+use rapier2d::prelude::Vector;
 
 /// LiDAR parameters. `Default`: a forward-looking automotive unit of the current generation
 /// (sources and numbers in `docs/sim-model.md`, section LiDAR):
@@ -172,14 +173,13 @@ pub struct Lidar {
     rng_noise: NormalStream,
     rng_dropout: ChaCha8Rng,
     rng_scan: ChaCha8Rng,
-    /// `range_noise_std` when noise is on.
-    noise: Option<f64>,
     schedule: ScanSchedule<Scan>,
     /// Ray angles in the sensor frame, ascending, rad.
     angles: Vec<f64>,
     /// `(cos, sin)` of each ray's angle in the sensor frame.
     unit: Vec<[f64; 2]>,
-    dirs: Vec<[f64; 2]>,
+    /// This scan's world-frame ray directions, in parry's f32.
+    dirs: Vec<Vector>,
     /// Hit distance per ray ([`crate::world::NO_HIT`]: none or dropped), m.
     hits: Vec<f32>,
     /// This scan's range noise per ray (zero without noise), m.
@@ -194,7 +194,6 @@ impl Lidar {
         let step = if n > 1 { params.fov_deg.to_radians() / (n - 1) as f64 } else { 0.0 };
         let angles: Vec<f64> = (0..n).map(|i| -half + step * i as f64).collect();
         let unit = angles.iter().map(|a| [a.cos(), a.sin()]).collect();
-        let noise = (params.range_noise_std > 0.0).then_some(params.range_noise_std);
         let stream = |k: u64| {
             let mut r = ChaCha8Rng::seed_from_u64(seed);
             r.set_stream(k);
@@ -205,7 +204,6 @@ impl Lidar {
             rng_noise: NormalStream::new(stream(1).random()),
             rng_dropout: stream(2),
             rng_scan: stream(3),
-            noise,
             schedule: ScanSchedule::new(),
             angles,
             unit,
@@ -246,7 +244,7 @@ impl Lidar {
         let base = pose.yaw + p.mount_yaw_deg.to_radians();
         self.dirs.clear();
         let (cb, sb) = (base.cos(), base.sin());
-        self.dirs.extend(self.unit.iter().map(|[c, s]| [cb * c - sb * s, sb * c + cb * s]));
+        self.dirs.extend(self.unit.iter().map(|[c, s]| f32_dir(cb * c - sb * s, sb * c + cb * s)));
         world.cast_fan_f32(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
         // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on what
         // the other rays hit (and without range-dependent dropout the draws are exactly those of
@@ -264,11 +262,11 @@ impl Lidar {
                 }
             }
         }
-        if let Some(std) = self.noise {
-            self.rng_noise.fill(std, &mut self.noise_draws);
+        if p.range_noise_std > 0.0 {
+            self.rng_noise.fill(p.range_noise_std, &mut self.noise_draws);
         }
-        // Every ray's point, then the rays without a return (at infinity) left out: two passes
-        // without a branch or a capacity check per ray.
+        // Every ray's point, then the rays without a return left out (`NO_HIT` is infinite, so
+        // their points are not finite): two passes without a branch or a capacity check per ray.
         let mut points: Vec<[f64; 2]> = (self.unit.iter().zip(&self.hits).zip(&self.noise_draws))
             .map(|(([ca, sa], &hit), &n)| {
                 let r = (f64::from(hit) + n).max(0.0);
@@ -390,7 +388,8 @@ mod tests {
         let l = Lidar::new(p.clone(), seed);
         let origin = [pose.x + p.mount_x, pose.y];
         let mut hits = Vec::new();
-        w.cast_fan(&RayFan { origin, base: 0.0, angles: &l.angles, unit: &l.unit }, p.max_range, ego, &mut hits);
+        let unit: Vec<Vector> = l.unit.iter().map(|&[c, s]| f32_dir(c, s)).collect();
+        w.cast_fan(&RayFan { origin, base: 0.0, angles: &l.angles, unit: &unit }, p.max_range, ego, &mut hits);
         let mut out = Vec::new();
         for (a, hit) in l.angles.iter().zip(&hits) {
             let drop = p.dropout_prob > 0.0 && dropout.random::<f64>() < p.dropout_prob;

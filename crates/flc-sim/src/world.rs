@@ -108,8 +108,13 @@ pub struct RayFan<'a> {
     pub base: f64,
     /// Ray angles relative to `base`, ascending, rad.
     pub angles: &'a [f64],
-    /// World-frame unit vector of each ray.
-    pub unit: &'a [[f64; 2]],
+    /// World-frame unit vector of each ray, in parry's f32.
+    pub unit: &'a [Vector],
+}
+
+/// A ray's unit direction from its f64 components, in parry's f32 (as [`RayFan::unit`] holds it).
+pub(crate) fn f32_dir(c: f64, s: f64) -> Vector {
+    Vector::new(c as f32, s as f32)
 }
 
 /// The physics world.
@@ -291,8 +296,6 @@ impl World {
             }
         }
         let region = Aabb::new(lo - Vector::splat(0.01), hi + Vector::splat(0.01));
-        // The directions in parry's f32, converted once per fan rather than once per collider.
-        let unit: Vec<Vector> = unit.iter().map(|d| Vector::new(d[0] as f32, d[1] as f32)).collect();
         for (_, co) in qp.intersect_aabb_conservative(region) {
             let (lo, hi) = angular_extent(co, origin, base);
             // Cuboids (vehicles, rails, parked cars): parry's `cast_ray` is `cast_local_ray` on the
@@ -525,8 +528,9 @@ mod tests {
             for (fov, n) in [(120f64.to_radians(), 961), (std::f64::consts::TAU - 1e-3, 2001)] {
                 let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
                 let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(h + a).cos(), (h + a).sin()]).collect();
+                let unit32: Vec<Vector> = unit.iter().map(|d| f32_dir(d[0], d[1])).collect();
                 let origin = [x + 2.0 * h.cos(), y + 2.0 * h.sin()];
-                w.cast_fan(&RayFan { origin, base: h, angles: &angles, unit: &unit }, 100.0, ego, &mut hits);
+                w.cast_fan(&RayFan { origin, base: h, angles: &angles, unit: &unit32 }, 100.0, ego, &mut hits);
                 assert_eq!(hits.len(), n);
                 let mut seen = 0;
                 for (d, hit) in unit.iter().zip(&hits) {
@@ -569,7 +573,8 @@ mod tests {
                 let n = 721;
                 let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
                 let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(base + a).cos(), (base + a).sin()]).collect();
-                w.cast_fan(&RayFan { origin: [ox, oy], base, angles: &angles, unit: &unit }, 100.0, ego, &mut hits);
+                let unit32: Vec<Vector> = unit.iter().map(|d| f32_dir(d[0], d[1])).collect();
+                w.cast_fan(&RayFan { origin: [ox, oy], base, angles: &angles, unit: &unit32 }, 100.0, ego, &mut hits);
                 for (d, hit) in unit.iter().zip(&hits) {
                     let single = w.cast_ray([ox, oy], *d, 100.0, ego);
                     match (hit, single) {
@@ -592,7 +597,7 @@ mod tests {
         let everything = rapier2d::parry::bounding_volume::Aabb::new(Vector::splat(-1e6), Vector::splat(1e6));
         for (_, co) in qp.intersect_aabb_conservative(everything) {
             for (d, slot) in fan.unit.iter().zip(hits.iter_mut()) {
-                let ray = Ray::new(o, Vector::new(d[0] as f32, d[1] as f32));
+                let ray = Ray::new(o, *d);
                 let best = slot.map_or(max_range as f32, |b: f64| b as f32);
                 if let Some(toi) = co.shape().cast_ray(co.position(), &ray, best, true) {
                     *slot = Some(f64::from(toi));
@@ -627,7 +632,7 @@ mod tests {
                 let n = 961;
                 let fov = 120f64.to_radians();
                 let angles: Vec<f64> = (0..n).map(|i| -fov / 2.0 + fov * i as f64 / (n - 1) as f64).collect();
-                let unit: Vec<[f64; 2]> = angles.iter().map(|a| [(h + a).cos(), (h + a).sin()]).collect();
+                let unit: Vec<Vector> = angles.iter().map(|a| f32_dir((h + a).cos(), (h + a).sin())).collect();
                 let fan = RayFan { origin: [x + 2.0 * h.cos(), y + 2.0 * h.sin()], base: h, angles: &angles, unit: &unit };
                 w.cast_fan(&fan, 100.0, ego, &mut hits);
                 let reference = cast_fan_reference(&w, &fan, 100.0, ego);
