@@ -61,6 +61,13 @@ pub struct RobustFlc2Params {
     /// closing", m. Default 0.1 (3.5 sigma of the difference of two readings with the default
     /// LiDAR's 2 cm noise).
     pub release_closing: f64,
+    /// `e_a`, gap excess over the desired gap of a lead at `v_0` within which the approach
+    /// (R7) is the gap policy itself, m. Default 0.
+    pub approach_excess: f64,
+    /// `H`, time gap of the approach (R7) for the gap excess beyond `e_a`, s: the gap policy (R2)
+    /// asks for a closing speed of the excess over `h`, the approach for the part beyond `e_a`
+    /// over `H`. Default 6 (from twice the desired gap, within 10 % after 20 s at 50-130 km/h).
+    pub approach_time_gap: f64,
 }
 
 impl Default for RobustFlc2Params {
@@ -75,7 +82,16 @@ impl RobustFlc2Params {
         let mut law = RobustFlcParams::documented();
         law.envelope_decel = 4.0;
         law.first_object = FirstObject::Unknown;
-        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1 }
+        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1, approach_excess: 0.0, approach_time_gap: 6.0 }
+    }
+
+    /// (R7) the approach speed `V_a(d, v_0) = v_0 + min(e, e_a) / h + max(0, e - e_a) / H` with
+    /// the gap excess `e = max(0, d - D_r(v_0))` over the desired gap of a lead at `v_0` (R1),
+    /// m/s: the gap policy (R2) up to `e_a` beyond the desired gap, the time gap `H` beyond.
+    pub fn approach_speed(&self, distance: f64, lead_speed: f64) -> f64 {
+        let e = (distance - self.law.desired_gap(lead_speed)).max(0.0);
+        let near = e.min(self.approach_excess);
+        lead_speed + near / self.law.time_gap + (e - near) / self.approach_time_gap
     }
 
     /// Checks every field; the error names the first offending one.
@@ -85,6 +101,8 @@ impl RobustFlc2Params {
         check_positive("sight_decel", self.sight_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
         check_range("release_speed", self.release_speed, 0.0, 1000.0, "must be finite and in [0, 1000] m/s")?;
         check_range("release_closing", self.release_closing, 0.0, 100.0, "must be finite and in [0, 100] m")?;
+        check_range("approach_excess", self.approach_excess, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
+        check_positive("approach_time_gap", self.approach_time_gap, 100.0, "must be finite and in (0, 100] s")?;
         Ok(())
     }
 }
@@ -98,6 +116,8 @@ pub struct RobustFlc2Terms {
     pub gap_speed: f64,
     /// (R3) stop-envelope speed, m/s.
     pub envelope_speed: f64,
+    /// (R7) approach speed, m/s (`max_speed` before the lead's speed has shown).
+    pub approach_speed: f64,
     /// (R4) target speed, m/s.
     pub target_speed: f64,
     /// This frame was handled as missed (no detection, or a jump pending confirmation).
@@ -123,6 +143,9 @@ pub struct RobustFallbackController2 {
     pending: Option<f64>,
     /// Smallest distance since the latch was set; `None` while not latched.
     latch_min: Option<f64>,
+    /// `(v_0, d_0)` of (R7): `v_0` estimates the lead's speed from below, `d_0` is the distance
+    /// when it was last lowered or first set (`None` until the first frame after a reveal).
+    reference: Option<(f64, f64)>,
     terms: RobustFlc2Terms,
 }
 
@@ -130,7 +153,7 @@ impl RobustFallbackController2 {
     /// Validates `params` and builds the controller.
     pub fn new(params: RobustFlc2Params) -> Result<Self, ParamError> {
         params.validate()?;
-        Ok(Self { params, last: None, pending: None, latch_min: None, terms: RobustFlc2Terms::default() })
+        Ok(Self { params, last: None, pending: None, latch_min: None, reference: None, terms: RobustFlc2Terms::default() })
     }
 
     /// The parameters in use.
@@ -143,6 +166,7 @@ impl RobustFallbackController2 {
         self.last = None;
         self.pending = None;
         self.latch_min = None;
+        self.reference = None;
         self.terms = RobustFlc2Terms::default();
     }
 
@@ -196,17 +220,48 @@ impl RobustFallbackController2 {
         };
 
         let previous = self.last.replace(d);
+        // Not closing: the distance fell by at most `release_closing` since the previous accepted
+        // frame (`None` on a reveal, whose previous distance belongs to another object).
+        let not_closing = if revealed { None } else { previous.map(|prev| d >= prev - p.release_closing) };
         if revealed {
             self.latch_min = Some(d);
         } else if let Some(m) = self.latch_min {
             let m = m.min(d);
             let grew = d >= m + law.reveal_release;
-            let not_closing = v >= p.release_speed && previous.is_some_and(|prev| d >= prev - p.release_closing);
-            self.latch_min = if grew || not_closing { None } else { Some(m) };
+            let moving = v >= p.release_speed && not_closing == Some(true);
+            self.latch_min = if grew || moving { None } else { Some(m) };
         }
+        // (R7) `v_0`: a distance no smaller than at `d_0` (less `release_closing`) while at `v`
+        // shows a lead that was at least as fast on average (raise `v_0` to `v`); a closing frame
+        // while slower than `v_0` shows a lead slower than `v` (lower `v_0` to `v`, `d_0` to `d`).
+        // Comparing with `d_0` rather than the previous frame keeps the test free of the frame
+        // rate: a follower that speeds up past the lead closes by `release_closing` after a
+        // distance, not after a frame.
+        self.reference = match (not_closing, self.reference) {
+            (None, _) if revealed => None,
+            (_, None) if previous.is_some() => Some((v, d)),
+            (Some(false), Some((v0, _))) if v < v0 => Some((v, d)),
+            (_, Some((v0, d0))) if d >= d0 - p.release_closing => Some((v0.max(v), d0)),
+            (_, r) => r,
+        };
+        // (R7) limits a closing speed: it does not apply on a frame that shows none.
+        let mut terms = self.law_terms(d, v, revealed, not_closing != Some(true));
+        terms.revealed = revealed;
+        self.terms = terms;
+        self.command(v, terms.a, Status::Ok)
+    }
+
+    /// (R2)-(R5) and (R7) at distance `d` with the current latch and reference.
+    fn law_terms(&self, d: f64, v: f64, revealed: bool, approach: bool) -> RobustFlc2Terms {
+        let p = self.params;
+        let law = p.law;
         let latched = self.latched();
         let gap_speed = law.gap_speed(d);
         let envelope_speed = law.envelope_speed(d);
+        let approach_speed = match self.reference {
+            Some((v0, _)) if approach => p.approach_speed(d, v0).min(law.max_speed),
+            _ => law.max_speed,
+        };
         // On the reveal frame itself the law cannot yet tell a standing object from a moving one:
         // it holds at most (the envelope's reaction time `T_s` covers the frame); from the next
         // frame on, a latch that survived applies the envelope.
@@ -214,22 +269,27 @@ impl RobustFallbackController2 {
             (true, _) => gap_speed.min(v),
             (false, true) => gap_speed.min(envelope_speed),
             (false, false) => gap_speed,
-        };
+        }
+        .min(approach_speed);
         let a = law.acceleration(target_speed, v);
-        self.terms =
-            RobustFlc2Terms { distance: d, gap_speed, envelope_speed, target_speed, held: false, pending: false, revealed, latched, a };
-        self.command(v, a, Status::Ok)
+        RobustFlc2Terms { distance: d, gap_speed, envelope_speed, approach_speed, target_speed, latched, a, ..RobustFlc2Terms::default() }
     }
 
-    /// A frame without a usable detection: hold the speed up to `V_e(sight_distance)`, slow at
-    /// `sight_decel` above it.
+    /// A frame without a usable detection. With an accepted distance, the object is taken to be
+    /// still there: the law at the last accepted distance, never accelerating (`min(a, 0)`).
+    /// Without one (or when the speed exceeds `V_e(sight_distance)`), hold the speed up to
+    /// `V_e(sight_distance)`, slow at `sight_decel` above it.
     fn hold(&mut self, v: f64, status: Status) -> LongitudinalCommand {
         let p = self.params;
         let limit = p.law.envelope_speed(p.sight_distance);
-        let a = if v > limit { -p.sight_decel } else { 0.0 };
-        self.terms =
-            RobustFlc2Terms { held: true, pending: self.pending.is_some(), latched: self.latched(), a, ..RobustFlc2Terms::default() };
-        self.command(v, a, status)
+        let sight = if v > limit { -p.sight_decel } else { 0.0 };
+        let mut terms = self.last.map_or_else(RobustFlc2Terms::default, |d| self.law_terms(d, v, false, true));
+        terms.a = terms.a.min(sight);
+        terms.held = true;
+        terms.pending = self.pending.is_some();
+        terms.latched = self.latched();
+        self.terms = terms;
+        self.command(v, terms.a, status)
     }
 
     fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
@@ -245,7 +305,7 @@ impl RobustFallbackController2 {
 impl RobustFlc2Terms {
     /// The names of [`RobustFlc2Terms::to_terms`], in field order (flags as 0 / 1).
     pub const NAMES: &'static [&'static str] =
-        &["distance", "gap_speed", "envelope_speed", "target_speed", "held", "pending", "revealed", "latched", "a"];
+        &["distance", "gap_speed", "envelope_speed", "approach_speed", "target_speed", "held", "pending", "revealed", "latched", "a"];
 
     /// The terms as a named list ([`Terms`]).
     pub fn to_terms(&self) -> Terms {
@@ -256,6 +316,7 @@ impl RobustFlc2Terms {
                 t.distance,
                 t.gap_speed,
                 t.envelope_speed,
+                t.approach_speed,
                 t.target_speed,
                 flag(t.held),
                 flag(t.pending),

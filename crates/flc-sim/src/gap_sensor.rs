@@ -55,7 +55,8 @@ impl GapSensor {
         let scan_dropped = self.rng.random::<f64>() < p.scan_drop_prob;
         let object_lost = self.rng.random::<f64>() < p.dropout_prob;
         let noise = p.range_noise_std * self.rng.sample::<f64, _>(rand_distr::StandardNormal);
-        let seen = true_gap.filter(|g| g.is_finite() && *g <= p.max_range && !object_lost).map(|g| (g + noise).max(0.0));
+        let faulted = p.faults.iter().filter(|f| f.active(t)).fold(true_gap.unwrap_or(f64::INFINITY), |r, f| f.apply(r, 0.0));
+        let seen = Some(faulted).filter(|g| g.is_finite() && *g <= p.max_range && !object_lost).map(|g| (g + noise).max(0.0));
         self.schedule.take(&self.params, jitter, (!scan_dropped).then_some(seen)).map(Option::flatten)
     }
 }

@@ -63,7 +63,7 @@ pub use external::{Actuation, ExternalFollower, ExternalInput, ExternalOutput};
 pub use follower::{FollowerConfig, FollowerSpec, LostLeadSteering, Perception};
 pub use gap_sensor::GapSensor;
 pub use lead::{LeadCommand, LeadDriver, LeadSpec, Phase, STOP_AT_DECEL, ScriptedPhase, ScriptedVehicle};
-pub use lidar::{Lidar, LidarParams, Scan};
+pub use lidar::{Lidar, LidarFault, LidarParams, Scan};
 pub use metrics::{CollisionInfo, ContactRecord, HARD_BRAKING, HitObject, Metrics, MetricsParams, ObjectKind};
 pub use paper::{Calibration, PAPER_SPEEDS_KMH};
 pub use patch::Patch;

@@ -64,6 +64,74 @@ pub struct LidarParams {
     pub latency_frames: u32,
     /// Frame-interval jitter: each interval is `(1 + U(-jitter, +jitter)) / rate_hz`.
     pub jitter: f64,
+    /// Scripted faults ([`LidarFault`]): scans captured while one is active are blinded or get
+    /// a spurious return. None by default.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<LidarFault>,
+}
+
+/// A scripted sensor fault, active for the scans captured at `start <= t < start + duration`
+/// (s): for fault-injection tests (`docs/sim-model.md`, "Scripted faults"). A fault changes the
+/// rays' returns only; every random draw of the scan is made as without it, so a run with a fault
+/// differs from the same run without it by the fault alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LidarFault {
+    /// No ray returns anything (a blinded or stalled sensor; the detector finds nothing).
+    Blind {
+        /// Start, s.
+        start: f64,
+        /// Duration, s.
+        duration: f64,
+    },
+    /// A spurious return: a flat face `width` m wide, `range` m straight ahead of the sensor,
+    /// nearer than whatever the rays hit behind it (spray, a reflection, a bird).
+    Ghost {
+        /// Start, s.
+        start: f64,
+        /// Duration, s.
+        duration: f64,
+        /// Distance of the face ahead of the sensor, m.
+        range: f64,
+        /// Width of the face, m. Default 1.0.
+        #[serde(default = "default_ghost_width")]
+        width: f64,
+    },
+}
+
+fn default_ghost_width() -> f64 {
+    1.0
+}
+
+impl LidarFault {
+    /// Whether the fault acts on a scan captured at `t`.
+    pub fn active(&self, t: f64) -> bool {
+        let (Self::Blind { start, duration } | Self::Ghost { start, duration, .. }) = *self;
+        t >= start && t < start + duration
+    }
+
+    /// What the fault makes of a return at range `r` (m, `f64::INFINITY` for none) along a ray at
+    /// `angle` (rad, sensor frame): none while blind; the ghost's face where the ray crosses it.
+    pub fn apply(&self, r: f64, angle: f64) -> f64 {
+        match *self {
+            Self::Blind { .. } => f64::INFINITY,
+            Self::Ghost { range, width, .. } => {
+                let (s, c) = angle.sin_cos();
+                if c > 0.0 && (range * s / c).abs() <= 0.5 * width { r.min(range / c) } else { r }
+            }
+        }
+    }
+
+    fn validate(&self, max_range: f64) -> Result<(), ConfigError> {
+        let (Self::Blind { start, duration } | Self::Ghost { start, duration, .. }) = *self;
+        check_range("start", start, 0.0, 1.0e6, "s")?;
+        check_range("duration", duration, 1.0e-6, 1.0e6, "s")?;
+        if let Self::Ghost { range, width, .. } = *self {
+            check_range("range", range, 0.01, max_range, "m (at most max_range)")?;
+            check_range("width", width, 0.01, 10.0, "m")?;
+        }
+        Ok(())
+    }
 }
 
 impl Default for LidarParams {
@@ -82,6 +150,7 @@ impl Default for LidarParams {
             scan_drop_prob: 0.0,
             latency_frames: 0,
             jitter: 0.0,
+            faults: Vec::new(),
         }
     }
 }
@@ -110,7 +179,11 @@ impl LidarParams {
         }
         check_range("scan_drop_prob", self.scan_drop_prob, 0.0, 1.0, "")?;
         check_range("latency_frames", f64::from(self.latency_frames), 0.0, 100.0, "scans")?;
-        check_range("jitter", self.jitter, 0.0, 0.9, "(fraction of the frame interval)")
+        check_range("jitter", self.jitter, 0.0, 0.9, "(fraction of the frame interval)")?;
+        for (i, f) in self.faults.iter().enumerate() {
+            f.validate(self.max_range).map_err(|e| e.within(&format!("faults[{i}]")))?;
+        }
+        Ok(())
     }
 
     /// Number of rays per scan.
@@ -246,6 +319,13 @@ impl Lidar {
         let (cb, sb) = (base.cos(), base.sin());
         self.dirs.extend(self.unit.iter().map(|[c, s]| f32_dir(cb * c - sb * s, sb * c + cb * s)));
         world.cast_fan_f32(&RayFan { origin, base, angles: &self.angles, unit: &self.dirs }, p.max_range, ego, &mut self.hits);
+        for fault in p.faults.iter().filter(|f| f.active(t)) {
+            for (hit, &a) in self.hits.iter_mut().zip(&self.angles) {
+                // Ranges are f32 like parry's hits; nothing returns from beyond `max_range`.
+                let r = fault.apply(f64::from(*hit), a);
+                *hit = if r <= p.max_range { r as f32 } else { NO_HIT };
+            }
+        }
         // One draw per ray and enabled impairment, hit or not: a ray's draws never depend on what
         // the other rays hit (and without range-dependent dropout the draws are exactly those of
         // `dropout_prob` alone). Each impairment is one pass over the rays.
@@ -552,7 +632,38 @@ mod tests {
     }
 
     #[test]
+    fn scripted_faults_blind_or_add_a_ghost_only_while_active_and_leave_the_draws_alone() {
+        let (w, ego) = scene(25.0);
+        let pose = VehicleState::default();
+        let noisy = LidarParams { dropout_prob: 0.2, ..Default::default() };
+        let clean_scan = |t: f64| Lidar::new(noisy.clone(), 5).capture(t, &w, ego, &pose);
+        let blind = LidarFault::Blind { start: 1.0, duration: 0.5 };
+        let ghost = LidarFault::Ghost { start: 1.0, duration: 0.05, range: 8.0, width: 1.0 };
+        let with = |f: &LidarFault, t: f64| {
+            Lidar::new(LidarParams { faults: vec![f.clone()], ..noisy.clone() }, 5).capture(t, &w, ego, &pose)
+        };
+        // Blind: no return at all, and only within [start, start + duration).
+        assert!(with(&blind, 1.0).points.is_empty() && with(&blind, 1.49).points.is_empty());
+        assert_eq!(with(&blind, 0.99), clean_scan(0.99));
+        assert_eq!(with(&blind, 1.5), clean_scan(1.5));
+        // Ghost: the rays crossing the 1 m face return at it (within noise); every other ray
+        // returns exactly what it does without the fault (same draws).
+        let g = with(&ghost, 1.0);
+        let (near, far): (Vec<&[f64; 2]>, Vec<&[f64; 2]>) = g.points.iter().partition(|p| p[0] < 10.0);
+        assert!(near.len() >= 8, "{} ghost points", near.len());
+        assert!(near.iter().all(|p| (p[0] - 8.0).abs() < 0.1 && p[1].abs() <= 0.51), "{near:?}");
+        let clean: Vec<_> = clean_scan(1.0).points.into_iter().filter(|p| p[1].atan2(p[0]).abs() > (0.5f64 / 8.0).atan() + 1e-3).collect();
+        let far_outside: Vec<_> = far.into_iter().copied().filter(|p| p[1].atan2(p[0]).abs() > (0.5f64 / 8.0).atan() + 1e-3).collect();
+        assert_eq!(far_outside, clean);
+        assert_eq!(with(&ghost, 1.05), clean_scan(1.05));
+    }
+
+    #[test]
     fn validation_names_the_key() {
+        let ghost = LidarFault::Ghost { start: 0.0, duration: 0.05, range: 300.0, width: 1.0 };
+        assert_eq!(LidarParams { faults: vec![ghost], ..Default::default() }.validate().unwrap_err().key, "faults[0].range");
+        let blind = LidarFault::Blind { start: 1.0, duration: 0.0 };
+        assert_eq!(LidarParams { faults: vec![blind], ..Default::default() }.validate().unwrap_err().key, "faults[0].duration");
         assert_eq!(LidarParams { rate_hz: 0.0, ..Default::default() }.validate().unwrap_err().key, "rate_hz");
         for (p0, p1) in [(0.0, 1.5), (0.0, -0.1), (0.3, 0.1)] {
             let e = LidarParams { dropout_prob: p0, dropout_at_max_range: p1, ..Default::default() }.validate().unwrap_err();
