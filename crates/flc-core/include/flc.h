@@ -30,7 +30,7 @@
 /**
  * Words (8 bytes each) of `FlcRobust2::storage`.
  */
-#define FLC_ROBUST2_WORDS 32
+#define FLC_ROBUST2_WORDS 38
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.
@@ -718,6 +718,14 @@ typedef struct FlcRobust2Params {
      * Largest decrease of the distance that still counts as "not closing", m.
      */
     double release_closing;
+    /**
+     * (R7) gap excess within which the approach is the gap policy, m.
+     */
+    double approach_excess;
+    /**
+     * (R7) time gap of the approach beyond `approach_excess`, s.
+     */
+    double approach_time_gap;
 } FlcRobust2Params;
 
 /**
@@ -744,6 +752,10 @@ typedef struct FlcRobust2Terms {
      * (R3) stop-envelope speed, m/s.
      */
     double envelope_speed;
+    /**
+     * (R7) approach speed, m/s.
+     */
+    double approach_speed;
     /**
      * (R4) target speed, m/s.
      */

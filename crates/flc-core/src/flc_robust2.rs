@@ -44,7 +44,9 @@ use crate::params::{ParamError, check_positive, check_range};
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobustFlc2Params {
-    /// (R1)-(R6) as in v1; defaults as v1 except `envelope_decel` 4.0 m/s² and `first_object`
+    /// (R1)-(R6) as in v1; defaults as v1 except `envelope_decel` 4.0 m/s², `brake_gain`
+    /// 2.25 1/s (`docs/robust-flc.md`, "v2": the band 2-2.5 that passes both the stop-and-go jerk
+    /// and CCRb 40 m / 6 m/s² under the impairments) and `first_object`
     /// [`FirstObject::Unknown`].
     pub law: RobustFlcParams,
     /// Distance within which the detector finds a standing car on the path, m: without a
@@ -81,6 +83,7 @@ impl RobustFlc2Params {
     pub const fn documented() -> Self {
         let mut law = RobustFlcParams::documented();
         law.envelope_decel = 4.0;
+        law.brake_gain = 2.25;
         law.first_object = FirstObject::Unknown;
         Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1, approach_excess: 0.0, approach_time_gap: 6.0 }
     }
@@ -338,7 +341,7 @@ impl RobustFlc2Terms {
 /// let out = LongitudinalController::step(&mut c, &Frame::new(Some(33.0), 20.0, 0.05));
 /// assert_eq!(out.command.accel, 0.0);
 /// // Next frame 1 m closer: still closing, so the stop envelope at 4 m/s² applies:
-/// // V_e(32) = 4 (sqrt(0.25 + 2 * 30 / 4) - 0.5) = 13.62 m/s, a = 4 (13.62 - 20) = -25.5,
+/// // V_e(32) = 4 (sqrt(0.25 + 2 * 30 / 4) - 0.5) = 13.62 m/s, a = 2.25 (13.62 - 20) = -14.4,
 /// // clamped to -10.
 /// let out = LongitudinalController::step(&mut c, &Frame::new(Some(32.0), 20.0, 0.05));
 /// assert_eq!(out.command.accel, -10.0);
@@ -464,6 +467,49 @@ mod tests {
         assert!(limit > 130.0 / 3.6, "V_e(200 m) = {limit} m/s");
         assert_eq!(c.step(None, 30.0).accel, 0.0);
         assert_eq!(c.step(None, limit + 1.0).accel, -2.0);
+    }
+
+    #[test]
+    fn the_approach_closes_no_faster_than_the_excess_gap_over_h_prime() {
+        // Both at 25 m/s, twice the desired gap (78 m) apart: the first detection holds, the
+        // second shows the lead moving (not closing) and sets v_0 = 25 m/s.
+        let mut c = ctl();
+        let (v, d) = (25.0, 2.0 * c.params.law.desired_gap(25.0));
+        c.step(Some(d), v);
+        let out = c.step(Some(d), v);
+        assert!(!c.latched() && out.accel > 0.0);
+        // Closing at 27 m/s: V_a = 25 + (d - 39.5) / 6 = 31.3 m/s while V_g = 49.7 m/s.
+        let out = c.step(Some(d - 1.0), 27.0);
+        let t = *c.terms();
+        assert!((t.approach_speed - (25.0 + (d - 1.0 - 40.5) / 6.0)).abs() < 1e-9, "{t:?}");
+        assert_eq!(t.target_speed, t.approach_speed);
+        assert!(t.gap_speed > t.approach_speed + 15.0);
+        assert!((out.accel - 2.0).abs() < 1e-12, "{out:?}");
+        // Closing at 33 m/s, beyond V_a: the law slows although the gap is still large.
+        let out = c.step(Some(d - 3.0), 33.0);
+        assert!(out.accel < 0.0, "{out:?}");
+        // A frame that does not close shows no closing speed to limit: the gap policy alone.
+        let out = c.step(Some(d - 3.0), 26.0);
+        assert_eq!(c.terms().approach_speed, c.params.law.max_speed);
+        assert_eq!(out.accel, 2.0);
+    }
+
+    #[test]
+    fn a_missed_frame_close_behind_an_object_brakes_as_at_its_last_distance() {
+        let v = 16.0;
+        let (mut c, _) = following(v);
+        let seen = c.step(Some(1.5), v);
+        assert_eq!(seen.accel, 0.0, "a jump is pending first");
+        let seen = c.step(Some(1.4), v);
+        assert_eq!(seen.accel, -10.0);
+        // The object is lost from sight at 1.4 m: the law still brakes for it.
+        let out = c.step(None, v);
+        assert_eq!((out.accel, out.status), (-10.0, Status::NoLead));
+        // While following, a missed frame never accelerates.
+        let (mut c, d) = following(20.0);
+        c.step(Some(d + 2.0), 20.0);
+        assert!(c.terms().a > 0.0);
+        assert_eq!(c.step(None, 20.0).accel, 0.0);
     }
 
     #[test]

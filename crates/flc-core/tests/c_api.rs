@@ -187,10 +187,11 @@ fn expected() -> Vec<String> {
         let t = r2.terms();
         let _ = writeln!(
             o,
-            "\nrob2t {k} {} {} {} {} {} {} {} {} {}",
+            "\nrob2t {k} {} {} {} {} {} {} {} {} {} {}",
             x(t.distance),
             x(t.gap_speed),
             x(t.envelope_speed),
+            x(t.approach_speed),
             x(t.target_speed),
             x(t.a),
             u8::from(t.held),
@@ -436,7 +437,7 @@ fn c_example_outputs_equal_rust() {
     // The robust sequences hold for missed frames, confirm jumps and latch on reveals.
     let flag = |prefix: &str, i: usize| got.iter().filter(|l| l.starts_with(prefix) && l.split(' ').nth(i) == Some("1")).count();
     assert!(flag("robt ", 9) > 0 && flag("robt ", 10) > 0, "v1 never revealed / latched");
-    assert!(flag("rob2t ", 7) > 0 && flag("rob2t ", 8) > 0 && flag("rob2t ", 9) > 0, "v2 never held / pending / revealed");
+    assert!(flag("rob2t ", 8) > 0 && flag("rob2t ", 9) > 0 && flag("rob2t ", 10) > 0, "v2 never held / pending / revealed");
     for status in 0..=5 {
         assert!(
             got.iter().any(|l| (l.starts_with("flc ") || l.starts_with("pid ")) && l.split(' ').nth(2) == Some(&status.to_string())),

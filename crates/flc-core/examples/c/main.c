@@ -195,8 +195,9 @@ static void run_robust(void) {
         printf("\n");
         FlcRobust2Terms t2;
         check("flc_robust2_terms", flc_robust2_terms(&rob2_storage, &t2));
-        printf("rob2t %zu %016llx %016llx %016llx %016llx %016llx %d %d %d %d\n", k, X(t2.distance), X(t2.gap_speed),
-               X(t2.envelope_speed), X(t2.target_speed), X(t2.a), (int)t2.held, (int)t2.pending, (int)t2.revealed, (int)t2.latched);
+        printf("rob2t %zu %016llx %016llx %016llx %016llx %016llx %016llx %d %d %d %d\n", k, X(t2.distance), X(t2.gap_speed),
+               X(t2.envelope_speed), X(t2.approach_speed), X(t2.target_speed), X(t2.a), (int)t2.held, (int)t2.pending,
+               (int)t2.revealed, (int)t2.latched);
     }
 }
 

@@ -77,6 +77,10 @@ pub struct FlcRobust2Params {
     pub release_speed: f64,
     /// Largest decrease of the distance that still counts as "not closing", m.
     pub release_closing: f64,
+    /// (R7) gap excess within which the approach is the gap policy, m.
+    pub approach_excess: f64,
+    /// (R7) time gap of the approach beyond `approach_excess`, s.
+    pub approach_time_gap: f64,
 }
 
 /// Mirror of the Rust `RobustFlcTerms` (v1's terms of the last step).
@@ -113,6 +117,8 @@ pub struct FlcRobust2Terms {
     pub gap_speed: f64,
     /// (R3) stop-envelope speed, m/s.
     pub envelope_speed: f64,
+    /// (R7) approach speed, m/s.
+    pub approach_speed: f64,
     /// (R4) target speed, m/s.
     pub target_speed: f64,
     /// (R5) acceleration, m/s².
@@ -149,6 +155,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
             distance: t.distance,
             gap_speed: t.gap_speed,
             envelope_speed: t.envelope_speed,
+            approach_speed: t.approach_speed,
             target_speed: t.target_speed,
             a: t.a,
             held: t.held,
@@ -167,7 +174,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
 pub const FLC_ROBUST_WORDS: usize = 29;
 
 /// Words (8 bytes each) of `FlcRobust2::storage`.
-pub const FLC_ROBUST2_WORDS: usize = 32;
+pub const FLC_ROBUST2_WORDS: usize = 38;
 
 /// Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
 #[repr(C)]
@@ -253,6 +260,8 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
             sight_decel: p.sight_decel,
             release_speed: p.release_speed,
             release_closing: p.release_closing,
+            approach_excess: p.approach_excess,
+            approach_time_gap: p.approach_time_gap,
         }
     }
 }
@@ -266,6 +275,8 @@ impl TryFrom<FlcRobust2Params> for RobustFlc2Params {
             sight_decel: p.sight_decel,
             release_speed: p.release_speed,
             release_closing: p.release_closing,
+            approach_excess: p.approach_excess,
+            approach_time_gap: p.approach_time_gap,
         })
     }
 }
