@@ -19,7 +19,7 @@ use std::mem::MaybeUninit;
 #[derive(Arbitrary, Debug)]
 struct Input {
     law: [Param; 8],
-    rules: [Param; 6],
+    rules: [Param; 8],
     unknown_first: bool,
     resets: u8,
     steps: Vec<(Option<Num>, Num)>,
@@ -58,7 +58,7 @@ fuzz_target!(|inp: Input| {
         ..d
     };
     let d2 = RobustFlc2Params::documented();
-    let [sight_distance, sight_decel, release_speed, release_closing, approach_excess, approach_time_gap] = inp.rules;
+    let [sight_distance, sight_decel, release_speed, release_closing, approach_excess, approach_time_gap, firm_error, firm_gain] = inp.rules;
     let p2 = RobustFlc2Params {
         law,
         sight_distance: sight_distance.get(d2.sight_distance, -1.0, 11000.0),
@@ -67,6 +67,8 @@ fuzz_target!(|inp: Input| {
         release_closing: release_closing.get(d2.release_closing, -1.0, 110.0),
         approach_excess: approach_excess.get(d2.approach_excess, -1.0, 1100.0),
         approach_time_gap: approach_time_gap.get(d2.approach_time_gap, -1.0, 110.0),
+        firm_error: firm_error.get(d2.firm_error, -1.0, 1100.0),
+        firm_gain: firm_gain.get(d2.firm_gain, -1.0, 1100.0),
     };
     let (mut s1, mut s2) = (MaybeUninit::<FlcRobust>::uninit(), MaybeUninit::<FlcRobust2>::uninit());
     let (c1, c2) = (law.into(), p2.into());

@@ -30,7 +30,7 @@
 /**
  * Words (8 bytes each) of `FlcRobust2::storage`.
  */
-#define FLC_ROBUST2_WORDS 38
+#define FLC_ROBUST2_WORDS 40
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.
@@ -726,6 +726,14 @@ typedef struct FlcRobust2Params {
      * (R7) time gap of the approach beyond `approach_excess`, s.
      */
     double approach_time_gap;
+    /**
+     * (R5') speed error braked for with `law.brake_gain`, m/s.
+     */
+    double firm_error;
+    /**
+     * (R5') gain on the negative speed error beyond `firm_error`, 1/s.
+     */
+    double firm_gain;
 } FlcRobust2Params;
 
 /**

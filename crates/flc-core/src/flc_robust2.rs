@@ -70,6 +70,12 @@ pub struct RobustFlc2Params {
     /// asks for a closing speed of the excess over `h`, the approach for the part beyond `e_a`
     /// over `H`. Default 6 (from twice the desired gap, within 10 % after 20 s at 50-130 km/h).
     pub approach_time_gap: f64,
+    /// Speed error (m/s) up to which a negative error is braked for with `brake_gain` (R5').
+    /// Default 2.0.
+    pub firm_error: f64,
+    /// Gain on the part of a negative speed error beyond `firm_error` (R5'), 1/s. Default 4.0
+    /// (v1's `brake_gain`).
+    pub firm_gain: f64,
 }
 
 impl Default for RobustFlc2Params {
@@ -85,7 +91,17 @@ impl RobustFlc2Params {
         law.envelope_decel = 4.0;
         law.brake_gain = 2.25;
         law.first_object = FirstObject::Unknown;
-        Self { law, sight_distance: 200.0, sight_decel: 2.0, release_speed: 8.0, release_closing: 0.1, approach_excess: 0.0, approach_time_gap: 6.0 }
+        Self {
+            law,
+            sight_distance: 200.0,
+            sight_decel: 2.0,
+            release_speed: 8.0,
+            release_closing: 0.1,
+            approach_excess: 0.0,
+            approach_time_gap: 6.0,
+            firm_error: 2.0,
+            firm_gain: 4.0,
+        }
     }
 
     /// (R7) the approach speed `V_a(d, v_0) = v_0 + min(e, e_a) / h + max(0, e - e_a) / H` with
@@ -97,6 +113,19 @@ impl RobustFlc2Params {
         lead_speed + near / self.law.time_gap + (e - near) / self.approach_time_gap
     }
 
+    /// (R5') the acceleration toward `target_speed`: (R5) with `k_b` on the first
+    /// `firm_error` m/s of a negative speed error and `firm_gain` on the rest, clamped to
+    /// `[-b_max, a_max]`, m/s².
+    pub fn acceleration(&self, target_speed: f64, own_speed: f64) -> f64 {
+        let error = target_speed - own_speed;
+        if error >= 0.0 {
+            return self.law.acceleration(target_speed, own_speed);
+        }
+        let near = error.max(-self.firm_error);
+        let a = self.law.brake_gain * near + self.firm_gain * (error - near);
+        a.max(-self.law.max_decel)
+    }
+
     /// Checks every field; the error names the first offending one.
     pub fn validate(&self) -> Result<(), ParamError> {
         self.law.validate()?;
@@ -105,6 +134,8 @@ impl RobustFlc2Params {
         check_range("release_speed", self.release_speed, 0.0, 1000.0, "must be finite and in [0, 1000] m/s")?;
         check_range("release_closing", self.release_closing, 0.0, 100.0, "must be finite and in [0, 100] m")?;
         check_range("approach_excess", self.approach_excess, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
+        check_range("firm_error", self.firm_error, 0.0, 1000.0, "must be finite and in [0, 1000] m/s")?;
+        check_positive("firm_gain", self.firm_gain, 1000.0, "must be finite and in (0, 1000] 1/s")?;
         check_positive("approach_time_gap", self.approach_time_gap, 100.0, "must be finite and in (0, 100] s")?;
         Ok(())
     }
@@ -274,7 +305,7 @@ impl RobustFallbackController2 {
             (false, false) => gap_speed,
         }
         .min(approach_speed);
-        let a = law.acceleration(target_speed, v);
+        let a = p.acceleration(target_speed, v);
         RobustFlc2Terms { distance: d, gap_speed, envelope_speed, approach_speed, target_speed, latched, a, ..RobustFlc2Terms::default() }
     }
 

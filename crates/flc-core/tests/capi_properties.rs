@@ -58,17 +58,28 @@ fn c_robust_params() -> impl Strategy<Value = FlcRobustParams> {
 
 /// A C robust-FLC v2 parameter struct: perturbed law and event-rule fields.
 fn c_robust2_params() -> impl Strategy<Value = FlcRobust2Params> {
-    (c_robust_params(), num(-1.0, 300.0), num(-1.0, 5.0), num(-1.0, 20.0), num(-0.1, 1.0), num(-1.0, 20.0), num(-1.0, 20.0)).prop_map(
-        |(law, sight_distance, sight_decel, release_speed, release_closing, approach_excess, approach_time_gap)| FlcRobust2Params {
-            law,
-            sight_distance,
-            sight_decel,
-            release_speed,
-            release_closing,
-            approach_excess,
-            approach_time_gap,
-        },
+    (
+        c_robust_params(),
+        (num(-1.0, 300.0), num(-1.0, 5.0), num(-1.0, 20.0), num(-0.1, 1.0)),
+        (num(-1.0, 20.0), num(-1.0, 20.0), num(-1.0, 10.0), num(-1.0, 20.0)),
     )
+        .prop_map(
+            |(
+                law,
+                (sight_distance, sight_decel, release_speed, release_closing),
+                (approach_excess, approach_time_gap, firm_error, firm_gain),
+            )| FlcRobust2Params {
+                law,
+                sight_distance,
+                sight_decel,
+                release_speed,
+                release_closing,
+                approach_excess,
+                approach_time_gap,
+                firm_error,
+                firm_gain,
+            },
+        )
 }
 
 #[test]

@@ -639,9 +639,8 @@ mod tests {
         let clean_scan = |t: f64| Lidar::new(noisy.clone(), 5).capture(t, &w, ego, &pose);
         let blind = LidarFault::Blind { start: 1.0, duration: 0.5 };
         let ghost = LidarFault::Ghost { start: 1.0, duration: 0.05, range: 8.0, width: 1.0 };
-        let with = |f: &LidarFault, t: f64| {
-            Lidar::new(LidarParams { faults: vec![f.clone()], ..noisy.clone() }, 5).capture(t, &w, ego, &pose)
-        };
+        let with =
+            |f: &LidarFault, t: f64| Lidar::new(LidarParams { faults: vec![f.clone()], ..noisy.clone() }, 5).capture(t, &w, ego, &pose);
         // Blind: no return at all, and only within [start, start + duration).
         assert!(with(&blind, 1.0).points.is_empty() && with(&blind, 1.49).points.is_empty());
         assert_eq!(with(&blind, 0.99), clean_scan(0.99));

@@ -306,5 +306,9 @@ fn the_committed_detector_study_is_the_code_s() {
     let (curves, clutter) = flc_sim::detection_study::full_study(frames, |_| {});
     let command = flc_sim::detection_study::study_command("docs/figures", "detector", label, frames);
     let now = flc_sim::detection_study::markdown(&curves, &clutter, label, "detector", &command);
-    common::compare("docs/figures/detector-study.md", &now, "cargo run --release -p flc-sim --example detector_study -- --out docs/figures");
+    common::compare(
+        "docs/figures/detector-study.md",
+        &now,
+        "cargo run --release -p flc-sim --example detector_study -- --out docs/figures",
+    );
 }

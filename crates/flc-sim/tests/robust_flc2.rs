@@ -141,16 +141,17 @@ fn v2_closes_in_from_twice_its_gap_within_20_s() {
         let (gap, desired) = (x.gap[n], x.desired_gap[n]);
         // From t = 1 s: the first second is the vehicles settling into the run (drag before the
         // first commands), the same without any approach (`missed_detections_...`' clean runs).
-        let far_brake = (0..=n)
-            .filter(|&i| x.t[i] >= 1.0 && x.follower_speed[i] <= x.lead_speed[i])
-            .map(|i| -x.follower_accel[i])
-            .fold(0.0, f64::max);
+        let far_brake =
+            (0..=n).filter(|&i| x.t[i] >= 1.0 && x.follower_speed[i] <= x.lead_speed[i]).map(|i| -x.follower_accel[i]).fold(0.0, f64::max);
         println!(
             "{kmh} km/h: gap {gap:.1} m after 20 s, desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2} while not faster than the lead",
             r.metrics.max_decel
         );
         if (gap - desired).abs() > 0.1 * desired || r.metrics.max_decel > 2.0 || far_brake > 0.3 || r.metrics.collision {
-            bad.push(format!("{kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2}", r.metrics.max_decel));
+            bad.push(format!(
+                "{kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2}",
+                r.metrics.max_decel
+            ));
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("; "));

@@ -81,6 +81,10 @@ pub struct FlcRobust2Params {
     pub approach_excess: f64,
     /// (R7) time gap of the approach beyond `approach_excess`, s.
     pub approach_time_gap: f64,
+    /// (R5') speed error braked for with `law.brake_gain`, m/s.
+    pub firm_error: f64,
+    /// (R5') gain on the negative speed error beyond `firm_error`, 1/s.
+    pub firm_gain: f64,
 }
 
 /// Mirror of the Rust `RobustFlcTerms` (v1's terms of the last step).
@@ -174,7 +178,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
 pub const FLC_ROBUST_WORDS: usize = 29;
 
 /// Words (8 bytes each) of `FlcRobust2::storage`.
-pub const FLC_ROBUST2_WORDS: usize = 38;
+pub const FLC_ROBUST2_WORDS: usize = 40;
 
 /// Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
 #[repr(C)]
@@ -262,6 +266,8 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
             release_closing: p.release_closing,
             approach_excess: p.approach_excess,
             approach_time_gap: p.approach_time_gap,
+            firm_error: p.firm_error,
+            firm_gain: p.firm_gain,
         }
     }
 }
@@ -277,6 +283,8 @@ impl TryFrom<FlcRobust2Params> for RobustFlc2Params {
             release_closing: p.release_closing,
             approach_excess: p.approach_excess,
             approach_time_gap: p.approach_time_gap,
+            firm_error: p.firm_error,
+            firm_gain: p.firm_gain,
         })
     }
 }
