@@ -30,6 +30,14 @@
 //! - **The stop envelope assumes wet brakes**: `envelope_decel` 4 m/s² (v1: 7), so that an
 //!   unknown object is approached in a way that stops before it on a road where the tyres give 6.
 //!
+//! - **A missed frame keeps the object where it was**: the law at the last accepted distance,
+//!   never accelerating.
+//! - **(R7) approach**: `v_0`, the own speed at which the distance was seen not to close (against
+//!   the distance `d_0` when `v_0` was set, not the previous frame), caps the target speed on a
+//!   closing frame at `V_a = v_0 + max(0, d - D_r(v_0)) / H` ([`RobustFlc2Params::approach_speed`]).
+//! - **(R5') braking gain**: `brake_gain` 2.25 on the first `firm_error` of a negative speed
+//!   error, `firm_gain` 4 beyond ([`RobustFlc2Params::acceleration`]).
+//!
 //! None of the rules counts frames or reads a clock; "the next frame" is the next measurement
 //! event.
 
@@ -71,7 +79,8 @@ pub struct RobustFlc2Params {
     /// over `H`. Default 6 (from twice the desired gap, within 10 % after 20 s at 50-130 km/h).
     pub approach_time_gap: f64,
     /// Speed error (m/s) up to which a negative error is braked for with `brake_gain` (R5').
-    /// Default 2.0.
+    /// Default 1.5 (`docs/robust-flc.md`, "v2": the stop-and-go jerk passes at 1 and 2, not at
+    /// 0.5; smaller values brake harder for a hard-braking lead).
     pub firm_error: f64,
     /// Gain on the part of a negative speed error beyond `firm_error` (R5'), 1/s. Default 4.0
     /// (v1's `brake_gain`).
@@ -99,7 +108,7 @@ impl RobustFlc2Params {
             release_closing: 0.1,
             approach_excess: 0.0,
             approach_time_gap: 6.0,
-            firm_error: 2.0,
+            firm_error: 1.5,
             firm_gain: 4.0,
         }
     }
