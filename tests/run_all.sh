@@ -17,6 +17,9 @@ fi
 echo "== Rust: clippy"
 cargo clippy --locked --workspace --all-targets -- -D warnings
 
+echo "== Rust: the fuzz targets compile against today's core (fuzz/run.sh runs them; docs/firmware.md)"
+cargo check --locked --manifest-path fuzz/Cargo.toml --bins
+
 echo "== Rust: flc-core C interface (feature capi): no_std build, clippy, C API == Rust API properties"
 cargo build --locked -p flc-core --no-default-features --features capi
 cargo clippy --locked -p flc-core --all-targets --features capi -- -D warnings

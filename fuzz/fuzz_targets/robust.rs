@@ -19,7 +19,7 @@ use std::mem::MaybeUninit;
 #[derive(Arbitrary, Debug)]
 struct Input {
     law: [Param; 8],
-    rules: [Param; 8],
+    rules: [Param; 7],
     unknown_first: bool,
     resets: u8,
     steps: Vec<(Option<Num>, Num)>,
@@ -58,14 +58,13 @@ fuzz_target!(|inp: Input| {
         ..d
     };
     let d2 = RobustFlc2Params::documented();
-    let [sight_distance, sight_decel, release_speed, release_closing, approach_excess, approach_time_gap, firm_error, firm_gain] = inp.rules;
+    let [sight_distance, sight_decel, release_speed, release_closing, approach_time_gap, firm_error, firm_gain] = inp.rules;
     let p2 = RobustFlc2Params {
         law,
         sight_distance: sight_distance.get(d2.sight_distance, -1.0, 11000.0),
         sight_decel: sight_decel.get(d2.sight_decel, -1.0, 60.0),
         release_speed: release_speed.get(d2.release_speed, -1.0, 1100.0),
         release_closing: release_closing.get(d2.release_closing, -1.0, 110.0),
-        approach_excess: approach_excess.get(d2.approach_excess, -1.0, 1100.0),
         approach_time_gap: approach_time_gap.get(d2.approach_time_gap, -1.0, 110.0),
         firm_error: firm_error.get(d2.firm_error, -1.0, 1100.0),
         firm_gain: firm_gain.get(d2.firm_gain, -1.0, 1100.0),

@@ -30,7 +30,7 @@ fuzz_target!(|inp: Input| {
     };
     let max = params.flc.max_speed.min(params.pid.max_speed);
     for (v2v, dist, own, dt) in inp.steps.into_iter().take(512) {
-        let msg = v2v.map(|(n, seq)| V2vMessage { lead_speed: n.get(-3.0, 75.0), seq });
+        let msg = v2v.map(|(n, seq)| V2vMessage::speed_only(n.get(-3.0, 75.0), seq));
         let out = s.step(msg, dist.map(|n| n.get(-5.0, 120.0)), own.get(-3.0, 75.0), dt.get(-0.1, 0.5));
         assert!(out.command.speed.is_finite() && out.command.speed >= 0.0 && out.command.speed <= max, "{out:?}");
         assert!(out.command.accel.is_finite());

@@ -15,6 +15,7 @@ from ._controllers import (
     PidController,
     PurePursuit,
     RobustFallbackController,
+    RobustFallbackController2,
     Steering,
     Supervisor,
 )
@@ -38,6 +39,7 @@ __all__ = [
     "PidController",
     "PurePursuit",
     "RobustFallbackController",
+    "RobustFallbackController2",
     "RunResult",
     "Scenario",
     "ScenarioError",

@@ -54,15 +54,15 @@ class FallbackController:
 
 
 class RobustFallbackController:
-    """The robust FLC (beyond the paper, ``docs/robust-flc.md``): the same inputs as the paper's
-    FLC (LiDAR distance + own speed, no dt), a rate-invariant law.
+    """The robust FLC v1 (beyond the paper, ``docs/robust-flc.md``; ``controller="flc-robust-v1"``):
+    the same inputs as the paper's FLC (LiDAR distance + own speed, no dt), a rate-invariant law.
 
     Keyword arguments are the fields of ``RobustFlcParams`` (``standstill_gap``, ``time_gap``,
     ``brake_gain``, ``envelope_decel``, ...); defaults are the documented design.
     """
 
     def __init__(self, **params: Any) -> None:
-        self._inner = _flc.RobustFallbackController(params_json("flc_robust", params))
+        self._inner: Any = _flc.RobustFallbackController(params_json("flc_robust_v1", params))
 
     def step(self, distance: Optional[float], own_speed: float) -> Command:
         """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
@@ -76,6 +76,22 @@ class RobustFallbackController:
     def reset(self) -> None:
         """Forget the history (the next detection is a first detection)."""
         self._inner.reset()
+
+
+class RobustFallbackController2(RobustFallbackController):
+    """The robust FLC v2 (``docs/robust-flc.md``, "v2"; ``controller="flc-robust"``): v1's law
+    with rules that do not brake for missed or spurious frames, an approach from far behind and a
+    gentler small-error braking gain. Same inputs (LiDAR distance + own speed, no dt).
+
+    Keyword arguments are the fields of ``RobustFlc2Params``: ``law`` (a dict of v1's fields,
+    merged into v2's defaults), ``sight_distance``, ``sight_decel``, ``release_speed``,
+    ``release_closing``, ``approach_time_gap``, ``firm_error``, ``firm_gain``.
+    ``terms()`` gives distance, gap_speed, envelope_speed, approach_speed, target_speed, held,
+    pending, revealed, latched and a.
+    """
+
+    def __init__(self, **params: Any) -> None:
+        self._inner = _flc.RobustFallbackController2(params_json("flc_robust", params))
 
 
 class PidController:

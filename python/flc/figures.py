@@ -207,7 +207,7 @@ def robust_lyapunov_field(x1: np.ndarray, x2: np.ndarray) -> tuple[np.ndarray, n
     analysis does): a = clamp(k x2 / h, −b_max, a_max), k = k_a for x2 >= 0 and k_b otherwise;
     x1' = a, x2' = −x1 − h a. Returns (dx1/dt, dx2/dt, V, dV/dt) for
     V = x1² / 2 + k x2² / (2 h) (``RobustFlcParams`` defaults)."""
-    p = defaults("flc_robust")
+    p = defaults("flc_robust_v1")
     h, ka, kb = float(p["time_gap"]), float(p["accel_gain"]), float(p["brake_gain"])
     amax, bmax = float(p["max_accel"]), float(p["max_decel"])
     x1, x2 = np.asarray(x1, dtype=float), np.asarray(x2, dtype=float)
@@ -252,7 +252,7 @@ def fig_robust_lyapunov(out: Optional[PathLike] = None) -> Any:
     the sign of dV/dt for V = x1²/2 + k x2²/(2h) shaded (green < 0; dV/dt = −(k²/h) x2² wherever
     the law is not clamped) and the clamp boundaries dashed."""
     lim1, lim2 = 10.0, 12.0
-    p = defaults("flc_robust")
+    p = defaults("flc_robust_v1")
     h, ka, kb = float(p["time_gap"]), float(p["accel_gain"]), float(p["brake_gain"])
     amax, bmax = float(p["max_accel"]), float(p["max_decel"])
     g = robust_lyapunov_data(lim1, lim2)

@@ -1,7 +1,7 @@
 """flc's controllers driving SUMO vehicles (extra ``flc[sumo]``: ``eclipse-sumo`` and ``libsumo``).
 
 A :class:`FlcVehicle` hands one SUMO vehicle's longitudinal control to an flc follower pipeline
-(``flc_sim::ExternalFollower``): any controller flc has (``flc``, ``flc-robust``, ``pid``,
+(``flc_sim::ExternalFollower``): any controller flc has (``flc``, ``flc-robust``, ``flc-robust-v1``, ``pid``,
 ``pipeline``, the baselines), configured by an :class:`flc.Scenario` and keyword overrides exactly
 as in flc's own simulator. Every SUMO step it
 

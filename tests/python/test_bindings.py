@@ -45,7 +45,9 @@ def test_section_names_are_rusts():
     for s in sections:
         if s in d and isinstance(d[s], dict) and d[s]:
             assert _flc.resolve_key(f"{s}_x") == f"{s}.x"
-    assert _flc.resolve_key("flc_robust_time_gap") == "flc_robust.time_gap"
+    assert _flc.resolve_key("flc_robust_v1_time_gap") == "flc_robust_v1.time_gap"
+    assert _flc.resolve_key("flc_robust_law_time_gap") == "flc_robust.law.time_gap"
+    assert _flc.resolve_key("follower_vehicle_mass") == "follower.vehicle.mass"
     assert _flc.resolve_key("follower.vehicle.mass") == "follower.vehicle.mass"
     assert _flc.resolve_key("lead_decel") == "lead_decel"
     assert _flc.resolve_key("seed") == "seed"
@@ -63,7 +65,9 @@ def test_private_patch_helpers_are_gone():
     [
         ({"lidar_rate_hz": 0}, "lidar.rate_hz"),
         ({"follower.vehicle.max_brake": -1.0}, "follower.vehicle.max_brake"),
-        ({"flc_robust_time_gap": -1.0}, "flc_robust.time_gap"),
+        ({"flc_robust_law_time_gap": -1.0}, "flc_robust.law.time_gap"),
+        ({"flc_robust_v1_time_gap": -1.0}, "flc_robust_v1.time_gap"),
+        ({"flc_robust_time_gap": 1.0}, "flc_robust.time_gap"),
         ({"platoon_followers": 0}, "platoon.followers"),
         ({"lidar_rate_hzz": 3}, "rate_hzz"),
         ({"lead.phases[9].decel": 1.0}, "lead.phases[9].decel"),
@@ -185,7 +189,8 @@ def test_robust_and_pid_terms_by_hand():
 def test_one_binding_for_every_law():
     laws = [
         (_flc.FallbackController, "flc", lambda c: c.step(25.0, 10.0)),
-        (_flc.RobustFallbackController, "flc_robust", lambda c: c.step(30.0, 20.0)),
+        (_flc.RobustFallbackController, "flc_robust_v1", lambda c: c.step(30.0, 20.0)),
+        (_flc.RobustFallbackController2, "flc_robust", lambda c: c.step(30.0, 20.0)),
         (_flc.PidController, "pid", lambda c: c.step(12.0, 10.0, 30.0, 0.05)),
     ]
     for cls, kind, step in laws:

@@ -115,9 +115,33 @@ def test_robust_flc_parameters_and_scenario():
     c = flc.RobustFallbackController(time_gap=2.0)
     c.step(30.0, 10.0)
     assert c.terms()["desired_gap"] == pytest.approx(3.0 + 2.0 * 10)
-    s = flc.Scenario.paper(speed_kmh=50, controller="flc-robust", flc_robust_time_gap=1.8)
-    assert s.controller == "flc-robust"
+    s = flc.Scenario.paper(speed_kmh=50, controller="flc-robust-v1", flc_robust_v1_time_gap=1.8)
+    assert s.controller == "flc-robust-v1"
     r = flc.run(s)
     assert r.metrics["collision"] is False
-    with pytest.raises(flc.ScenarioError, match="flc_robust.time_gap"):
-        flc.Scenario.paper(controller="flc-robust", flc_robust_time_gap=-1.0)
+    with pytest.raises(flc.ScenarioError, match="flc_robust_v1.time_gap"):
+        flc.Scenario.paper(controller="flc-robust-v1", flc_robust_v1_time_gap=-1.0)
+
+
+def test_robust_flc_v2_parameters_and_scenario():
+    # v2 is `controller="flc-robust"`; v1's law sits in `law` (`[flc_robust.law]`).
+    with pytest.raises(flc.ParameterError, match="firm_gain"):
+        flc.RobustFallbackController2(firm_gain=0.0)
+    with pytest.raises(flc.ParameterError, match="brake_gain"):
+        flc.RobustFallbackController2(law={"brake_gain": 0.0})
+    c = flc.RobustFallbackController2(law={"time_gap": 2.0})
+    for _ in range(3):
+        c.step(30.0, 10.0)
+    t = c.terms()
+    assert t["distance"] == 30.0 and t["held"] is False
+    # The first detection is a possible standing object; its distance stays: not closing, so the
+    # target is the gap speed v + (d - 3 - 2 v) / h = 10 + (30 - 23) / 2 (R2) once released.
+    assert t["gap_speed"] == pytest.approx(10.0 + (30.0 - 3.0 - 2.0 * 10.0) / 2.0)
+    # A missed frame holds the object where it was and never accelerates.
+    out = c.step(None, 10.0)
+    assert c.terms()["held"] is True and out.accel <= 0.0
+    s = flc.Scenario.paper(speed_kmh=50, controller="flc-robust", flc_robust_law_time_gap=1.8)
+    assert s.controller == "flc-robust" and s.to_dict()["flc_robust"]["law"]["time_gap"] == 1.8
+    assert flc.run(s).metrics["collision"] is False
+    with pytest.raises(flc.ScenarioError, match="flc_robust.law.time_gap"):
+        flc.Scenario.paper(controller="flc-robust", flc_robust_law_time_gap=-1.0)

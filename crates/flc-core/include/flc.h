@@ -719,11 +719,7 @@ typedef struct FlcRobust2Params {
      */
     double release_closing;
     /**
-     * (R7) gap excess within which the approach is the gap policy, m.
-     */
-    double approach_excess;
-    /**
-     * (R7) time gap of the approach beyond `approach_excess`, s.
+     * (R7) time gap of the approach, s.
      */
     double approach_time_gap;
     /**

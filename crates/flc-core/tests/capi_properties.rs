@@ -61,23 +61,20 @@ fn c_robust2_params() -> impl Strategy<Value = FlcRobust2Params> {
     (
         c_robust_params(),
         (num(-1.0, 300.0), num(-1.0, 5.0), num(-1.0, 20.0), num(-0.1, 1.0)),
-        (num(-1.0, 20.0), num(-1.0, 20.0), num(-1.0, 10.0), num(-1.0, 20.0)),
+        (num(-1.0, 20.0), num(-1.0, 10.0), num(-1.0, 20.0)),
     )
         .prop_map(
-            |(
-                law,
-                (sight_distance, sight_decel, release_speed, release_closing),
-                (approach_excess, approach_time_gap, firm_error, firm_gain),
-            )| FlcRobust2Params {
-                law,
-                sight_distance,
-                sight_decel,
-                release_speed,
-                release_closing,
-                approach_excess,
-                approach_time_gap,
-                firm_error,
-                firm_gain,
+            |(law, (sight_distance, sight_decel, release_speed, release_closing), (approach_time_gap, firm_error, firm_gain))| {
+                FlcRobust2Params {
+                    law,
+                    sight_distance,
+                    sight_decel,
+                    release_speed,
+                    release_closing,
+                    approach_time_gap,
+                    firm_error,
+                    firm_gain,
+                }
             },
         )
 }

@@ -1,7 +1,7 @@
 //! One binding for every longitudinal law ([`flc_core::LongitudinalController`]): built from its
 //! parameters as JSON, stepped through the trait, its terms returned as the JSON of
 //! [`flc_core::Terms`] (the law's own names, in its order). The pyclasses of `FallbackController`,
-//! `RobustFallbackController` and `PidController` are thin shells around [`Held`].
+//! `RobustFallbackController`, `RobustFallbackController2` and `PidController` are thin shells around [`Held`].
 
 use flc_core::{Frame, LongitudinalController, ParamError, Terms};
 use pyo3::prelude::*;
@@ -46,6 +46,7 @@ macro_rules! impl_law {
 
 impl_law!(flc_core::FallbackController, flc_core::FlcParams, "FallbackController", flags ["braking_branch", "overridden"]);
 impl_law!(flc_core::RobustFallbackController, flc_core::RobustFlcParams, "RobustFallbackController", flags ["revealed", "latched"]);
+impl_law!(flc_core::RobustFallbackController2, flc_core::RobustFlc2Params, "RobustFallbackController2", flags ["held", "pending", "revealed", "latched"]);
 impl_law!(flc_core::PidController, flc_core::PidParams, "PidController", flags []);
 
 /// The terms as serde writes [`Terms`] (name -> value, the law's order), flags as booleans.
@@ -158,6 +159,16 @@ law_class! {
 }
 
 law_class! {
+    /// The robust FLC v2 (beyond the paper, `docs/robust-flc.md`, "v2").
+    RobustFallbackController2(flc_core::RobustFallbackController2) {
+        /// `(speed_command, accel, status)`; no dt (the law never reads it).
+        fn step(&mut self, distance: Option<f64>, own_speed: f64) -> CommandTuple {
+            self.held.step(&Frame::new(distance, own_speed, 0.0))
+        }
+    }
+}
+
+law_class! {
     /// The PID gap controller.
     PidController(flc_core::PidController) {
         /// `(speed_command, u, status)`: the lead speed arrives with every step (a V2V message).
@@ -171,6 +182,7 @@ law_class! {
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<FallbackController>()?;
     m.add_class::<RobustFallbackController>()?;
+    m.add_class::<RobustFallbackController2>()?;
     m.add_class::<PidController>()?;
     Ok(())
 }
@@ -191,6 +203,7 @@ mod tests {
         let mut flc = flc_core::FallbackController::new(flc_core::FlcParams::paper()).expect("flc");
         flags_are_terms(&flc);
         flags_are_terms(&flc_core::RobustFallbackController::new(flc_core::RobustFlcParams::documented()).expect("robust"));
+        flags_are_terms(&flc_core::RobustFallbackController2::new(flc_core::RobustFlc2Params::documented()).expect("robust v2"));
         flags_are_terms(&flc_core::PidController::new(flc_core::PidParams::paper()).expect("pid"));
         let out = LongitudinalController::step(&mut flc, &Frame::new(Some(25.0), 10.0, 0.05));
         assert_eq!(out.terms, flc.law_terms());

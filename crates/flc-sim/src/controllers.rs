@@ -41,12 +41,11 @@ macro_rules! for_each_controller {
             Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
             CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, truth false, starts Flc;
-            /// Beyond the paper: the robust FLC (LiDAR distance + own speed, rate invariant;
-            /// `[flc_robust]`, `docs/robust-flc.md`).
-            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
-            /// Beyond the paper, in progress (issue 24): robust FLC v2, v1's laws with event rules
-            /// that do not brake for missed or spurious frames (`[flc_robust2]`).
-            FlcRobust2 = "flc-robust-v2", flc_robust2: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust2), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            /// Beyond the paper: the robust FLC v2 (LiDAR distance + own speed, rate invariant, no
+            /// braking for missed or spurious frames; `[flc_robust]`, `docs/robust-flc.md`).
+            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            /// The robust FLC v1, kept for comparison (`[flc_robust_v1]`, `docs/robust-flc.md`).
+            FlcRobustV1 = "flc-robust-v1", flc_robust_v1: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust_v1), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
             /// Baseline under identical sensing: Gipps (1981) safe-speed car following (`[gipps]`).
             Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
             /// Reference: the UN R157 careful and competent human driver (`[careful_driver]`,

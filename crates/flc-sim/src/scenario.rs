@@ -476,18 +476,23 @@ impl Scenario {
     }
 
     /// The dotted key of a keyword override: `lidar_rate_hz` -> `lidar.rate_hz` (the longest
-    /// section name followed by `_`), a dotted key and the family key `lead_decel` unchanged,
+    /// table name followed by `_`, nested tables included: `flc_robust_law_time_gap` ->
+    /// `flc_robust.law.time_gap`), a dotted key and the family key `lead_decel` unchanged,
     /// anything else as is (`seed`).
     pub fn resolve_key(name: &str) -> String {
         if name.contains('.') || name == LEAD_DECEL_KEY {
             return name.to_string();
         }
-        let mut sections = Self::section_names();
-        sections.sort_by_key(|s| std::cmp::Reverse(s.len()));
-        for section in sections {
-            if let Some(rest) = name.strip_prefix(section.as_str()).and_then(|r| r.strip_prefix('_')) {
+        let full = Scenario { platoon: Some(PlatoonSpec::default()), ..Scenario::default() };
+        let mut tables = Vec::new();
+        if let Ok(toml::Value::Table(t)) = toml::Value::try_from(&full) {
+            table_paths(&t, "", "", &mut tables);
+        }
+        tables.sort_by_key(|(flat, _)| std::cmp::Reverse(flat.len()));
+        for (flat, dotted) in tables {
+            if let Some(rest) = name.strip_prefix(flat.as_str()).and_then(|r| r.strip_prefix('_')) {
                 if !rest.is_empty() {
-                    return format!("{section}.{rest}");
+                    return format!("{dotted}.{rest}");
                 }
             }
         }
@@ -591,6 +596,17 @@ pub(crate) fn one_line(msg: &str) -> String {
     }
 }
 
+/// Every table under `t` as (`a_b_c`, `a.b.c`), nested ones included.
+fn table_paths(t: &toml::map::Map<String, toml::Value>, flat: &str, dotted: &str, out: &mut Vec<(String, String)>) {
+    for (k, v) in t {
+        if let toml::Value::Table(inner) = v {
+            let (f, d) = if flat.is_empty() { (k.clone(), k.clone()) } else { (format!("{flat}_{k}"), format!("{dotted}.{k}")) };
+            table_paths(inner, &f, &d, out);
+            out.push((f, d));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -605,7 +621,10 @@ mod tests {
         }
         assert!(!names.iter().any(|n| n == "name" || n == "seed"));
         assert_eq!(Scenario::resolve_key("lidar_rate_hz"), "lidar.rate_hz");
-        assert_eq!(Scenario::resolve_key("flc_robust_brake_gain"), "flc_robust.brake_gain");
+        assert_eq!(Scenario::resolve_key("flc_robust_v1_brake_gain"), "flc_robust_v1.brake_gain");
+        assert_eq!(Scenario::resolve_key("flc_robust_law_brake_gain"), "flc_robust.law.brake_gain");
+        assert_eq!(Scenario::resolve_key("flc_robust_firm_gain"), "flc_robust.firm_gain");
+        assert_eq!(Scenario::resolve_key("follower_vehicle_mass"), "follower.vehicle.mass");
         assert_eq!(Scenario::resolve_key("follower.vehicle.mass"), "follower.vehicle.mass");
         assert_eq!(Scenario::resolve_key("seed"), "seed");
         let s = Scenario::default()

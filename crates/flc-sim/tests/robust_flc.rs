@@ -1,4 +1,4 @@
-//! Issue 7: the robust FLC (`controller = "flc-robust"`, `docs/robust-flc.md`) against each target
+//! Issue 7: the robust FLC (`controller = "flc-robust-v1"`, `docs/robust-flc.md`) against each target
 //! of the issue, with the thresholds in the tests. The paper's FLC runs through the same scenarios
 //! and its own (worse) results are asserted next to it, so the comparison stays visible.
 //!
@@ -22,10 +22,10 @@ const KMH: f64 = 1.0 / 3.6;
 fn check_doc_table(name: &str, table: &str) {
     common::bless_or_compare(&format!("docs/figures/{name}"), table, "FLC_BLESS=1 cargo test --release -p flc-sim --test robust_flc");
 }
-const ROBUST: ControllerKind = ControllerKind::FlcRobust;
+const ROBUST: ControllerKind = ControllerKind::FlcRobustV1;
 /// The robust FLC v2 (issue 24), held to v1's rate-invariance target and to the issue's stricter
 /// comfort figures.
-const ROBUST2: ControllerKind = ControllerKind::FlcRobust2;
+const ROBUST2: ControllerKind = ControllerKind::FlcRobust;
 const PAPER: ControllerKind = ControllerKind::Flc;
 /// Farthest bumper-to-bumper gap the default detector reports: its grid ends 70.5 m ahead of the
 /// sensor (350 cells of 0.2 m from 0.5 m), the sensor sits 0.45 m behind the front bumper, and the
@@ -40,8 +40,8 @@ fn batch(scenarios: &[Scenario]) -> Vec<RunResult> {
 /// The gap the controller keeps behind a lead at its own speed `v`.
 fn own_gap(s: &Scenario, v: f64) -> f64 {
     match s.controller {
-        ControllerKind::FlcRobust => s.flc_robust.desired_gap(v),
-        ControllerKind::FlcRobust2 => s.flc_robust2.law.desired_gap(v),
+        ControllerKind::FlcRobustV1 => s.flc_robust_v1.desired_gap(v),
+        ControllerKind::FlcRobust => s.flc_robust.law.desired_gap(v),
         ControllerKind::Flc => s.flc.desired_distance(v) + s.flc.f_shift(v),
         other => panic!("no own gap for {}", other.as_str()),
     }
@@ -110,7 +110,7 @@ fn paper_scenario_30_to_130_kmh() {
     let (robust, paper) = r.split_at(speeds.len());
     for (v, (a, b)) in speeds.iter().zip(robust.iter().zip(paper)) {
         let (m, p) = (&a.metrics, &b.metrics);
-        assert!(!m.collision && m.final_clearance.is_some_and(|c| c > 2.0), "flc-robust at {v} km/h: {m:?}");
+        assert!(!m.collision && m.final_clearance.is_some_and(|c| c > 2.0), "flc-robust-v1 at {v} km/h: {m:?}");
         eprintln!(
             "paper {v:>3} km/h: robust clearance {:.2} m, max jerk {:.1}, hard braking {:.2} s | paper FLC clearance {:.2} m, max jerk {:.1}, hard braking {:.2} s",
             m.final_clearance.unwrap_or(f64::NAN),
@@ -142,9 +142,9 @@ fn steady_following_lead_braking_2_to_9() {
     let mut robust_min: f64 = f64::INFINITY;
     for ((v, b), (a, p)) in cases.iter().zip(robust.iter().zip(paper)) {
         let m = &a.metrics;
-        assert!(!m.collision, "flc-robust collided at {v} km/h, lead -{b}: {m:?}");
+        assert!(!m.collision, "flc-robust-v1 collided at {v} km/h, lead -{b}: {m:?}");
         // Stops at a standstill gap of at least 2 m.
-        assert!(m.final_clearance.is_some_and(|c| c >= 2.0), "flc-robust clearance at {v} km/h, lead -{b}: {m:?}");
+        assert!(m.final_clearance.is_some_and(|c| c >= 2.0), "flc-robust-v1 clearance at {v} km/h, lead -{b}: {m:?}");
         robust_min = robust_min.min(m.min_gap);
         paper_min = paper_min.min(p.metrics.min_gap);
         assert!(!p.metrics.collision, "paper FLC collided at {v} km/h, lead -{b} (realistic vehicle: it should not)");
@@ -182,7 +182,7 @@ fn steady_following_bound() {
     let cases = [(140.0, 8.0), (150.0, 8.0), (140.0, 9.0), (150.0, 9.0)];
     let r = batch(&cases.map(|(v, b)| steady(ROBUST, v, b)));
     for ((v, b), x) in cases.iter().zip(&r) {
-        assert!(!x.metrics.collision, "flc-robust at {v} km/h, lead -{b}: {:?}", x.metrics);
+        assert!(!x.metrics.collision, "flc-robust-v1 at {v} km/h, lead -{b}: {:?}", x.metrics);
     }
 }
 
@@ -227,7 +227,7 @@ fn rate_invariance() {
     }
     table += &format!("\n|---|---|{}\n", "---|".repeat(VARIANTS.len()));
     for (i, &(v, b)) in cases.iter().enumerate() {
-        for (k, (label, runs)) in [("flc-robust", &robust), ("flc-robust-v2", &robust2), ("paper's FLC", &paper)].into_iter().enumerate() {
+        for (k, (label, runs)) in [("flc-robust-v1", &robust), ("flc-robust", &robust2), ("paper's FLC", &paper)].into_iter().enumerate() {
             let scenario = if k == 0 { format!("{v} km/h, −{b}") } else { String::new() };
             table += &format!("| {scenario} | {label} |");
             for r in &runs[i * VARIANTS.len()..(i + 1) * VARIANTS.len()] {
@@ -245,7 +245,7 @@ fn rate_invariance() {
     let mut paper_collided = false;
     for (i, &(v, b)) in cases.iter().enumerate() {
         let rows = &robust[i * VARIANTS.len()..(i + 1) * VARIANTS.len()];
-        for (label, rows) in [("flc-robust", rows), ("flc-robust-v2", &robust2[i * VARIANTS.len()..(i + 1) * VARIANTS.len()])] {
+        for (label, rows) in [("flc-robust-v1", rows), ("flc-robust", &robust2[i * VARIANTS.len()..(i + 1) * VARIANTS.len()])] {
             let reference = rows[0].metrics.final_clearance.expect("reference stops");
             for (row, (name, ..)) in rows.iter().zip(VARIANTS) {
                 let m = &row.metrics;
@@ -313,8 +313,8 @@ fn comfort_scenarios(c: ControllerKind) -> Vec<(String, Scenario)> {
         .map(Into::into)
         .to_vec();
     s.follower.initial_gap = match c {
-        ROBUST => s.flc_robust.standstill_gap,
-        ROBUST2 => s.flc_robust2.law.standstill_gap,
+        ROBUST => s.flc_robust_v1.standstill_gap,
+        ROBUST2 => s.flc_robust.law.standstill_gap,
         _ => 7.0,
     };
     s.duration = 150.0;
@@ -339,7 +339,7 @@ fn comfort_in_normal_following() {
         let hit = if x.metrics.collision { format!(", X {:.1} m/s", x.metrics.impact_speed) } else { String::new() };
         format!("{:.2} / {:.2} / {gap}{hit}", x.metrics.max_decel, jerk_1s(x))
     };
-    let mut table = String::from("| scenario | flc-robust | flc-robust-v2 | paper's FLC |\n|---|---|---|---|\n");
+    let mut table = String::from("| scenario | flc-robust-v1 | flc-robust (v2) | paper's FLC |\n|---|---|---|---|\n");
     for ((((name, _), a), b), c) in robust.iter().zip(&r).zip(&v2).zip(&p) {
         table += &format!("| {} | {} | {} | {} |\n", name.replace("+-", "±"), cell(a), cell(b), cell(c));
     }
@@ -515,7 +515,7 @@ fn cut_out_reveals_a_standing_car() {
         sentence += &format!("- `{}`: {hit}; the physics bound (an ideal follower, one frame late) is {bound} km/h.\n", c.as_str());
         if c == ROBUST {
             assert!(bound >= 80.0, "bound {bound}");
-            assert!(first_hit > 0.9 * bound, "flc-robust hit the car at {first_hit} km/h, bound {bound} km/h");
+            assert!(first_hit > 0.9 * bound, "flc-robust-v1 hit the car at {first_hit} km/h, bound {bound} km/h");
             robust_bound = bound;
         } else {
             paper_first_hit = first_hit;
@@ -526,25 +526,35 @@ fn cut_out_reveals_a_standing_car() {
     check_doc_table("robust-cut-out.md", &format!("Cut-out at 60-100 km/h in steps of 4 km/h:\n\n{sentence}"));
 }
 
-/// `[flc_robust]` errors name the dotted key; `scenarios/robust-cut-out.toml` parses and stops
-/// before the standing car (the paper's FLC, same file, does not).
+/// `[flc_robust]` (v2, its v1 law in `[flc_robust.law]`) and `[flc_robust_v1]` errors name the
+/// dotted key; `scenarios/robust-cut-out.toml` (v2) parses and stops before the standing car, as
+/// v1 does (the paper's FLC, same file, does not).
 #[test]
 fn scenario_section_and_example_file() {
-    let err = |body: &str| {
-        Scenario::from_toml_str(&format!("controller = \"flc-robust\"\n[flc_robust]\n{body}\n"), "t.toml").unwrap_err().to_string()
+    let err = |name: &str, section: &str, body: &str| {
+        Scenario::from_toml_str(&format!("controller = \"{name}\"\n[{section}]\n{body}\n"), "t.toml").unwrap_err().to_string()
     };
-    assert!(err("tme_gap = 1.0").contains("`flc_robust.tme_gap`"), "{}", err("tme_gap = 1.0"));
-    assert!(err("brake_gain = -1.0").contains("flc_robust.brake_gain"));
-    assert!(err("first_object = \"maybe\"").contains("flc_robust.first_object"));
+    for (name, section) in [("flc-robust-v1", "flc_robust_v1"), ("flc-robust", "flc_robust.law")] {
+        let e = err(name, section, "tme_gap = 1.0");
+        assert!(e.contains(&format!("`{section}.tme_gap`")), "{e}");
+        assert!(err(name, section, "brake_gain = -1.0").contains(&format!("{section}.brake_gain")));
+        assert!(err(name, section, "first_object = \"maybe\"").contains(&format!("{section}.first_object")));
+    }
+    let e = err("flc-robust", "flc_robust", "firm_gain = 0.0");
+    assert!(e.contains("flc_robust.firm_gain"), "{e}");
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/robust-cut-out.toml"));
     let s = Scenario::from_file(path).expect("scenario");
-    assert_eq!(s.controller, ROBUST);
+    assert_eq!(s.controller, ROBUST2);
     let car_rear = 222.4 - 2.45;
     let front = s.follower.vehicle.length / 2.0;
-    let mut paper = s.clone();
-    paper.controller = PAPER;
-    let r = batch(&[s, paper]);
+    let with = |c| {
+        let mut x = s.clone();
+        x.controller = c;
+        x
+    };
+    let r = batch(&[with(ROBUST2), with(ROBUST), with(PAPER)]);
     let min_gap = |x: &RunResult| x.series.follower_x.iter().map(|fx| car_rear - (fx + front)).fold(f64::INFINITY, f64::min);
     assert!(min_gap(&r[0]) > 2.0, "flc-robust: {}", min_gap(&r[0]));
-    assert!(min_gap(&r[1]) < 0.0, "paper FLC: {}", min_gap(&r[1]));
+    assert!(min_gap(&r[1]) > 2.0, "flc-robust-v1: {}", min_gap(&r[1]));
+    assert!(min_gap(&r[2]) < 0.0, "paper FLC: {}", min_gap(&r[2]));
 }

@@ -77,9 +77,7 @@ pub struct FlcRobust2Params {
     pub release_speed: f64,
     /// Largest decrease of the distance that still counts as "not closing", m.
     pub release_closing: f64,
-    /// (R7) gap excess within which the approach is the gap policy, m.
-    pub approach_excess: f64,
-    /// (R7) time gap of the approach beyond `approach_excess`, s.
+    /// (R7) time gap of the approach, s.
     pub approach_time_gap: f64,
     /// (R5') speed error braked for with `law.brake_gain`, m/s.
     pub firm_error: f64,
@@ -264,7 +262,6 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
             sight_decel: p.sight_decel,
             release_speed: p.release_speed,
             release_closing: p.release_closing,
-            approach_excess: p.approach_excess,
             approach_time_gap: p.approach_time_gap,
             firm_error: p.firm_error,
             firm_gain: p.firm_gain,
@@ -281,7 +278,6 @@ impl TryFrom<FlcRobust2Params> for RobustFlc2Params {
             sight_decel: p.sight_decel,
             release_speed: p.release_speed,
             release_closing: p.release_closing,
-            approach_excess: p.approach_excess,
             approach_time_gap: p.approach_time_gap,
             firm_error: p.firm_error,
             firm_gain: p.firm_gain,
