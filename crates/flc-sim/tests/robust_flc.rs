@@ -27,11 +27,9 @@ const ROBUST: ControllerKind = ControllerKind::FlcRobustV1;
 /// comfort figures.
 const ROBUST2: ControllerKind = ControllerKind::FlcRobust;
 const PAPER: ControllerKind = ControllerKind::Flc;
-/// Farthest bumper-to-bumper gap the default detector reports: its grid ends 70.5 m ahead of the
-/// sensor (350 cells of 0.2 m from 0.5 m), the sensor sits 0.45 m behind the front bumper, and the
-/// rear face needs a few cells of returns. The detection range bounds the speed at which any
-/// controller can follow at a given gap.
-const DETECTION_RANGE: f64 = 69.5;
+/// The default LiDAR's range (`LidarParams::max_range`, `docs/detector.md`): the detector's grid
+/// reaches 200.5 m ahead of the sensor since issue 23.
+const LIDAR_RANGE: f64 = 200.0;
 
 fn batch(scenarios: &[Scenario]) -> Vec<RunResult> {
     RunOptions::default().run_batch(scenarios).into_iter().map(|r| r.expect("run")).collect()
@@ -155,34 +153,31 @@ fn steady_following_lead_braking_2_to_9() {
 
 /// Target 2, the bound. An ideal follower (it knows the lead's braking one LiDAR frame after the
 /// onset and then brakes fully) starting at the robust FLC's own gap never collides behind a lead
-/// braking at -2 ... -9 m/s², at any speed at which the detector still sees the lead at that gap.
-/// The bound is therefore the detection range: `D_r(v) <= 69.5 m`, i.e. 159.6 km/h for
-/// `3 + 1.5 v`. The robust FLC is collision-free from 130 km/h up to the bound's 90 % (143.6 km/h,
-/// tested at 140 and 150) where the lead brakes as hard as (-8) or harder (-9) than the follower.
+/// braking at -2 ... -9 m/s², up to 150 km/h. Before issue 23 the detector's 70.5 m grid bounded
+/// the speed (`D_r(v) <= 69.5 m`, 159.6 km/h); the LiDAR's 200 m now puts that bound at
+/// `(200 - 3) / 1.5` = 131 m/s, beyond any car, so the kinematics alone are the bound. v1 and v2
+/// are collision-free at 140 and 150 km/h where the lead brakes as hard as (-8) or harder (-9)
+/// than the follower.
 #[test]
 fn steady_following_bound() {
     let p = flc_core::RobustFlcParams::default();
     let frame = 1.0 / 20.0;
-    let v_range = (DETECTION_RANGE - p.standstill_gap) / p.time_gap;
-    // The kinematic part of the bound: at every speed up to the range bound, the ideal follower
-    // needs far less than the robust FLC's gap (worst case: -9 at the range bound).
+    let v_range = (LIDAR_RANGE - p.standstill_gap) / p.time_gap;
+    assert!(v_range / KMH > 470.0, "{}", v_range / KMH);
+    // At every tested speed the ideal follower needs far less than the robust FLC's gap.
     for b in [2.0, 4.0, 6.0, 8.0, 9.0] {
-        for kmh in [30.0, 80.0, 130.0, v_range / KMH] {
+        for kmh in [30.0, 80.0, 130.0, 150.0] {
             let v = kmh * KMH;
             let need = ideal_consumed_gap(v, b, frame);
             assert!(need < p.desired_gap(v) - 10.0, "lead -{b} at {kmh} km/h: ideal needs {need:.1} m of {:.1}", p.desired_gap(v));
         }
     }
-    // -9 at 159.6 km/h: about 19 m of the 69.5 m gap.
-    let need = ideal_consumed_gap(v_range, 9.0, frame);
-    assert!(need > 10.0 && need < 30.0, "{need}");
-    // The robust FLC: no collision between 130 km/h and 90 % of the bound (143.6 km/h), rounded
-    // up to 150, for the decelerations above the follower's (8, 9 m/s²).
-    assert!((v_range / KMH - 159.6).abs() < 0.1, "{}", v_range / KMH);
     let cases = [(140.0, 8.0), (150.0, 8.0), (140.0, 9.0), (150.0, 9.0)];
-    let r = batch(&cases.map(|(v, b)| steady(ROBUST, v, b)));
-    for ((v, b), x) in cases.iter().zip(&r) {
-        assert!(!x.metrics.collision, "flc-robust-v1 at {v} km/h, lead -{b}: {:?}", x.metrics);
+    for kind in [ROBUST, ROBUST2] {
+        let r = batch(&cases.map(|(v, b)| steady(kind, v, b)));
+        for ((v, b), x) in cases.iter().zip(&r) {
+            assert!(!x.metrics.collision, "{} at {v} km/h, lead -{b}: {:?}", kind.as_str(), x.metrics);
+        }
     }
 }
 
