@@ -58,7 +58,11 @@ fn failures(kind: ControllerKind, patch: &Patch) -> (usize, Vec<String>, Vec<Str
         if let ([(name, _), (_, own_s)], [refr, own]) = (pair, res) {
             if !refr.metrics.collision && own.metrics.collision {
                 let line = format!("{name}: contact at {:.1} m/s", own.metrics.impact_speed);
-                if full_braking_from_first_detection(own) { candidates.push((line, brake_on_first_detection(own_s))) } else { bad.push(line) }
+                if full_braking_from_first_detection(own) {
+                    candidates.push((line, brake_on_first_detection(own_s)))
+                } else {
+                    bad.push(line)
+                }
             }
         }
     }
@@ -320,6 +324,47 @@ fn v2_impairments_at_30_to_130_kmh() {
         println!("{name}: careful driver {}, v2 {} (max decel {:.2} m/s²)", clear(refr), clear(own), own.max_decel);
         if !refr.collision && own.collision {
             bad.push(format!("{name}: {}", clear(own)));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Largest 1-second mean jerk `max |a(t) - a(t - 1 s)| / 1 s`, m/s³.
+fn jerk_1s(r: &RunResult) -> f64 {
+    flc_sim::Metrics::compute_with(&r.series, None, &flc_sim::MetricsParams { jerk_window: 1.0, ..flc_sim::MetricsParams::default() })
+        .max_jerk
+}
+
+/// The comfort target on the standard cases the issue names: every run of R157 4.3_1 (the lead
+/// slows at 1 or 2 m/s² to 20-40 km/h) keeps the deceleration within 3.5 m/s² and the 1-second
+/// mean jerk within 2.5 m/s³ (ISO 15622 / 22179), never reverses, and ends at 2-5 m where it
+/// stops. NCAP CCRb 40 m / -2 m/s², the third case the issue names, is printed beside: it does not
+/// meet the target yet (`docs/robust-flc.md`, "v2", "Not met").
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn v2_comfort_in_the_standard_cases() {
+    let mut runs = Vec::new();
+    for suite in Suite::find(&default_root(), "all").unwrap() {
+        for r in suite.runs(&[ControllerKind::FlcRobust]).unwrap() {
+            let case = suite.spec.cases[r.case].id.clone();
+            if case == "4.3_1" || (case == "CCRb" && r.run.contains("Headway=40 Decel=2")) {
+                runs.push((format!("{case} {}", r.run), r.scenario));
+            }
+        }
+    }
+    assert_eq!(runs.len(), 7, "{:?}", runs.iter().map(|(n, _)| n).collect::<Vec<_>>());
+    let res = RunOptions::default().run_batch(&runs.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
+    let mut bad = Vec::new();
+    for ((name, _), r) in runs.iter().zip(res) {
+        let r = r.unwrap();
+        let (m, jerk) = (&r.metrics, jerk_1s(&r));
+        println!("{name}: max decel {:.2} m/s², 1-s jerk {jerk:.2} m/s³, standstill gap {:?}", m.max_decel, m.final_clearance);
+        if name.starts_with("CCRb") {
+            continue;
+        }
+        let stand_ok = m.final_clearance.is_none_or(|c| (2.0..=5.0).contains(&c));
+        if m.collision || m.max_decel > 3.5 || jerk > 2.5 || !stand_ok || r.series.follower_speed.iter().any(|&v| v < 0.0) {
+            bad.push(format!("{name}: max decel {:.2}, jerk {jerk:.2}, standstill {:?}", m.max_decel, m.final_clearance));
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
