@@ -1,4 +1,4 @@
-//! Robust FLC v2 (issue 24, work in progress): the robust FLC's laws (R1)-(R6)
+//! Robust FLC v2 (issue 24; the simulator's `controller = "flc-robust"`): the robust FLC's laws (R1)-(R6)
 //! ([`crate::flc_robust`]) with event rules that do not brake for what a missed or spurious frame
 //! looks like. Same inputs: the LiDAR distance (`None` without a detection) and the own speed, once
 //! per LiDAR frame; no timestamp, no `dt`, no lead speed, no V2V.
@@ -8,15 +8,18 @@
 //! - **A missed frame is not a reveal.** v1 forgot the lead on any frame without a detection and
 //!   latched the stop envelope on the next one: one missed detection while following at
 //!   72-130 km/h commanded about -10 m/s² (phantom braking). v2 keeps the last accepted distance;
-//!   a detection within `reveal_jump` of it is the same object.
+//!   a detection within `reveal_jump` of where the last two accepted frames put it
+//!   (`last + trend`) is the same object.
 //! - **No detection: hold the speed** (`a = 0`) while the sight distance covers the stop envelope,
 //!   `v <= V_e(sight_distance)`; above that speed, slow at `sight_decel`. v1 braked by
 //!   `fault_brake_step` on every frame without a lead.
-//! - **Jumps need a second frame.** A distance more than `reveal_jump` from the last accepted one
-//!   (up: something revealed behind the lead; down: a cut-in, or a spurious short return) is held
-//!   as *pending* and the frame is handled as a missed one; the next frame confirms it (within
-//!   `reveal_jump` of the pending distance) or not (back near the last accepted distance). An
-//!   upward jump so confirmed is a reveal.
+//! - **Jumps need a second frame.** A distance more than `reveal_jump` from `last + trend` (up:
+//!   something revealed behind the lead; down: a cut-in, or a spurious short return) is held as
+//!   *pending* and the frame is handled as a missed one; the next frame confirms it (no farther
+//!   than the pending distance plus `reveal_jump`) or not (back on the trend). A confirmed
+//!   distance more than `reveal_jump` beyond the last accepted one is a reveal. The trend keeps
+//!   the test free of the frame rate: closing at 36 m/s moves the distance 3.6 m per frame at
+//!   10 Hz.
 //! - **The first detection is a reveal** (possibly standing; `first_object = "unknown"`). On a
 //!   reveal frame the law holds at most; the stop envelope applies from the next frame while the
 //!   latch survives (a reveal cannot yet show whether the object closes).

@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | [`flc`] | Sec. III-B, Eqs. (2)-(5) | the fallback longitudinal controller (LiDAR distance + own speed only) |
 //! | [`flc_robust`] | beyond the paper (issue 7) | a rate-invariant, collision-free-to-130-km/h variant with the same inputs |
-//! | [`flc_robust2`] | beyond the paper (issue 24, in progress) | v1's laws with event rules that do not brake for missed or spurious frames |
+//! | [`flc_robust2`] | beyond the paper (issue 24; the simulator's `flc-robust`) | v1's laws with event rules that do not brake for missed or spurious frames |
 //! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
 //! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
 //! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
