@@ -148,24 +148,27 @@ impl RobustFlc2Params {
 /// A v1 field's name inside v2's parameters (`law.<field>`): errors name the key a scenario
 /// file or Python sets.
 fn law_field(field: &str) -> &'static str {
-    match field {
-        "standstill_gap" => "law.standstill_gap",
-        "time_gap" => "law.time_gap",
-        "accel_gain" => "law.accel_gain",
-        "brake_gain" => "law.brake_gain",
-        "max_accel" => "law.max_accel",
-        "max_decel" => "law.max_decel",
-        "envelope_decel" => "law.envelope_decel",
-        "envelope_reaction" => "law.envelope_reaction",
-        "envelope_margin" => "law.envelope_margin",
-        "reveal_jump" => "law.reveal_jump",
-        "reveal_release" => "law.reveal_release",
-        "command_gain" => "law.command_gain",
-        "max_speed" => "law.max_speed",
-        "max_distance" => "law.max_distance",
-        "fault_brake_step" => "law.fault_brake_step",
-        _ => "law",
-    }
+    crate::params::nested_field!(
+        "law",
+        field,
+        [
+            "standstill_gap",
+            "time_gap",
+            "accel_gain",
+            "brake_gain",
+            "max_accel",
+            "max_decel",
+            "envelope_decel",
+            "envelope_reaction",
+            "envelope_margin",
+            "reveal_jump",
+            "reveal_release",
+            "command_gain",
+            "max_speed",
+            "max_distance",
+            "fault_brake_step",
+        ]
+    )
 }
 
 /// The terms of one v2 step (for plots, logs and tests).

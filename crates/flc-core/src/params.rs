@@ -29,3 +29,16 @@ pub(crate) fn check_range(field: &'static str, v: f64, lo: f64, hi: f64, problem
 pub(crate) fn check_positive(field: &'static str, v: f64, hi: f64, problem: &'static str) -> Result<(), ParamError> {
     if v.is_finite() && v > 0.0 && v <= hi { Ok(()) } else { Err(ParamError { field, problem }) }
 }
+
+/// The name of a field of a nested parameter struct as `prefix.field` (a `&'static str`, as
+/// [`ParamError::field`] needs) for each field the nested struct's `validate` can name; `prefix`
+/// itself for any other. Errors then name the key a scenario file or Python sets.
+macro_rules! nested_field {
+    ($prefix:literal, $field:expr, [$($f:literal),* $(,)?]) => {
+        match $field {
+            $( $f => concat!($prefix, ".", $f), )*
+            _ => $prefix,
+        }
+    };
+}
+pub(crate) use nested_field;

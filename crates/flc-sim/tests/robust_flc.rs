@@ -9,8 +9,9 @@
 
 mod common;
 
+use common::robust::{jerk_1s, own_gap};
+
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
-use flc_sim::{Metrics, MetricsParams};
 use flc_sim::{RoadsideObject, Track};
 use flc_sim::{RunOptions, RunResult};
 use flc_sim::{Vehicle, VehicleParams, VehicleState};
@@ -33,16 +34,6 @@ const LIDAR_RANGE: f64 = 200.0;
 
 fn batch(scenarios: &[Scenario]) -> Vec<RunResult> {
     RunOptions::default().run_batch(scenarios).into_iter().map(|r| r.expect("run")).collect()
-}
-
-/// The gap the controller keeps behind a lead at its own speed `v`.
-fn own_gap(s: &Scenario, v: f64) -> f64 {
-    match s.controller {
-        ControllerKind::FlcRobustV1 => s.flc_robust_v1.desired_gap(v),
-        ControllerKind::FlcRobust => s.flc_robust.law.desired_gap(v),
-        ControllerKind::Flc => s.flc.desired_distance(v) + s.flc.f_shift(v),
-        other => panic!("no own gap for {}", other.as_str()),
-    }
 }
 
 /// Steady following at the controller's own gap, then the lead brakes at `decel` to a stop. The
@@ -271,11 +262,6 @@ fn rate_invariance() {
     // at 40 Hz with 100 ms latency (130 km/h, lead -9).
     assert!(paper_spread > 3.0, "paper FLC clearance spread {paper_spread}");
     assert!(paper_collided, "the paper FLC was expected to collide in one variant");
-}
-
-/// Largest 1-second mean jerk `max |a(t) - a(t - 1 s)| / 1 s`, m/s³.
-fn jerk_1s(r: &RunResult) -> f64 {
-    Metrics::compute_with(&r.series, None, &MetricsParams { jerk_window: 1.0, ..MetricsParams::default() }).max_jerk
 }
 
 /// The comfort scenarios of target 4: lead speed changes at +-1 m/s², lead braking at -2 m/s² to a

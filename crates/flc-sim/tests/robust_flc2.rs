@@ -1,6 +1,9 @@
 //! Robust FLC v2 (issue 24; `controller = "flc-robust"`) on the standard suites under the issue's
 //! impairments: every run the careful-driver reference avoids must end without contact.
 
+mod common;
+
+use common::robust::{jerk_1s, own_gap};
 use flc_sim::suite::{Suite, default_root};
 use flc_sim::{ControllerKind, LidarFault, Patch, Phase, RunOptions, RunResult, Scenario, TrackSpec};
 
@@ -114,11 +117,7 @@ fn steady(controller: ControllerKind, kmh: f64, dropout: f64) -> Scenario {
     s.lead.initial_speed = v;
     s.lead.phases = vec![Phase::Hold { until_x: None, until_t: None, duration: Some(60.0) }.into()];
     s.follower.initial_speed = v;
-    s.follower.initial_gap = match controller {
-        ControllerKind::FlcRobust => s.flc_robust.law.desired_gap(v),
-        ControllerKind::FlcRobustV1 => s.flc_robust_v1.desired_gap(v),
-        other => panic!("no own gap for {}", other.as_str()),
-    };
+    s.follower.initial_gap = own_gap(&s, v);
     s.lidar.dropout_prob = dropout;
     s
 }
@@ -327,12 +326,6 @@ fn v2_impairments_at_30_to_130_kmh() {
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
-}
-
-/// Largest 1-second mean jerk `max |a(t) - a(t - 1 s)| / 1 s`, m/s³.
-fn jerk_1s(r: &RunResult) -> f64 {
-    flc_sim::Metrics::compute_with(&r.series, None, &flc_sim::MetricsParams { jerk_window: 1.0, ..flc_sim::MetricsParams::default() })
-        .max_jerk
 }
 
 /// The comfort target on the standard cases the issue names: every run of R157 4.3_1 (the lead

@@ -176,24 +176,27 @@ impl CarefulDriverParams {
 
 /// `normal.<field>` for the IDM's field names (a [`ParamError`] names a `&'static str`).
 fn normal_field(field: &str) -> &'static str {
-    match field {
-        "desired_speed" => "normal.desired_speed",
-        "time_headway" => "normal.time_headway",
-        "min_gap" => "normal.min_gap",
-        "max_accel" => "normal.max_accel",
-        "comfort_decel" => "normal.comfort_decel",
-        "delta" => "normal.delta",
-        "max_decel" => "normal.max_decel",
-        "min_gap_floor" => "normal.min_gap_floor",
-        "estimator.alpha" => "normal.estimator.alpha",
-        "estimator.beta" => "normal.estimator.beta",
-        "estimator.max_range_rate" => "normal.estimator.max_range_rate",
-        "command_gain" => "normal.command_gain",
-        "max_speed" => "normal.max_speed",
-        "max_distance" => "normal.max_distance",
-        "fault_brake_step" => "normal.fault_brake_step",
-        _ => "normal",
-    }
+    crate::params::nested_field!(
+        "normal",
+        field,
+        [
+            "desired_speed",
+            "time_headway",
+            "min_gap",
+            "max_accel",
+            "comfort_decel",
+            "delta",
+            "max_decel",
+            "min_gap_floor",
+            "estimator.alpha",
+            "estimator.beta",
+            "estimator.max_range_rate",
+            "command_gain",
+            "max_speed",
+            "max_distance",
+            "fault_brake_step",
+        ]
+    )
 }
 
 /// The phase of the careful driver.

@@ -8,6 +8,8 @@
 // Each test crate that includes this module uses some of it.
 #![allow(dead_code)]
 
+pub mod robust;
+
 use std::path::{Path, PathBuf};
 
 /// The repository root.
