@@ -26,59 +26,58 @@ class Command:
     status: str
 
 
-class FallbackController:
+class _DistanceLaw:
+    """A law on the LiDAR distance and the own speed only (no timestamp, no dt): built from the
+    keyword arguments merged into the Rust defaults of ``_COMPONENT``, stepped once per frame."""
+
+    _COMPONENT: str = ""
+    _CLASS: Any = None
+
+    def __init__(self, **params: Any) -> None:
+        self._inner: Any = type(self)._CLASS(params_json(self._COMPONENT, params))
+
+    def step(self, distance: Optional[float], own_speed: float) -> Command:
+        """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
+        return Command(*self._inner.step(distance, own_speed))
+
+    def terms(self) -> dict[str, Any]:
+        """Terms of the last step: the Rust law's names, order and values (``flc_core::Terms``),
+        flags as booleans (the class's docstring lists them)."""
+        return _terms(self._inner.terms_json())
+
+    def reset(self) -> None:
+        """Back to the initial state (the next detection is a first detection)."""
+        self._inner.reset()
+
+
+class FallbackController(_DistanceLaw):
     """The paper's FLC, Eqs. (2)-(5): LiDAR distance + own speed in, speed command out.
 
     Keyword arguments are the fields of ``FlcParams`` (paper symbols in snake case, e.g.
     ``time_gap`` = T_G, ``base_gap`` = B_gap, ``bound_t``); defaults are the paper's.
-    No timestamp and no dt.
+    No timestamp and no dt. ``terms()``: tau_d, d_d, scale_f, f_shift, delta_d, dist_s, a, ...
+    (``flc_core::FlcTerms``); flags ``braking_branch``, ``overridden``.
     """
 
-    def __init__(self, **params: Any) -> None:
-        self._inner = _flc.FallbackController(params_json("flc", params))
-
-    def step(self, distance: Optional[float], own_speed: float) -> Command:
-        """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
-        return Command(*self._inner.step(distance, own_speed))
-
-    def terms(self) -> dict[str, Any]:
-        """Intermediate terms of the last step (tau_d, d_d, scale_f, f_shift, delta_d, dist_s, a, ...).
-
-        The names, their order and the values are the Rust law's (``flc_core::FlcTerms``); flags
-        (``braking_branch``, ``overridden``) are booleans."""
-        return _terms(self._inner.terms_json())
-
-    def reset(self) -> None:
-        """Forget the previous distance."""
-        self._inner.reset()
+    _COMPONENT = "flc"
+    _CLASS = _flc.FallbackController
 
 
-class RobustFallbackController:
+class RobustFallbackController(_DistanceLaw):
     """The robust FLC v1 (beyond the paper, ``docs/robust-flc.md``; ``controller="flc-robust-v1"``):
     the same inputs as the paper's FLC (LiDAR distance + own speed, no dt), a rate-invariant law.
 
     Keyword arguments are the fields of ``RobustFlcParams`` (``standstill_gap``, ``time_gap``,
-    ``brake_gain``, ``envelope_decel``, ...); defaults are the documented design.
+    ``brake_gain``, ``envelope_decel``, ...); defaults are the documented design. ``terms()``:
+    desired_gap, gap_error, gap_speed, envelope_speed, target_speed, revealed, latched,
+    latch_min_distance, a; flags ``revealed``, ``latched``.
     """
 
-    def __init__(self, **params: Any) -> None:
-        self._inner: Any = _flc.RobustFallbackController(params_json("flc_robust_v1", params))
-
-    def step(self, distance: Optional[float], own_speed: float) -> Command:
-        """One LiDAR frame: ``distance`` in m (None: no lead), ``own_speed`` in m/s."""
-        return Command(*self._inner.step(distance, own_speed))
-
-    def terms(self) -> dict[str, Any]:
-        """Terms of the last step (desired_gap, gap_error, gap_speed, envelope_speed, target_speed,
-        revealed, latched, latch_min_distance, a); flags (``revealed``, ``latched``) are booleans."""
-        return _terms(self._inner.terms_json())
-
-    def reset(self) -> None:
-        """Forget the history (the next detection is a first detection)."""
-        self._inner.reset()
+    _COMPONENT = "flc_robust_v1"
+    _CLASS = _flc.RobustFallbackController
 
 
-class RobustFallbackController2(RobustFallbackController):
+class RobustFallbackController2(_DistanceLaw):
     """The robust FLC v2 (``docs/robust-flc.md``, "v2"; ``controller="flc-robust"``): v1's law
     with rules that do not brake for missed or spurious frames, an approach from far behind and a
     gentler small-error braking gain. Same inputs (LiDAR distance + own speed, no dt).
@@ -86,12 +85,12 @@ class RobustFallbackController2(RobustFallbackController):
     Keyword arguments are the fields of ``RobustFlc2Params``: ``law`` (a dict of v1's fields,
     merged into v2's defaults), ``sight_distance``, ``sight_decel``, ``release_speed``,
     ``release_closing``, ``approach_time_gap``, ``firm_error``, ``firm_gain``.
-    ``terms()`` gives distance, gap_speed, envelope_speed, approach_speed, target_speed, held,
-    pending, revealed, latched and a.
+    ``terms()``: distance, gap_speed, envelope_speed, approach_speed, target_speed, held,
+    pending, revealed, latched, a; flags ``held``, ``pending``, ``revealed``, ``latched``.
     """
 
-    def __init__(self, **params: Any) -> None:
-        self._inner = _flc.RobustFallbackController2(params_json("flc_robust", params))
+    _COMPONENT = "flc_robust"
+    _CLASS = _flc.RobustFallbackController2
 
 
 class PidController:

@@ -468,11 +468,7 @@ impl Scenario {
     /// The scenario's sections (top-level tables: `follower`, `lidar`, `flc`, `platoon`, ...),
     /// derived from the struct itself.
     pub fn section_names() -> Vec<String> {
-        let full = Scenario { platoon: Some(PlatoonSpec::default()), ..Scenario::default() };
-        match toml::Value::try_from(&full) {
-            Ok(toml::Value::Table(t)) => t.into_iter().filter(|(_, v)| v.is_table()).map(|(k, _)| k).collect(),
-            _ => Vec::new(),
-        }
+        table_paths().iter().filter(|(flat, dotted)| flat == dotted).map(|(flat, _)| flat.clone()).collect()
     }
 
     /// The dotted key of a keyword override: `lidar_rate_hz` -> `lidar.rate_hz` (the longest
@@ -483,11 +479,7 @@ impl Scenario {
         if name.contains('.') || name == LEAD_DECEL_KEY {
             return name.to_string();
         }
-        let full = Scenario { platoon: Some(PlatoonSpec::default()), ..Scenario::default() };
-        let mut tables = Vec::new();
-        if let Ok(toml::Value::Table(t)) = toml::Value::try_from(&full) {
-            table_paths(&t, "", "", &mut tables);
-        }
+        let mut tables: Vec<&(String, String)> = table_paths().iter().collect();
         tables.sort_by_key(|(flat, _)| std::cmp::Reverse(flat.len()));
         for (flat, dotted) in tables {
             if let Some(rest) = name.strip_prefix(flat.as_str()).and_then(|r| r.strip_prefix('_')) {
@@ -596,15 +588,27 @@ pub(crate) fn one_line(msg: &str) -> String {
     }
 }
 
-/// Every table under `t` as (`a_b_c`, `a.b.c`), nested ones included.
-fn table_paths(t: &toml::map::Map<String, toml::Value>, flat: &str, dotted: &str, out: &mut Vec<(String, String)>) {
-    for (k, v) in t {
-        if let toml::Value::Table(inner) = v {
-            let (f, d) = if flat.is_empty() { (k.clone(), k.clone()) } else { (format!("{flat}_{k}"), format!("{dotted}.{k}")) };
-            table_paths(inner, &f, &d, out);
-            out.push((f, d));
+/// Every table of the full scenario (a platoon included) as (`a_b_c`, `a.b.c`), nested ones
+/// included, top-level ones in the struct's order; computed once.
+fn table_paths() -> &'static [(String, String)] {
+    static PATHS: std::sync::OnceLock<Vec<(String, String)>> = std::sync::OnceLock::new();
+    PATHS.get_or_init(|| {
+        fn walk(t: &toml::map::Map<String, toml::Value>, flat: &str, dotted: &str, out: &mut Vec<(String, String)>) {
+            for (k, v) in t {
+                if let toml::Value::Table(inner) = v {
+                    let (f, d) = if flat.is_empty() { (k.clone(), k.clone()) } else { (format!("{flat}_{k}"), format!("{dotted}.{k}")) };
+                    out.push((f.clone(), d.clone()));
+                    walk(inner, &f, &d, out);
+                }
+            }
         }
-    }
+        let full = Scenario { platoon: Some(PlatoonSpec::default()), ..Scenario::default() };
+        let mut out = Vec::new();
+        if let Ok(toml::Value::Table(t)) = toml::Value::try_from(&full) {
+            walk(&t, "", "", &mut out);
+        }
+        out
+    })
 }
 
 #[cfg(test)]
