@@ -9,6 +9,7 @@
 //! | [`flc`] | Sec. III-B, Eqs. (2)-(5) | the fallback longitudinal controller (LiDAR distance + own speed only) |
 //! | [`flc_robust`] | beyond the paper (issue 7) | a rate-invariant, collision-free-to-130-km/h variant with the same inputs |
 //! | [`flc_robust2`] | beyond the paper (issue 24; the simulator's `flc-robust`) | v1's laws with event rules that do not brake for missed or spurious frames |
+//! | [`flc_robust_odo`] | beyond the paper (issue 24's variant; `flc-robust-odo`) | v2 plus wheel odometry: a clock-free closing speed and a comfort term |
 //! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
 //! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
 //! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
@@ -45,6 +46,7 @@ pub mod detector;
 pub mod flc;
 pub mod flc_robust;
 pub mod flc_robust2;
+pub mod flc_robust_odo;
 pub mod longitudinal;
 pub mod params;
 pub mod pid;
@@ -58,6 +60,7 @@ pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, Detec
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 pub use flc_robust2::{RobustFallbackController2, RobustFlc2Params, RobustFlc2Terms};
+pub use flc_robust_odo::{OdometryFallbackController, OdometryFlcParams, OdometryFlcTerms};
 pub use longitudinal::{ControlOutput, Frame, LongitudinalController, MAX_TERMS, Terms};
 pub use nalgebra::Point2;
 pub use params::ParamError;

@@ -15,7 +15,7 @@
 //! use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
 //!
 //! let mut law: Box<dyn LongitudinalController + Send> = Box::new(FallbackController::new(FlcParams::paper())?);
-//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None });
+//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None, travelled: None });
 //! // Eqs. (2)-(5): dist_s = 25 - 16 - 4 = 5, a = 5 (1 - cos(5 pi / 11)) = 4.2884...
 //! assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
 //! assert_eq!(out.terms.get("dist_s"), Some(5.0));
@@ -119,12 +119,16 @@ pub struct Frame {
     pub lead_speed: Option<f64>,
     /// The own GNSS fix (read only by the supervisor's association rule; `None`: none).
     pub own_fix: Option<OwnFix>,
+    /// The wheel odometry's travelled distance since any fixed origin, m (read only by the
+    /// odometry variant of the robust FLC, `flc_robust_odo`; `None`: no odometry). A clock-free
+    /// signal: only its change between frames is used.
+    pub travelled: Option<f64>,
 }
 
 impl Frame {
     /// A frame without V2V.
     pub const fn new(distance: Option<f64>, own_speed: f64, dt: f64) -> Self {
-        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None }
+        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None, travelled: None }
     }
 }
 
@@ -325,6 +329,7 @@ mod tests {
             v2v: m.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)),
             lead_speed: None,
             own_fix: None,
+            travelled: None,
         }
     }
 

@@ -97,6 +97,8 @@ pub struct ExternalFollower {
     speed_ctrl: SpeedController,
     speed_cmd: Option<f64>,
     last_tick_t: Option<f64>,
+    /// Wheel odometry from the host's speeds: `Σ own_speed dt` over the past steps, m.
+    odometer: f64,
     out: ExternalOutput,
 }
 
@@ -127,6 +129,7 @@ impl ExternalFollower {
             speed_ctrl: SpeedController::new(cfg.follower.speed_controller),
             speed_cmd: None,
             last_tick_t: None,
+            odometer: 0.0,
             out,
             cfg,
         })
@@ -177,6 +180,7 @@ impl ExternalFollower {
                 dt,
                 lead_speed,
                 own_fix: None,
+                travelled: Some(self.odometer),
             });
             self.speed_cmd = Some(o.command.speed);
             self.out.switches += u32::from(o.switched);
@@ -202,6 +206,7 @@ impl ExternalFollower {
         self.out.speed = speed;
         self.out.accel_command = accel;
         self.out.speed_command = cmd;
+        self.odometer += 0.5 * (input.own_speed + speed) * input.dt;
         Ok(self.out)
     }
 }

@@ -116,6 +116,9 @@ pub struct VehicleState {
     pub accel: f64,
     /// Road-wheel steering angle, rad.
     pub steer: f64,
+    /// Wheel odometry: the path length travelled since the start, m (the `travelled` signal of
+    /// the controllers' frame).
+    pub odometer: f64,
 }
 
 /// A vehicle: state + actuator pipeline.
@@ -147,7 +150,9 @@ impl Vehicle {
     /// Puts the vehicle at `state` (a story moving it kinematically, [`crate::story::Motion`]);
     /// actuator states are kept.
     pub fn set_state(&mut self, state: VehicleState) {
-        self.state = state;
+        // The wheels turn as the body moves: the odometer advances by the displacement.
+        let odometer = self.state.odometer + (state.x - self.state.x).hypot(state.y - self.state.y);
+        self.state = VehicleState { odometer, ..state };
     }
 
     /// The parameters.
@@ -191,6 +196,7 @@ impl Vehicle {
         s.x += v_mid * (s.yaw + beta).cos() * dt;
         s.y += v_mid * (s.yaw + beta).sin() * dt;
         s.yaw += v_mid / lr * beta.sin() * dt;
+        s.odometer += v_mid * dt;
         s.accel = (v_new - v) / dt;
         s.speed = v_new;
         s.steer = steer;

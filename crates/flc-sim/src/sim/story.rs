@@ -48,7 +48,7 @@ pub(super) fn pose_of(track: &Track, m: &Motion, steer: f64) -> VehicleState {
     let yaw = h + m.heading;
     let [rx, ry] = m.reference();
     let (c, s) = (yaw.cos(), yaw.sin());
-    VehicleState { x: x + c * rx - s * ry, y: y + s * rx + c * ry, yaw, speed: m.speed, accel: m.accel, steer }
+    VehicleState { x: x + c * rx - s * ry, y: y + s * rx + c * ry, yaw, speed: m.speed, accel: m.accel, steer, odometer: 0.0 }
 }
 
 /// What [`StoryRun::step`] reads of the loop: the story, the ground truth at the start of the
