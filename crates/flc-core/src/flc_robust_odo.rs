@@ -18,11 +18,15 @@
 //!   `Δτ = Δs / v̄` and `Δd` enter discounted sums with the memory `closing_memory`:
 //!   `ĉ = -Σ Δd / Σ Δτ` once the sums cover half of it. No timestamp, no `dt`: `Δτ` comes from the
 //!   wheels.
-//! - **(O2) comfort term.** The Intelligent Driver Model's acceleration
-//!   ([`crate::baselines::IdmParams::accel`], Treiber et al. 2000) on v2's gap policy
-//!   (`s_0` = `law.standstill_gap`, `T` = `law.time_gap`, desired speed `law.max_speed`) with the
-//!   lead's speed `v - ĉ`: `a_c = a [1 - (v / v_max)^4 - (s* / d)²]`,
-//!   `s* = s_0 + v T + v ĉ / (2 sqrt(a b))` with `a` = `comfort_accel`, `b` = `comfort_decel`.
+//! - **(O2) comfort term.** The Intelligent Driver Model's interaction (Treiber et al. 2000) on
+//!   v2's gap policy, with the lead's speed `v - ĉ`: `a_c = a [1 - (s* / d)²]`,
+//!   `s* = s_0 + v T + max(0, ĉ) min(v / (2 sqrt(a b)), H)`, with `s_0` = `law.standstill_gap`,
+//!   `T` = `law.time_gap`, `H` = `approach_time_gap`, `a` = `comfort_accel`, `b` =
+//!   `comfort_decel`. Two changes against IDM, both to keep v2's own policy: no free-road term
+//!   (the FLC family does not cruise: `a_c = 0` exactly at v2's desired gap when not closing),
+//!   and IDM's braking strategy `v ĉ / (2 sqrt(a b))` capped at v2's approach time gap, so that
+//!   an approach at (R7)'s pace is not braked for (IDM's own pace, `v / (2 sqrt(a b))` = 14 s at
+//!   130 km/h, closes twice the gap in far more than 20 s).
 //! - **The command is `min(a_v2, a_c)`** on a frame with an accepted distance and an estimate;
 //!   otherwise v2's. It never exceeds v2's, so every bound of v2 (stop envelope, reveals, missed
 //!   frames) holds unchanged; without odometry (`None`) the variant is v2 bit for bit.
@@ -42,8 +46,8 @@ pub struct OdometryFlcParams {
     /// (the estimate lags the closing speed by about a quarter second; 3 cm of range noise give
     /// about 0.1 m/s).
     pub closing_memory: f64,
-    /// (O2) IDM's maximum acceleration `a`, m/s². Default 1.0 (Treiber and Kesting's range
-    /// 0.3-2.0 for cars; v2's own approach limit is `law.max_accel` = 2).
+    /// (O2) IDM's maximum acceleration `a`, m/s²: the scale of the comfort term. Default 1.0
+    /// (Treiber and Kesting, *Traffic Flow Dynamics*, 2013, Table 11.2: 1.0 for cars on highways).
     pub comfort_accel: f64,
     /// (O2) IDM's comfortable deceleration `b`, m/s². Default 1.67 (Treiber et al. 2000, Table I).
     pub comfort_decel: f64,
@@ -73,8 +77,32 @@ impl OdometryFlcParams {
         Ok(())
     }
 
-    /// (O2) the IDM on v2's gap policy (`base`): `s_0`, `T` and the desired speed from v2's law,
-    /// `a` and `b` from these parameters.
+    /// (O2) the comfort acceleration at own speed `v`, closing speed `c` and distance `d`, m/s²:
+    /// `a [1 - (s* / d)²]`, `s* = s_0 + v T + max(0, c) min(v / (2 sqrt(a b)), H)` (`H` = v2's
+    /// `approach_time_gap`; `d` floored at IDM's `min_gap_floor`).
+    ///
+    /// ```
+    /// use flc_core::{OdometryFlcParams, RobustFlc2Params};
+    ///
+    /// let (p, base) = (OdometryFlcParams::default(), RobustFlc2Params::default());
+    /// let model = p.comfort_model(&base);
+    /// // At v2's desired gap (3 + 1.5 * 20 = 33 m) and not closing: no comfort braking.
+    /// assert_eq!(p.comfort_accel(&model, &base, 20.0, 0.0, 33.0), 0.0);
+    /// // Closing at 4 m/s there: s* = 33 + 4 min(20 / (2 sqrt(1.67)), 6) = 33 + 4 * 6 = 57 m,
+    /// // a_c = 1 - (57 / 33)² = -1.98 m/s².
+    /// let a = p.comfort_accel(&model, &base, 20.0, 4.0, 33.0);
+    /// assert!((a + 1.9835).abs() < 1e-4);
+    /// ```
+    pub fn comfort_accel(&self, model: &IdmParams, base: &RobustFlc2Params, v: f64, c: f64, d: f64) -> f64 {
+        let v = v.max(0.0);
+        let pace = (v / (2.0 * libm::sqrt(model.max_accel * model.comfort_decel))).min(base.approach_time_gap);
+        let desired = model.min_gap + v * model.time_headway + c.max(0.0) * pace;
+        let ratio = desired / d.max(model.min_gap_floor);
+        model.max_accel * (1.0 - ratio * ratio)
+    }
+
+    /// (O2) the IDM parameters on v2's gap policy (`base`): `s_0`, `T` and the braking limit from
+    /// v2's law, `a` and `b` from these parameters (the desired speed is not used).
     pub fn comfort_model(&self, base: &RobustFlc2Params) -> IdmParams {
         let law = &base.law;
         IdmParams {
@@ -235,7 +263,7 @@ impl OdometryFallbackController {
             self.closing.observe(t.distance, own_speed, odometer.unwrap_or(0.0), &self.params);
         }
         let closing = if t.held { None } else { self.closing.closing(&self.params) };
-        let comfort_accel = closing.map(|c| self.comfort.accel(own_speed, own_speed - c, t.distance));
+        let comfort_accel = closing.map(|c| self.params.comfort_accel(&self.comfort, self.base.params(), own_speed, c, t.distance));
         let a = comfort_accel.map_or(t.a, |ac| t.a.min(ac.max(-self.base.params().law.max_decel)));
         self.terms = OdometryFlcTerms { base: t, closing: closing.unwrap_or(0.0), comfort_accel: comfort_accel.unwrap_or(0.0), comfort: comfort_accel.is_some(), a };
         if comfort_accel.is_none() || a == t.a {
@@ -257,18 +285,23 @@ impl OdometryFallbackController {
 /// use flc_core::{Frame, LongitudinalController, OdometryFallbackController, OdometryFlcParams, RobustFlc2Params};
 ///
 /// let mut c = OdometryFallbackController::new(RobustFlc2Params::default(), OdometryFlcParams::default())?;
-/// // Both at 20 m/s, 40 m apart (v2's desired gap is 33 m): once the distance stays, v2 approaches.
-/// let (v, mut s) = (20.0, 0.0);
-/// for k in 0..30 {
-///     let frame = Frame { travelled: Some(s), ..Frame::new(Some(40.0 - 0.5 * k as f64), v, 0.05) };
-///     LongitudinalController::step(&mut c, &frame);
-///     s += v * 0.05;
+/// // 20 m/s, 40 m behind a lead at 20 m/s (two frames: v2 releases the first detection's latch
+/// // and sets v_0 = 20 m/s), then the lead at 16 m/s: per metre driven the gap falls by 0.2 m.
+/// let (v, mut d, mut s) = (20.0, 40.0, 0.0);
+/// for _ in 0..2 {
+///     LongitudinalController::step(&mut c, &Frame { travelled: Some(s), ..Frame::new(Some(d), v, 0.05) });
+///     s += 1.0;
 /// }
-/// // Closing at 10 m/s per metre driven (0.5 m of gap per metre... per 1 m driven at 20 m/s):
-/// // the estimate is ĉ = 20 * 0.5 / 1 = 10 m/s, and the comfort term brakes earlier than v2.
-/// let t = c.terms();
-/// assert!((t.closing - 10.0).abs() < 1e-9);
-/// assert!(t.comfort && t.a < t.base.a);
+/// for _ in 0..20 {
+///     LongitudinalController::step(&mut c, &Frame { travelled: Some(s), ..Frame::new(Some(d), v, 0.05) });
+///     (d, s) = (d - 0.2, s + 1.0);
+/// }
+/// // (O1) ĉ -> 20 * 0.2 / 1 = 4 m/s (3.88: the memory, 0.5 s, still weighs the first two
+/// // frames). v2 alone still approaches (its v_0 is 20 m/s: a = +0.53); (O2) at 36.2 m,
+/// // s* = 33 + 3.88 * 6 = 56.3 m and a_c = 1 - (56.3 / 36.2)² = -1.42 m/s² is the command.
+/// let t = *c.terms();
+/// assert!((t.closing - 3.885).abs() < 1e-3 && t.comfort);
+/// assert!((t.base.a - 0.533).abs() < 1e-3 && (t.a + 1.420).abs() < 1e-3);
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
 impl LongitudinalController for OdometryFallbackController {
@@ -288,5 +321,100 @@ impl LongitudinalController for OdometryFallbackController {
 
     fn uses_dt(&self) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn ctl() -> OdometryFallbackController {
+        OdometryFallbackController::new(RobustFlc2Params::default(), OdometryFlcParams::default()).unwrap()
+    }
+
+    fn v2() -> RobustFallbackController2 {
+        RobustFallbackController2::new(RobustFlc2Params::default()).unwrap()
+    }
+
+    /// Frames of a follower at `v` whose gap falls by `per_m` per metre driven, 1 m apart.
+    fn drive(c: &mut OdometryFallbackController, v: f64, d0: f64, per_m: f64, s0: f64, n: usize) -> (f64, f64) {
+        let (mut d, mut s) = (d0, s0);
+        for _ in 0..n {
+            c.step(Some(d), v, Some(s));
+            d -= per_m;
+            s += 1.0;
+        }
+        (d, s)
+    }
+
+    #[test]
+    fn the_closing_speed_is_the_gap_change_per_metre_times_the_speed() {
+        let mut c = ctl();
+        drive(&mut c, 25.0, 60.0, 0.1, 0.0, 40);
+        assert!((c.terms().closing - 2.5).abs() < 1e-9, "{:?}", c.terms());
+    }
+
+    #[test]
+    fn a_missed_frame_interrupts_but_keeps_the_estimate_and_a_pending_jump_forgets_it() {
+        let mut c = ctl();
+        let (d, s) = drive(&mut c, 25.0, 60.0, 0.1, 0.0, 40);
+        c.step(None, 25.0, Some(s));
+        assert!(c.terms().base.held && !c.terms().comfort);
+        // Back one frame later: the sums were kept, the estimate is there at once.
+        c.step(Some(d - 0.2), 25.0, Some(s + 2.0));
+        assert!(c.terms().comfort && (c.terms().closing - 2.5).abs() < 1e-9, "{:?}", c.terms());
+        // A jump is pending (maybe another object): the estimate starts over.
+        c.step(Some(10.0), 25.0, Some(s + 3.0));
+        assert!(c.terms().base.pending);
+        c.step(Some(d - 0.4), 25.0, Some(s + 4.0));
+        assert!(!c.terms().comfort, "{:?}", c.terms());
+    }
+
+    #[test]
+    fn without_odometry_it_is_v2() {
+        let (mut c, mut b) = (ctl(), v2());
+        for k in 0..50 {
+            let d = 50.0 - 0.3 * k as f64;
+            let (x, y) = (c.step(Some(d), 22.0, if k % 7 == 3 { Some(f64::NAN) } else { None }), b.step(Some(d), 22.0));
+            assert_eq!((x.speed.to_bits(), x.accel.to_bits(), x.status), (y.speed.to_bits(), y.accel.to_bits(), y.status));
+        }
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_field() {
+        let p = OdometryFlcParams { comfort_decel: 0.0, ..OdometryFlcParams::default() };
+        assert_eq!(OdometryFallbackController::new(RobustFlc2Params::default(), p).unwrap_err().field, "comfort_decel");
+        let mut b = RobustFlc2Params::default();
+        b.law.time_gap = f64::NAN;
+        assert_eq!(OdometryFallbackController::new(b, OdometryFlcParams::default()).unwrap_err().field, "law.time_gap");
+    }
+
+    fn input() -> impl Strategy<Value = (Option<f64>, f64, Option<f64>)> {
+        let d = prop_oneof![8 => (0.0..150.0f64).prop_map(Some), 1 => Just(None), 1 => proptest::num::f64::ANY.prop_map(Some)];
+        let v = prop_oneof![9 => 0.0..40.0f64, 1 => proptest::num::f64::ANY];
+        let s = prop_oneof![8 => (0.0..3.0f64).prop_map(Some), 1 => Just(None), 1 => proptest::num::f64::ANY.prop_map(Some)];
+        (d, v, s)
+    }
+
+    proptest! {
+        /// Whatever the inputs (odometry included), the variant never commands more than v2 on
+        /// the same frames, its command is finite, and the common interface ignores `dt`.
+        #[test]
+        fn never_above_v2_and_free_of_dt(seq in proptest::collection::vec((input(), proptest::num::f64::ANY), 1..80)) {
+            let (mut c, mut twin, mut b) = (ctl(), ctl(), v2());
+            let mut odometer = 0.0;
+            for ((d, v, ds), dt) in seq {
+                // A travelled distance that mostly grows, sometimes jumps or is missing.
+                let travelled = ds.map(|x| { odometer += x; odometer });
+                let x = c.step(d, v, travelled);
+                let y = b.step(d, v);
+                prop_assert!(x.accel <= y.accel && x.speed <= y.speed, "{x:?} vs v2 {y:?}");
+                prop_assert!(x.accel.is_finite() && x.speed.is_finite());
+                prop_assert_eq!(x.status, y.status);
+                let o = LongitudinalController::step(&mut twin, &Frame { travelled, ..Frame::new(d, v, dt) });
+                prop_assert_eq!((o.command.speed.to_bits(), o.command.accel.to_bits()), (x.speed.to_bits(), x.accel.to_bits()));
+            }
+        }
     }
 }

@@ -6,7 +6,7 @@ use flc_sim::{ControllerKind, Metrics, MetricsParams, RunResult, Scenario};
 pub fn own_gap(s: &Scenario, v: f64) -> f64 {
     match s.controller {
         ControllerKind::FlcRobustV1 => s.flc_robust_v1.desired_gap(v),
-        ControllerKind::FlcRobust => s.flc_robust.law.desired_gap(v),
+        ControllerKind::FlcRobust | ControllerKind::FlcRobustOdo => s.flc_robust.law.desired_gap(v),
         ControllerKind::Flc => s.flc.desired_distance(v) + s.flc.f_shift(v),
         other => panic!("no own gap for {}", other.as_str()),
     }
