@@ -375,3 +375,38 @@ fn v2_comfort_in_the_standard_cases() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// The odometry variant's comfort in NCAP CCRb 40 m / -2 m/s² against its one new constant,
+/// `comfort_accel` (IDM's `a`): the band the module docs and `docs/robust-flc.md` state,
+/// 0.75-1.0 m/s², meets the target (3.5 m/s², 2.5 m/s³, stop at 2-5 m); outside it one of the
+/// two limits fails (printed: the map).
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn odo_comfort_band() {
+    let mut base = None;
+    for suite in Suite::find(&default_root(), "ncap-ccr").unwrap() {
+        for r in suite.runs(&[ControllerKind::FlcRobustOdo]).unwrap() {
+            if suite.spec.cases[r.case].id == "CCRb" && r.run.contains("Headway=40 Decel=2") {
+                base = Some(r.scenario);
+            }
+        }
+    }
+    let base = base.expect("CCRb 40 m / -2 in the suite");
+    let values = [0.5, 0.75, 0.85, 1.0, 1.25];
+    let runs: Vec<_> = values.iter().map(|&a| Scenario { flc_robust_odo: flc_core_params(a), ..base.clone() }).collect();
+    let res: Vec<_> = RunOptions::default().run_batch(&runs).into_iter().map(|r| r.unwrap()).collect();
+    let mut bad = Vec::new();
+    for (a, r) in values.iter().zip(&res) {
+        let (m, jerk) = (&r.metrics, jerk_1s(r));
+        let ok = !m.collision && m.max_decel <= 3.5 && jerk <= 2.5 && m.final_clearance.is_none_or(|c| (2.0..=5.0).contains(&c));
+        println!("comfort_accel {a}: max decel {:.2} m/s², 1-s jerk {jerk:.2} m/s³, stop {:?}: {}", m.max_decel, m.final_clearance, if ok { "meets" } else { "misses" });
+        if (0.75..=1.0).contains(a) && !ok {
+            bad.push(format!("comfort_accel {a}: {:.2} m/s², {jerk:.2} m/s³", m.max_decel));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("; "));
+}
+
+fn flc_core_params(comfort_accel: f64) -> flc_core::OdometryFlcParams {
+    flc_core::OdometryFlcParams { comfort_accel, ..flc_core::OdometryFlcParams::default() }
+}
