@@ -28,14 +28,16 @@
 //!   ([`OdometryFlcParams::closing_brake`]). It is zero without closing, so steady following is
 //!   v2's.
 //! - **The command** on a frame with an accepted distance and an estimate is
-//!   `min(a_v2, a_v2 + Δa)`, limited to IDM's `a` (`comfort_accel`) while closing (no approach at
-//!   v2's 2 m/s² toward a lead that may be braking), and to `-law.max_decel`; otherwise it is
+//!   `min(a_v2, a_v2 + Δa)`, limited to IDM's `a` (`comfort_accel`) plus v2's `accel_gain` times
+//!   an opening speed (no approach at v2's 2 m/s² toward a lead that may be braking; continuous
+//!   where `ĉ` changes sign), and to `-law.max_decel`, blended into v2's below `fade_speed` with
+//!   the weight `(v / fade_speed)²` (v2's own stops are comfortable); otherwise it is
 //!   v2's. It never exceeds v2's, so every bound of v2 (stop envelope, reveals, missed frames)
 //!   holds unchanged; without odometry (`None`) the variant is v2 bit for bit.
 //!
-//! The comfort target of NCAP CCRb 40 m / -2 m/s² holds for `comfort_accel` in about 0.75-1.0
-//! m/s² (3.37 m/s² / 2.18 m/s³ at 0.75, 2.95 / 2.45 at 1.0; `docs/robust-flc.md`): a band,
-//! reported as such; the default 0.85 sits in its middle.
+//! The comfort target of NCAP CCRb 40 m / -2 m/s² holds for `comfort_accel` in 0.75-1.0 m/s²
+//! and not at 0.5 or 1.25 (`odo_comfort_band` in `crates/flc-sim/tests/robust_flc2.rs` prints
+//! the map; `docs/robust-flc.md`): a band, reported as such; the default 0.85 sits in it.
 
 use crate::baselines::IdmParams;
 use crate::command::{LongitudinalCommand, safe_brake};
@@ -59,6 +61,11 @@ pub struct OdometryFlcParams {
     pub comfort_accel: f64,
     /// (O2) IDM's comfortable deceleration `b`, m/s². Default 1.67 (Treiber et al. 2000, Table I).
     pub comfort_decel: f64,
+    /// Own speed from which (O2) applies in full, m/s; below it the command blends into v2's with
+    /// the weight `(v / fade_speed)²` (v2's alone at standstill). Default 14 (about 50 km/h: v2's
+    /// stops and stop-and-go are comfortable on their own, 2.34 m/s³; with the full term down to
+    /// standstill the stop-and-go 1-s jerk is 2.84, with a linear blend from 10 m/s 2.59).
+    pub fade_speed: f64,
     /// Lowest mean speed at which a frame's `Δs / v̄` counts, m/s. Default 0.5 (below it the
     /// wheels' distance says little about time; the estimate starts over).
     pub min_speed: f64,
@@ -73,7 +80,7 @@ impl Default for OdometryFlcParams {
 impl OdometryFlcParams {
     /// The documented design (identical to `Default`).
     pub const fn documented() -> Self {
-        Self { closing_memory: 0.5, comfort_accel: 0.85, comfort_decel: 1.67, min_speed: 0.5 }
+        Self { closing_memory: 0.5, comfort_accel: 0.85, comfort_decel: 1.67, fade_speed: 14.0, min_speed: 0.5 }
     }
 
     /// Checks every field; the error names the first offending one.
@@ -81,6 +88,7 @@ impl OdometryFlcParams {
         check_positive("closing_memory", self.closing_memory, 100.0, "must be finite and in (0, 100] s")?;
         check_positive("comfort_accel", self.comfort_accel, 20.0, "must be finite and in (0, 20] m/s²")?;
         check_positive("comfort_decel", self.comfort_decel, 20.0, "must be finite and in (0, 20] m/s²")?;
+        check_positive("fade_speed", self.fade_speed, 100.0, "must be finite and in (0, 100] m/s")?;
         check_positive("min_speed", self.min_speed, 100.0, "must be finite and in (0, 100] m/s")?;
         Ok(())
     }
@@ -275,10 +283,11 @@ impl OdometryFallbackController {
         }
         let closing = if t.held { None } else { self.closing.closing(&self.params) };
         let brake = closing.map(|c| self.params.closing_brake(&self.comfort, self.base.params(), own_speed, c, t.distance));
-        // While closing, IDM's acceleration limit `a` holds as well (no approach at v2's 2 m/s²
-        // toward a lead that may be braking).
-        let cap = if closing.is_some_and(|c| c > 0.0) { self.params.comfort_accel } else { f64::INFINITY };
-        let a = brake.map_or(t.a, |da| t.a.min((t.a + da).min(cap).max(-self.base.params().law.max_decel)));
+        // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach at
+        // v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes sign.
+        let cap = closing.map_or(f64::INFINITY, |c| self.params.comfort_accel + self.base.params().law.accel_gain * (-c).max(0.0));
+        let fade = (own_speed / self.params.fade_speed).clamp(0.0, 1.0).powi(2);
+        let a = brake.map_or(t.a, |da| t.a + fade * (t.a.min((t.a + da).min(cap).max(-self.base.params().law.max_decel)) - t.a));
         self.terms = OdometryFlcTerms { base: t, closing: closing.unwrap_or(0.0), closing_brake: brake.unwrap_or(0.0), comfort: brake.is_some(), a };
         if brake.is_none() || a == t.a {
             return out;
