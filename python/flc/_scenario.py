@@ -69,7 +69,7 @@ class Scenario:
     def paper(cls, speed_kmh: float = 50.0, controller: str = "flc", preset: str = "realistic", **overrides: Any) -> "Scenario":
         """The paper's experiment at ``speed_kmh`` (km/h) with ``controller`` in
         :data:`CONTROLLERS` ("flc", "pid", "pipeline", a baseline under identical sensing:
-        "idm", "acc", "rss", "carla-behavior", "gipps", the robust FLC "flc-robust" (v2; v1 is "flc-robust-v1"), or the UN R157
+        "idm", "acc", "rss", "carla-behavior", "gipps", the robust FLC "flc-robust" (v2; v1 is "flc-robust-v1"; v2 with wheel odometry is "flc-robust-odo"), or the UN R157
         reference driver "careful-driver", which sees the ground truth) and ``preset`` in
         {"realistic", "paper"}."""
         if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):

@@ -145,3 +145,22 @@ def test_robust_flc_v2_parameters_and_scenario():
     assert flc.run(s).metrics["collision"] is False
     with pytest.raises(flc.ScenarioError, match="flc_robust.law.time_gap"):
         flc.Scenario.paper(controller="flc-robust", flc_robust_law_time_gap=-1.0)
+
+
+def test_robust_flc_odometry_variant_scenario():
+    # v2 with wheel odometry: its base is `[flc_robust]`, its own parameters `[flc_robust_odo]`.
+    from flc import _params, _scenario
+
+    assert "flc-robust-odo" in _scenario.CONTROLLERS
+    assert _params.defaults("flc_robust_odo")["comfort_accel"] == 0.85
+    s = flc.Scenario.paper(speed_kmh=50, controller="flc-robust-odo", flc_robust_odo_comfort_accel=1.0, flc_robust_law_time_gap=1.8)
+    d = s.to_dict()
+    assert d["flc_robust_odo"]["comfort_accel"] == 1.0 and d["flc_robust"]["law"]["time_gap"] == 1.8
+    r = flc.run(s)
+    assert r.metrics["collision"] is False
+    # The variant never commands more than v2 on the same frames; in the paper's experiment its
+    # closing-speed term brakes earlier, so its smallest gap is no smaller than v2's.
+    v2 = flc.run(flc.Scenario.paper(speed_kmh=50, controller="flc-robust", flc_robust_law_time_gap=1.8))
+    assert r.metrics["min_gap"] >= v2.metrics["min_gap"] - 0.5
+    with pytest.raises(flc.ScenarioError, match="flc_robust_odo.comfort_decel"):
+        flc.Scenario.paper(controller="flc-robust-odo", flc_robust_odo_comfort_decel=0.0)

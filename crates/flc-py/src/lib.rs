@@ -47,13 +47,15 @@ pub(crate) fn param_err(what: &str, e: flc_core::ParamError) -> PyErr {
 }
 
 /// The paper's default parameters of a component as JSON (`flc`, `flc_robust` (v2),
-/// `flc_robust_v1`, `pid`, `pure_pursuit`, `detector`, `supervisor`).
+/// `flc_robust_v1`, `flc_robust_odo` (the odometry variant's own), `pid`, `pure_pursuit`,
+/// `detector`, `supervisor`).
 #[pyfunction]
 fn default_params(kind: &str) -> PyResult<String> {
     match kind {
         "flc" => to_json(&flc_core::FlcParams::paper()),
         "flc_robust" => to_json(&flc_core::RobustFlc2Params::documented()),
         "flc_robust_v1" => to_json(&flc_core::RobustFlcParams::documented()),
+        "flc_robust_odo" => to_json(&flc_core::OdometryFlcParams::documented()),
         "pid" => to_json(&flc_core::PidParams::paper()),
         "pure_pursuit" => to_json(&flc_core::PurePursuitParams::default()),
         "detector" => to_json(&flc_core::DetectorParams::default()),
