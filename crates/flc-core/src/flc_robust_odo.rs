@@ -286,7 +286,8 @@ impl OdometryFallbackController {
         // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach at
         // v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes sign.
         let cap = closing.map_or(f64::INFINITY, |c| self.params.comfort_accel + self.base.params().law.accel_gain * (-c).max(0.0));
-        let fade = (own_speed / self.params.fade_speed).clamp(0.0, 1.0).powi(2);
+        let share = (own_speed / self.params.fade_speed).clamp(0.0, 1.0);
+        let fade = share * share;
         let a = brake.map_or(t.a, |da| t.a + fade * (t.a.min((t.a + da).min(cap).max(-self.base.params().law.max_decel)) - t.a));
         self.terms = OdometryFlcTerms { base: t, closing: closing.unwrap_or(0.0), closing_brake: brake.unwrap_or(0.0), comfort: brake.is_some(), a };
         if brake.is_none() || a == t.a {
