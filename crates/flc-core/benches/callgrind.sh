@@ -19,6 +19,7 @@ count() { # workload, function, calls
 count flc flc_steps 10000
 count robust robust_steps 10000
 count robust2 robust2_steps 10000
+count odo odo_steps 10000
 count pid pid_steps 10000
 count supervisor supervisor_steps 10000
 count pursuit pursuit_steps 10000

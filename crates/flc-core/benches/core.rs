@@ -61,6 +61,16 @@ fn controllers(c: &mut Criterion) {
             robust2.step(Some(black_box(d)), black_box(v))
         })
     });
+    let mut odo = flc_core::OdometryFallbackController::new(RobustFlc2Params::default(), flc_core::OdometryFlcParams::default()).unwrap();
+    let mut travelled = 0.0;
+    c.bench_function("robust_flc_odo_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & 1023;
+            let (d, v, _) = inputs[k];
+            travelled += 0.05 * v;
+            odo.step(Some(black_box(d)), black_box(v), Some(black_box(travelled)))
+        })
+    });
     let mut pid = PidController::new(PidParams::default()).unwrap();
     c.bench_function("pid_step", |b| {
         b.iter(|| {

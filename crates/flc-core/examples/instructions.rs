@@ -8,8 +8,9 @@ mod common;
 
 use common::{Lcg, scan};
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
-    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, OdometryFallbackController, OdometryFlcParams, PidController, PidParams,
+    Point2, PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams,
+    Supervisor, SupervisorParams, V2vMessage,
 };
 use std::hint::black_box;
 
@@ -47,6 +48,19 @@ fn robust2_steps(c: &mut RobustFallbackController2, inputs: &[(f64, f64, f64)]) 
     inputs.iter().map(|&(d, v, _)| black_box(c.step(Some(d), v)).speed).sum()
 }
 
+/// The odometry variant on the same input, its odometer advancing by `v` x 0.05 s per frame.
+#[inline(never)]
+fn odo_steps(c: &mut OdometryFallbackController, inputs: &[(f64, f64, f64)]) -> f64 {
+    let mut s = 0.0;
+    inputs
+        .iter()
+        .map(|&(d, v, _)| {
+            s += 0.05 * v;
+            black_box(c.step(Some(d), v, Some(s))).speed
+        })
+        .sum()
+}
+
 #[inline(never)]
 fn pid_steps(c: &mut PidController, inputs: &[(f64, f64, f64)]) -> f64 {
     inputs.iter().map(|&(d, v, l)| black_box(c.step(l, v, Some(d), 0.05)).speed).sum()
@@ -75,7 +89,7 @@ fn detector_scans(det: &mut LeadDetector, pts: &[[f64; 2]]) -> f64 {
     (0..SCANS).map(|_| black_box(det.detect(black_box(pts), 0.0)).detection.map_or(0.0, |d| d.distance)).sum()
 }
 
-/// `instructions [flc|robust|robust2|pid|supervisor|pursuit|detector900|detector1800|all]`: runs one workload
+/// `instructions [flc|robust|robust2|odo|pid|supervisor|pursuit|detector900|detector1800|all]`: runs one workload
 /// (so that callgrind only has to count that one) or all of them.
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_else(|| "all".into());
@@ -90,6 +104,9 @@ fn main() {
     }
     if run("robust2") {
         total += robust2_steps(&mut RobustFallbackController2::new(RobustFlc2Params::default()).unwrap(), &inputs);
+    }
+    if run("odo") {
+        total += odo_steps(&mut OdometryFallbackController::new(RobustFlc2Params::default(), OdometryFlcParams::default()).unwrap(), &inputs);
     }
     if run("pid") {
         total += pid_steps(&mut PidController::new(PidParams::default()).unwrap(), &inputs);
