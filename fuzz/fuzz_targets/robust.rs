@@ -1,5 +1,5 @@
 //! The robust FLC v1 and v2 on arbitrary parameters and input sequences, through the Rust API and
-//! the C API (issue 24).
+//! the C API (issue 24), and v2's odometry variant (Rust API) on arbitrary odometer readings.
 #![no_main]
 
 #[path = "common.rs"]
@@ -11,7 +11,8 @@ use flc_core::capi::{
     FlcLongitudinalCommand, FlcResult, FlcRobust, FlcRobust2, flc_robust_init, flc_robust_step, flc_robust2_init, flc_robust2_step,
 };
 use flc_core::{
-    FirstObject, LongitudinalCommand, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Status,
+    FirstObject, LongitudinalCommand, OdometryFallbackController, OdometryFlcParams, RobustFallbackController, RobustFallbackController2,
+    RobustFlc2Params, RobustFlcParams, Status,
 };
 use libfuzzer_sys::fuzz_target;
 use std::mem::MaybeUninit;
@@ -20,7 +21,9 @@ use std::mem::MaybeUninit;
 struct Input {
     law: [Param; 8],
     rules: [Param; 7],
+    odo: [Param; 5],
     unknown_first: bool,
+    travelled: Vec<Option<Num>>,
     resets: u8,
     steps: Vec<(Option<Num>, Num)>,
 }
@@ -77,12 +80,28 @@ fuzz_target!(|inp: Input| {
     };
     let mut r1 = RobustFallbackController::new(law).ok();
     let mut r2 = RobustFallbackController2::new(p2).ok();
+    let od = OdometryFlcParams::documented();
+    let [closing_memory, comfort_accel, comfort_decel, fade_speed, min_speed] = inp.odo;
+    let po = OdometryFlcParams {
+        closing_memory: closing_memory.get(od.closing_memory, -1.0, 110.0),
+        comfort_accel: comfort_accel.get(od.comfort_accel, -1.0, 25.0),
+        comfort_decel: comfort_decel.get(od.comfort_decel, -1.0, 25.0),
+        fade_speed: fade_speed.get(od.fade_speed, -1.0, 110.0),
+        min_speed: min_speed.get(od.min_speed, -1.0, 110.0),
+    };
+    // The variant and a v2 twin on the same frames: the variant never commands more.
+    let mut ro = OdometryFallbackController::new(p2, po).ok().zip(RobustFallbackController2::new(p2).ok());
+    let mut odometer = 0.0;
     assert_eq!(i1 == FlcResult::Ok, r1.is_some());
     assert_eq!(i2 == FlcResult::Ok, r2.is_some());
     for (k, (dist, speed)) in inp.steps.into_iter().take(256).enumerate() {
         if inp.resets != 0 && k % usize::from(inp.resets) == usize::from(inp.resets) - 1 {
             r1.as_mut().map(RobustFallbackController::reset);
             r2.as_mut().map(RobustFallbackController2::reset);
+            if let Some((o, t)) = ro.as_mut() {
+                o.reset();
+                t.reset();
+            }
             // SAFETY: initialised when the Rust controller exists.
             unsafe {
                 if r1.is_some() {
@@ -96,6 +115,21 @@ fuzz_target!(|inp: Input| {
         let dist = dist.map(|n| n.get(-5.0, 260.0));
         let v = speed.get(-3.0, law.max_speed + 5.0);
         let mut co = MaybeUninit::<FlcLongitudinalCommand>::uninit();
+        if let Some((o, twin)) = ro.as_mut() {
+            // Mostly a growing odometer, sometimes missing or arbitrary.
+            let s = match inp.travelled.get(k).copied().flatten() {
+                Some(n) if k % 7 == 3 => Some(n.get(-1e6, 1e6)),
+                Some(n) => {
+                    odometer += n.get(0.0, 5.0);
+                    Some(odometer)
+                }
+                None => None,
+            };
+            let out = o.step(dist, v, s);
+            check(out, dist, v, law.max_speed);
+            let base = twin.step(dist, v);
+            assert!(out.accel <= base.accel && out.speed <= base.speed && out.status == base.status, "{out:?} vs v2 {base:?}");
+        }
         if let Some(c) = r1.as_mut() {
             let out = c.step(dist, v);
             check(out, dist, v, law.max_speed);
@@ -107,11 +141,12 @@ fuzz_target!(|inp: Input| {
         if let Some(c) = r2.as_mut() {
             let out = c.step(dist, v);
             check(out, dist, v, law.max_speed);
-            // On a usable frame v2 asks for at most the law's deceleration, or `sight_decel` on a
-            // frame it handles as missed (a jump pending confirmation).
+            // On a usable frame v2 asks for at most the law's deceleration (or `sight_decel`); a
+            // frame it handles as missed (a jump pending confirmation) applies the law at the last
+            // accepted distance and never accelerates.
             if out.status == Status::Ok {
-                let limit = if c.terms().held { p2.sight_decel } else { law.max_decel };
-                assert!(out.accel >= -limit - 1e-9, "{out:?} {:?}", c.terms());
+                assert!(out.accel >= -law.max_decel.max(p2.sight_decel) - 1e-9, "{out:?} {:?}", c.terms());
+                assert!(!c.terms().held || out.accel <= 0.0, "{out:?} {:?}", c.terms());
             }
             // SAFETY: initialised above, valid output pointer.
             assert_eq!(
