@@ -259,7 +259,7 @@ def steady_following(controller: str, kmh: float, decel: float) -> Scenario:
     """Steady following at the controller's own gap on a straight road, no V2V; the lead holds
     for 2 s and brakes at ``decel`` to a stop (its brakes raised to 15 m/s²)."""
     v = kmh / 3.6
-    gap = 3 + 1.5 * v if controller in ("flc-robust", "flc-robust-v1") else 1.4 * v + 6  # the own gap (above 20 km/h)
+    gap = 3 + 1.5 * v if controller in ("flc-robust", "flc-robust-odo", "flc-robust-v1") else 1.4 * v + 6  # the own gap (above 20 km/h)
     return Scenario.from_dict({
         "controller": controller, "duration": 90.0, "v2v": {"enabled": False},
         "track": {"kind": "straight", "length": 5000.0},
