@@ -180,7 +180,7 @@ impl ExternalFollower {
                 dt,
                 lead_speed,
                 own_fix: None,
-                travelled: Some(self.odometer),
+                travelled: Some(self.odometer * self.cfg.follower.odometry_scale),
             });
             self.speed_cmd = Some(o.command.speed);
             self.out.switches += u32::from(o.switched);

@@ -55,10 +55,19 @@ pub struct FollowerSpec {
     /// source model, `docs/baselines.md`); never used for the paper's or the envelope's results,
     /// and reported in the JSON (`perception`) and the table (`[ideal]`) when on.
     pub perception: Perception,
+    /// Wheel odometry: the travelled distance the controllers get (`Frame::travelled`) is the
+    /// true path length times this factor (a tyre radius off by 1 % is 1.01 or 0.99). Read only by
+    /// the odometry variant of the robust FLC. Default 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pub odometry_scale: f64,
 }
 
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 fn is_hold_lane(v: &LostLeadSteering) -> bool {
@@ -126,6 +135,7 @@ impl Default for FollowerSpec {
             lane_keeping: false,
             lost_lead_steering: LostLeadSteering::HoldLane,
             perception: Perception::Lidar,
+            odometry_scale: 1.0,
         }
     }
 }
@@ -158,6 +168,7 @@ impl FollowerConfig {
         let f = &self.follower;
         check_range("follower.initial_speed", f.initial_speed, 0.0, 70.0, "m/s")?;
         check_range("follower.initial_gap", f.initial_gap, 0.5, 500.0, "m")?;
+        check_range("follower.odometry_scale", f.odometry_scale, 0.5, 2.0, "(ratio)")?;
         if let Some(o) = f.distance_offset {
             check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
         }

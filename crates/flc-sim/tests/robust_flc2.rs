@@ -410,3 +410,63 @@ fn odo_comfort_band() {
 fn flc_core_params(comfort_accel: f64) -> flc_core::OdometryFlcParams {
     flc_core::OdometryFlcParams { comfort_accel, ..flc_core::OdometryFlcParams::default() }
 }
+
+/// The odometry variant with a wheel odometry off by ±3 % (a worn or under-inflated tyre is
+/// about 1 %): every suite run the careful driver avoids still ends without contact, and the
+/// comfort cases of [`v2_comfort_in_the_standard_cases`] still meet the target.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn odo_with_an_odometry_scale_error() {
+    let mut bad = Vec::new();
+    for scale in [0.97, 1.03] {
+        let mut patch = Patch::new();
+        patch.set("follower.odometry_scale", toml::Value::Float(scale));
+        let (n, contacts, bound) = failures(ControllerKind::FlcRobustOdo, &patch);
+        println!("odometry x {scale}: {} of {n} runs with contact where the careful driver avoids ({bound:?})", contacts.len());
+        bad.extend(contacts.into_iter().chain(bound).map(|b| format!("x {scale}: {b}")));
+        let mut runs = Vec::new();
+        for suite in Suite::find(&default_root(), "all").unwrap() {
+            for r in suite.runs(&[ControllerKind::FlcRobustOdo]).unwrap() {
+                let case = suite.spec.cases[r.case].id.clone();
+                if case == "4.3_1" || (case == "CCRb" && r.run.contains("Headway=40 Decel=2")) {
+                    runs.push((format!("{case} {}", r.run), r.scenario.patched(&patch).unwrap()));
+                }
+            }
+        }
+        let res = RunOptions::default().run_batch(&runs.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
+        for ((name, _), r) in runs.iter().zip(res) {
+            let r = r.unwrap();
+            let (m, jerk) = (&r.metrics, jerk_1s(&r));
+            println!("odometry x {scale}, {name}: max decel {:.2} m/s², 1-s jerk {jerk:.2} m/s³, stop {:?}", m.max_decel, m.final_clearance);
+            if m.collision || m.max_decel > 3.5 || jerk > 2.5 || !m.final_clearance.is_none_or(|c| (2.0..=5.0).contains(&c)) {
+                bad.push(format!("x {scale}, {name}: {:.2} m/s², {jerk:.2} m/s³", m.max_decel));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// The four impairments at once (brakes 6 m/s², 0.3 + 0.3 s actuator delay, LiDAR 10 Hz with
+/// 100 ms and 3 cm), beyond the list: the odometry variant ends in contact only where
+/// braking fully from the first detection does too (the R157 cut-ins, first seen too close for
+/// this detector and actuator). v2 is printed beside: it also hits the lead of CCRb 40 m / -6 m/s²
+/// (`docs/robust-flc.md`, "The odometry variant").
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn odo_under_the_four_impairments_at_once() {
+    let mut all = Patch::new();
+    for (_, p) in impairments() {
+        for (k, v) in p.entries() {
+            all.set(k, v.clone());
+        }
+    }
+    let mut bad = Vec::new();
+    for law in LAWS {
+        let (n, contacts, bound) = failures(law, &all);
+        println!("{}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}", law.as_str(), contacts.len());
+        if law == ControllerKind::FlcRobustOdo {
+            bad.extend(contacts);
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
