@@ -373,7 +373,9 @@ impl RobustFallbackController2 {
         self.command(v, terms.a, status)
     }
 
-    fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
+    /// The speed command for acceleration `a` at own speed `v` (`law.speed_command`), or the safe
+    /// brake when either is not finite; also the odometry variant's.
+    pub(crate) fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
         let law = self.params.law;
         let speed = law.speed_command(v, a);
         if !(a.is_finite() && speed.is_finite()) {

@@ -39,8 +39,7 @@
 //! and not at 0.5 or 1.25 (`odo_comfort_band` in `crates/flc-sim/tests/robust_flc2.rs` prints
 //! the map; `docs/robust-flc.md`): a band, reported as such; the default 0.85 sits in it.
 
-use crate::baselines::IdmParams;
-use crate::command::{LongitudinalCommand, safe_brake};
+use crate::command::{LongitudinalCommand, Status};
 use crate::flc_robust2::{RobustFallbackController2, RobustFlc2Params, RobustFlc2Terms};
 use crate::longitudinal::{ActiveController, ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive};
@@ -94,47 +93,35 @@ impl OdometryFlcParams {
     }
 
     /// (O2) IDM's braking strategy for the closing speed `c` at own speed `v` and distance `d`,
-    /// m/s² (<= 0): `-a [(g + c⁺ p)² - g²] / d²` with `g = s_0 + v T` and the pace
-    /// `p = min(v / (2 sqrt(a b)), H)` (`H` = v2's `approach_time_gap`; `d` floored at IDM's
-    /// `min_gap_floor`).
+    /// m/s² (<= 0): `-a [(g + c⁺ p)² - g²] / d²` with v2's desired gap `g = D_r(v)` (R1) and the
+    /// pace `p = min(v / (2 sqrt(a b)), H)` (`H` = v2's `approach_time_gap`; `d` floored at
+    /// [`MIN_DISTANCE`]).
     ///
     /// ```
     /// use flc_core::{OdometryFlcParams, RobustFlc2Params};
     ///
     /// let (p, base) = (OdometryFlcParams::default(), RobustFlc2Params::default());
-    /// let model = p.comfort_model(&base);
     /// // Not closing: nothing (steady following is v2's).
-    /// assert_eq!(p.closing_brake(&model, &base, 20.0, 0.0, 33.0), 0.0);
+    /// assert_eq!(p.closing_brake(&base, 20.0, 0.0, 33.0), 0.0);
     /// // Closing at 4 m/s at v2's desired gap g = 3 + 1.5 * 20 = 33 m: the pace is
     /// // min(20 / (2 sqrt(0.85 * 1.67)), 6) = min(8.39, 6) = 6 s, so
     /// // Δa = -0.85 ((33 + 4 * 6)² - 33²) / 33² = -1.69 m/s².
-    /// let a = p.closing_brake(&model, &base, 20.0, 4.0, 33.0);
+    /// let a = p.closing_brake(&base, 20.0, 4.0, 33.0);
     /// assert!((a + 1.686).abs() < 1e-3);
     /// ```
-    pub fn closing_brake(&self, model: &IdmParams, base: &RobustFlc2Params, v: f64, c: f64, d: f64) -> f64 {
+    pub fn closing_brake(&self, base: &RobustFlc2Params, v: f64, c: f64, d: f64) -> f64 {
         let v = v.max(0.0);
-        let pace = (v / (2.0 * libm::sqrt(model.max_accel * model.comfort_decel))).min(base.approach_time_gap);
-        let gap = model.min_gap + v * model.time_headway;
+        let pace = (v / (2.0 * libm::sqrt(self.comfort_accel * self.comfort_decel))).min(base.approach_time_gap);
+        let gap = base.law.desired_gap(v);
         let desired = gap + c.max(0.0) * pace;
-        let d = d.max(model.min_gap_floor);
-        -model.max_accel * (desired * desired - gap * gap) / (d * d)
-    }
-
-    /// (O2) the IDM parameters on v2's gap policy (`base`): `s_0`, `T` and the braking limit from
-    /// v2's law, `a` and `b` from these parameters (the desired speed is not used).
-    pub fn comfort_model(&self, base: &RobustFlc2Params) -> IdmParams {
-        let law = &base.law;
-        IdmParams {
-            desired_speed: law.max_speed,
-            time_headway: law.time_gap,
-            min_gap: law.standstill_gap,
-            max_accel: self.comfort_accel,
-            comfort_decel: self.comfort_decel,
-            max_decel: law.max_decel,
-            ..IdmParams::treiber2000()
-        }
+        let d = d.max(MIN_DISTANCE);
+        -self.comfort_accel * (desired * desired - gap * gap) / (d * d)
     }
 }
+
+/// Smallest distance in (O2)'s `(s* / d)²`, m: IDM's `min_gap_floor`
+/// ([`crate::baselines::IdmParams`]), so that a distance of 0 brakes fully instead of dividing by 0.
+pub const MIN_DISTANCE: f64 = 0.01;
 
 /// (O1) The closing speed from the distance's change per metre driven.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -226,7 +213,6 @@ impl OdometryFlcTerms {
 pub struct OdometryFallbackController {
     base: RobustFallbackController2,
     params: OdometryFlcParams,
-    comfort: IdmParams,
     closing: OdometryClosing,
     terms: OdometryFlcTerms,
 }
@@ -235,8 +221,7 @@ impl OdometryFallbackController {
     /// Validates both parameter sets and builds the controller.
     pub fn new(base: RobustFlc2Params, params: OdometryFlcParams) -> Result<Self, ParamError> {
         params.validate()?;
-        let comfort = params.comfort_model(&base);
-        Ok(Self { base: RobustFallbackController2::new(base)?, params, comfort, closing: OdometryClosing::default(), terms: OdometryFlcTerms::default() })
+        Ok(Self { base: RobustFallbackController2::new(base)?, params, closing: OdometryClosing::default(), terms: OdometryFlcTerms::default() })
     }
 
     /// The variant's own parameters.
@@ -266,39 +251,40 @@ impl OdometryFallbackController {
     pub fn step(&mut self, distance: Option<f64>, own_speed: f64, travelled: Option<f64>) -> LongitudinalCommand {
         let out = self.base.step(distance, own_speed);
         let t = *self.base.terms();
-        let odometer = travelled.filter(|s| s.is_finite());
         // v2's acceptance decides what the estimate may compare: a held frame interrupts (and a
-        // pending jump may be another object), a reveal starts over.
-        if t.held || out.status != crate::Status::Ok || odometer.is_none() {
-            self.closing.anchor = None;
-            if t.pending || odometer.is_none() {
-                self.closing.forget();
+        // pending jump may be another object), a reveal or a frame without odometry starts over.
+        match travelled.filter(|s| s.is_finite()) {
+            Some(s) if !t.held && out.status == Status::Ok => {
+                if t.revealed {
+                    self.closing = OdometryClosing::default();
+                }
+                self.closing.observe(t.distance, own_speed, s, &self.params);
             }
-        } else {
-            if t.revealed {
-                self.closing.forget();
+            odometer => {
                 self.closing.anchor = None;
+                if t.pending || odometer.is_none() {
+                    self.closing.forget();
+                }
             }
-            self.closing.observe(t.distance, own_speed, odometer.unwrap_or(0.0), &self.params);
         }
-        let closing = if t.held { None } else { self.closing.closing(&self.params) };
-        let brake = closing.map(|c| self.params.closing_brake(&self.comfort, self.base.params(), own_speed, c, t.distance));
-        // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach at
-        // v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes sign.
-        let cap = closing.map_or(f64::INFINITY, |c| self.params.comfort_accel + self.base.params().law.accel_gain * (-c).max(0.0));
-        let share = (own_speed / self.params.fade_speed).clamp(0.0, 1.0);
-        let fade = share * share;
-        let a = brake.map_or(t.a, |da| t.a + fade * (t.a.min((t.a + da).min(cap).max(-self.base.params().law.max_decel)) - t.a));
-        self.terms = OdometryFlcTerms { base: t, closing: closing.unwrap_or(0.0), closing_brake: brake.unwrap_or(0.0), comfort: brake.is_some(), a };
-        if brake.is_none() || a == t.a {
-            return out;
-        }
+        let p = &self.params;
         let law = &self.base.params().law;
-        let speed = law.speed_command(own_speed, a);
-        if !(a.is_finite() && speed.is_finite()) {
-            return safe_brake(own_speed, true, law.fault_brake_step, crate::Status::InvalidDistance);
-        }
-        LongitudinalCommand { speed, accel: a, status: out.status }
+        let closing = if t.held { None } else { self.closing.closing(p) };
+        let brake = closing.map(|c| p.closing_brake(self.base.params(), own_speed, c, t.distance));
+        let a = match (closing, brake) {
+            (Some(c), Some(da)) => {
+                // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no
+                // approach at v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ`
+                // changes sign. Never above v2's command; blended into it below `fade_speed`.
+                let cap = p.comfort_accel + law.accel_gain * (-c).max(0.0);
+                let full = (t.a + da).min(cap).max(-law.max_decel).min(t.a);
+                let share = (own_speed / p.fade_speed).clamp(0.0, 1.0);
+                t.a + share * share * (full - t.a)
+            }
+            _ => t.a,
+        };
+        self.terms = OdometryFlcTerms { base: t, closing: closing.unwrap_or(0.0), closing_brake: brake.unwrap_or(0.0), comfort: brake.is_some(), a };
+        if a == t.a { out } else { self.base.command(own_speed, a, out.status) }
     }
 }
 
