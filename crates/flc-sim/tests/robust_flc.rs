@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::robust::{jerk_1s, own_gap};
+use common::robust::{comfort_miss, jerk_1s, own_gap};
 
 use flc_sim::{Calibration, ControllerKind, Phase, Scenario, TrackSpec};
 use flc_sim::{RoadsideObject, Track};
@@ -376,25 +376,9 @@ fn comfort_targets(law: ControllerKind) {
     let cases = comfort_scenarios(law);
     let r = batch(&cases.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
     for ((name, _), a) in cases.iter().zip(&r) {
-        let m = &a.metrics;
-        let jerk = jerk_1s(a);
-        if std::env::var("TRACE").is_ok() && jerk > 2.5 {
-            let x = &a.series;
-            let n100 = (0..x.len()).find(|&i| x.t[i] >= x.t[0] + 1.0).unwrap();
-            let k = (0..x.len() - n100).max_by(|&i, &j| (x.follower_accel[i + n100] - x.follower_accel[i]).abs().total_cmp(&(x.follower_accel[j + n100] - x.follower_accel[j]).abs())).unwrap();
-            for i in (k.saturating_sub(100)..(k + 2 * n100).min(x.len())).step_by(10) {
-                eprintln!("TR t {:.2} vl {:.2} v {:.2} a {:.2} acmd {:.2} gap {:.2} det {:.2}", x.t[i], x.lead_speed[i], x.follower_speed[i], x.follower_accel[i], x.accel_command[i], x.gap[i], x.detected_distance[i]);
-            }
-        }
-        eprintln!("{name}: {} max decel {:.2}, 1-s jerk {jerk:.2}, standstill gap {:?}", law.as_str(), m.max_decel, m.final_clearance);
-        assert!(!m.collision, "{name}");
-        assert!(m.max_decel <= 3.5, "{name}: max decel {}", m.max_decel);
-        assert!(jerk <= 2.5, "{name}: 1-s jerk {jerk}");
+        let miss = comfort_miss(&format!("{name}: {}", law.as_str()), a);
+        assert!(miss.is_none(), "{miss:?}");
         assert!(a.series.speed_command.iter().all(|&v| v >= 0.0), "{name}: negative speed command");
-        assert!(a.series.follower_speed.iter().all(|&v| v >= 0.0), "{name}: reversing");
-        if let Some(c) = m.final_clearance {
-            assert!((2.0..=5.0).contains(&c), "{name}: standstill gap {c}");
-        }
     }
     assert_eq!(r.iter().filter(|x| x.metrics.final_clearance.is_some()).count(), 4);
 }
