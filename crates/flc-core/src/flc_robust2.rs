@@ -41,9 +41,14 @@
 //! - **(R5') braking gain**: `brake_gain` 2.25 on the first `firm_error` of a negative speed
 //!   error, `firm_gain` 4 beyond ([`RobustFlc2Params::acceleration`]).
 //!
+//! - **(C1)-(C2) comfort behind a braking lead** ([`crate::comfort`]): a closing-speed estimate
+//!   timed by the law's own motion (`Δτ = Δv / â`, `â` the modelled response to its command) and
+//!   IDM's braking strategy for it, never above the command of the rules above.
+//!
 //! None of the rules counts frames or reads a clock; "the next frame" is the next measurement
 //! event.
 
+use crate::comfort::{ClosingEstimate, ComfortParams};
 use crate::command::{LongitudinalCommand, Status, safe_brake, valid_speed};
 use crate::flc_robust::{FirstObject, RobustFlcParams};
 use crate::longitudinal::ActiveController;
@@ -85,6 +90,8 @@ pub struct RobustFlc2Params {
     /// Gain on the part of a negative speed error beyond `firm_error` (R5'), 1/s. Default 4.0
     /// (v1's `brake_gain`).
     pub firm_gain: f64,
+    /// (C1)-(C2) the comfort layer, `[flc_robust.comfort]` ([`ComfortParams`]).
+    pub comfort: ComfortParams,
 }
 
 impl Default for RobustFlc2Params {
@@ -109,6 +116,7 @@ impl RobustFlc2Params {
             approach_time_gap: 6.0,
             firm_error: 1.5,
             firm_gain: 4.0,
+            comfort: ComfortParams::documented(),
         }
     }
 
@@ -141,6 +149,7 @@ impl RobustFlc2Params {
         check_range("firm_error", self.firm_error, 0.0, 1000.0, "must be finite and in [0, 1000] m/s")?;
         check_positive("firm_gain", self.firm_gain, 1000.0, "must be finite and in (0, 1000] 1/s")?;
         check_positive("approach_time_gap", self.approach_time_gap, 100.0, "must be finite and in (0, 100] s")?;
+        self.comfort.validate().map_err(|e| ParamError { field: comfort_field(e.field), problem: e.problem })?;
         Ok(())
     }
 }
@@ -171,6 +180,11 @@ fn law_field(field: &str) -> &'static str {
     )
 }
 
+/// A comfort field's name inside v2's parameters (`comfort.<field>`).
+fn comfort_field(field: &str) -> &'static str {
+    crate::params::nested_field!("comfort", field, ["memory", "response_time", "clock_accel", "accel", "decel", "fade_speed"])
+}
+
 /// The terms of one v2 step (for plots, logs and tests).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RobustFlc2Terms {
@@ -192,7 +206,15 @@ pub struct RobustFlc2Terms {
     pub revealed: bool,
     /// The latch is set after this frame.
     pub latched: bool,
-    /// (R5) acceleration, m/s².
+    /// (R5') the laws' acceleration before the comfort layer, m/s².
+    pub a_law: f64,
+    /// (C1) closing speed `ĉ`, m/s (0 without an estimate).
+    pub closing: f64,
+    /// (C2) the braking strategy's `Δa`, m/s² (0 without an estimate).
+    pub closing_brake: f64,
+    /// (C1) an estimate was available on this frame.
+    pub comfort: bool,
+    /// The commanded acceleration, m/s².
     pub a: f64,
 }
 
@@ -214,6 +236,8 @@ pub struct RobustFallbackController2 {
     /// `(v_0, d_0)` of (R7): `v_0` estimates the lead's speed from below, `d_0` is the distance
     /// when it was last lowered or first set (`None` until the first frame after a reveal).
     reference: Option<(f64, f64)>,
+    /// (C1) the closing-speed estimate.
+    estimate: ClosingEstimate,
     terms: RobustFlc2Terms,
 }
 
@@ -221,7 +245,16 @@ impl RobustFallbackController2 {
     /// Validates `params` and builds the controller.
     pub fn new(params: RobustFlc2Params) -> Result<Self, ParamError> {
         params.validate()?;
-        Ok(Self { params, last: None, pending: None, trend: 0.0, latch_min: None, reference: None, terms: RobustFlc2Terms::default() })
+        Ok(Self {
+            params,
+            last: None,
+            pending: None,
+            trend: 0.0,
+            latch_min: None,
+            reference: None,
+            estimate: ClosingEstimate::default(),
+            terms: RobustFlc2Terms::default(),
+        })
     }
 
     /// The parameters in use.
@@ -236,6 +269,7 @@ impl RobustFallbackController2 {
         self.trend = 0.0;
         self.latch_min = None;
         self.reference = None;
+        self.estimate = ClosingEstimate::default();
         self.terms = RobustFlc2Terms::default();
     }
 
@@ -251,6 +285,45 @@ impl RobustFallbackController2 {
 
     /// One LiDAR frame: `distance` in m (`None` without a detection), `own_speed` in m/s.
     pub fn step(&mut self, distance: Option<f64>, own_speed: f64) -> LongitudinalCommand {
+        self.step_timed(distance, own_speed, None)
+    }
+
+    /// One frame, the comfort layer's clock from the law's motion (`wheels = None`) or from the
+    /// wheels (`Some((odometer, min_speed))`, the odometry variant).
+    pub(crate) fn step_timed(&mut self, distance: Option<f64>, own_speed: f64, wheels: Option<(f64, f64)>) -> LongitudinalCommand {
+        let out = self.step_laws(distance, own_speed);
+        let mut t = self.terms;
+        let c = self.params.comfort;
+        // v2's acceptance decides what the estimate may compare: a held frame interrupts (and a
+        // pending jump may be another object), a reveal starts over.
+        let usable = !t.held && out.status == Status::Ok;
+        if usable {
+            if t.revealed {
+                self.estimate = ClosingEstimate::default();
+            }
+            match wheels {
+                Some((s, min_speed)) => self.estimate.observe_wheels(t.distance, own_speed, s, min_speed, &c),
+                None => self.estimate.observe_motion(t.distance, own_speed, &c),
+            }
+        } else {
+            self.estimate.interrupt();
+            if t.pending {
+                self.estimate.forget();
+            }
+        }
+        let estimate = if usable { self.estimate.closing(&c).map(|k| (k, c.closing_brake(&self.params, own_speed, k, t.distance))) } else { None };
+        let a = if usable { c.compose(&self.params, own_speed, t.a, estimate) } else { t.a };
+        self.estimate.commanded(a);
+        t.a_law = t.a;
+        (t.closing, t.closing_brake) = estimate.unwrap_or((0.0, 0.0));
+        t.comfort = estimate.is_some();
+        t.a = a;
+        self.terms = t;
+        if a == t.a_law { out } else { self.command(own_speed, a, out.status) }
+    }
+
+    /// (R1)-(R7) and the event rules on one frame.
+    fn step_laws(&mut self, distance: Option<f64>, own_speed: f64) -> LongitudinalCommand {
         let p = self.params;
         let law = p.law;
         let speed_ok = valid_speed(own_speed, law.max_speed);
@@ -374,8 +447,8 @@ impl RobustFallbackController2 {
     }
 
     /// The speed command for acceleration `a` at own speed `v` (`law.speed_command`), or the safe
-    /// brake when either is not finite; also the odometry variant's.
-    pub(crate) fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
+    /// brake when either is not finite.
+    fn command(&self, v: f64, a: f64, status: Status) -> LongitudinalCommand {
         let law = self.params.law;
         let speed = law.speed_command(v, a);
         if !(a.is_finite() && speed.is_finite()) {
@@ -388,7 +461,7 @@ impl RobustFallbackController2 {
 impl RobustFlc2Terms {
     /// The names of [`RobustFlc2Terms::to_terms`], in field order (flags as 0 / 1).
     pub const NAMES: &'static [&'static str] =
-        &["distance", "gap_speed", "envelope_speed", "approach_speed", "target_speed", "held", "pending", "revealed", "latched", "a"];
+        &["distance", "gap_speed", "envelope_speed", "approach_speed", "target_speed", "held", "pending", "revealed", "latched", "a_law", "closing", "closing_brake", "comfort", "a"];
 
     /// The terms as a named list ([`Terms`]).
     pub fn to_terms(&self) -> Terms {
@@ -405,6 +478,10 @@ impl RobustFlc2Terms {
                 flag(t.pending),
                 flag(t.revealed),
                 flag(t.latched),
+                t.a_law,
+                t.closing,
+                t.closing_brake,
+                flag(t.comfort),
                 t.a,
             ],
         )

@@ -9,7 +9,8 @@
 //! | [`flc`] | Sec. III-B, Eqs. (2)-(5) | the fallback longitudinal controller (LiDAR distance + own speed only) |
 //! | [`flc_robust`] | beyond the paper (issue 7) | a rate-invariant, collision-free-to-130-km/h variant with the same inputs |
 //! | [`flc_robust2`] | beyond the paper (issue 24; the simulator's `flc-robust`) | v1's laws with event rules that do not brake for missed or spurious frames |
-//! | [`flc_robust_odo`] | beyond the paper (issue 24's variant; `flc-robust-odo`) | v2 plus wheel odometry: a clock-free closing speed and a comfort term |
+//! | [`comfort`] | beyond the paper (issue 24) | v2's comfort layer: a closing speed timed by the law's own motion, IDM's braking strategy |
+//! | [`flc_robust_odo`] | beyond the paper (issue 24's variant; `flc-robust-odo`) | v2 with the wheel odometry as the comfort layer's clock |
 //! | [`pid`] | Sec. III-A.3 | the V2V-based PID gap controller (the baseline) |
 //! | [`pure_pursuit`] | Sec. III-A.2, Eq. (1) | lateral control towards the lead |
 //! | [`supervisor`] | Fig. 1 | the parallel longitudinal controller: PID while V2V is fresh, FLC otherwise |
@@ -41,6 +42,7 @@ pub mod association;
 pub mod baselines;
 #[cfg(feature = "capi")]
 pub mod capi;
+pub mod comfort;
 pub mod command;
 pub mod detector;
 pub mod flc;
@@ -55,12 +57,13 @@ pub mod supervisor;
 
 pub use association::{Association, AssociationParams, AssociationState, OwnFix, SenderState};
 pub use baselines::{Baseline, BaselineKind, NoLeadPolicy};
+pub use comfort::ComfortParams;
 pub use command::{LongitudinalCommand, Status};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 pub use flc_robust2::{RobustFallbackController2, RobustFlc2Params, RobustFlc2Terms};
-pub use flc_robust_odo::{OdometryFallbackController, OdometryFlcParams, OdometryFlcTerms};
+pub use flc_robust_odo::{OdometryFallbackController, OdometryFlcParams};
 pub use longitudinal::{ControlOutput, Frame, LongitudinalController, MAX_TERMS, Terms};
 pub use nalgebra::Point2;
 pub use params::ParamError;

@@ -170,7 +170,7 @@ impl ControlOutput {
 }
 
 /// Most terms a law may report ([`Terms`] is a fixed-size, allocation-free list).
-pub const MAX_TERMS: usize = 12;
+pub const MAX_TERMS: usize = 16;
 
 /// A law's per-term output: a fixed, allocation-free list of named numbers (mode/band enums as their
 /// discriminant number, flags as 0 / 1). Each law declares its own term names as a

@@ -7,6 +7,7 @@ use core::ptr;
 use super::storage::{check_ptr, get_mut, get_ref, init, param_error, storage, tri, write_out};
 use super::{FlcLongitudinalCommand, FlcParamError, FlcResult};
 use crate::flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
+use crate::comfort::ComfortParams;
 use crate::flc_robust2::{RobustFallbackController2, RobustFlc2Params, RobustFlc2Terms};
 use crate::params::ParamError;
 
@@ -83,6 +84,26 @@ pub struct FlcRobust2Params {
     pub firm_error: f64,
     /// (R5') gain on the negative speed error beyond `firm_error`, 1/s.
     pub firm_gain: f64,
+    /// (C1)-(C2) the comfort layer.
+    pub comfort: FlcComfortParams,
+}
+
+/// Mirror of the Rust `ComfortParams` (v2's comfort layer, (C1)-(C2)).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlcComfortParams {
+    /// (C1) memory of the closing-speed estimate, s.
+    pub memory: f64,
+    /// (C1) time constant of the modelled response to the commanded acceleration, s.
+    pub response_time: f64,
+    /// (C1) smallest modelled acceleration that counts as a clock, m/s².
+    pub clock_accel: f64,
+    /// (C2) IDM's maximum acceleration `a`, m/s².
+    pub accel: f64,
+    /// (C2) IDM's comfortable deceleration `b`, m/s².
+    pub decel: f64,
+    /// Own speed from which (C2) applies in full, m/s.
+    pub fade_speed: f64,
 }
 
 /// Mirror of the Rust `RobustFlcTerms` (v1's terms of the last step).
@@ -123,7 +144,13 @@ pub struct FlcRobust2Terms {
     pub approach_speed: f64,
     /// (R4) target speed, m/s.
     pub target_speed: f64,
-    /// (R5) acceleration, m/s².
+    /// (R5') the laws' acceleration before the comfort layer, m/s².
+    pub a_law: f64,
+    /// (C1) closing speed, m/s (0 without an estimate).
+    pub closing: f64,
+    /// (C2) the braking strategy's term, m/s² (0 without an estimate).
+    pub closing_brake: f64,
+    /// The commanded acceleration, m/s².
     pub a: f64,
     /// This frame was handled as missed.
     pub held: bool,
@@ -133,6 +160,8 @@ pub struct FlcRobust2Terms {
     pub revealed: bool,
     /// The latch is set after this frame.
     pub latched: bool,
+    /// (C1) an estimate was available on this frame.
+    pub comfort: bool,
 }
 
 impl From<RobustFlcTerms> for FlcRobustTerms {
@@ -159,11 +188,15 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
             envelope_speed: t.envelope_speed,
             approach_speed: t.approach_speed,
             target_speed: t.target_speed,
+            a_law: t.a_law,
+            closing: t.closing,
+            closing_brake: t.closing_brake,
             a: t.a,
             held: t.held,
             pending: t.pending,
             revealed: t.revealed,
             latched: t.latched,
+            comfort: t.comfort,
         }
     }
 }
@@ -176,7 +209,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
 pub const FLC_ROBUST_WORDS: usize = 29;
 
 /// Words (8 bytes each) of `FlcRobust2::storage`.
-pub const FLC_ROBUST2_WORDS: usize = 40;
+pub const FLC_ROBUST2_WORDS: usize = 64;
 
 /// Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
 #[repr(C)]
@@ -265,7 +298,20 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
             approach_time_gap: p.approach_time_gap,
             firm_error: p.firm_error,
             firm_gain: p.firm_gain,
+            comfort: p.comfort.into(),
         }
+    }
+}
+
+impl From<ComfortParams> for FlcComfortParams {
+    fn from(p: ComfortParams) -> Self {
+        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed }
+    }
+}
+
+impl From<FlcComfortParams> for ComfortParams {
+    fn from(p: FlcComfortParams) -> Self {
+        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed }
     }
 }
 
@@ -281,6 +327,7 @@ impl TryFrom<FlcRobust2Params> for RobustFlc2Params {
             approach_time_gap: p.approach_time_gap,
             firm_error: p.firm_error,
             firm_gain: p.firm_gain,
+            comfort: p.comfort.into(),
         })
     }
 }
