@@ -79,14 +79,18 @@ class RobustFallbackController(_DistanceLaw):
 
 class RobustFallbackController2(_DistanceLaw):
     """The robust FLC v2 (``docs/robust-flc.md``, "v2"; ``controller="flc-robust"``): v1's law
-    with rules that do not brake for missed or spurious frames, an approach from far behind and a
-    gentler small-error braking gain. Same inputs (LiDAR distance + own speed, no dt).
+    with rules that do not brake for missed or spurious frames, an approach from far behind, a
+    gentler small-error braking gain and a comfort layer that brakes for the closing speed it
+    reads from its own motion. Same inputs (LiDAR distance + own speed, no dt).
 
     Keyword arguments are the fields of ``RobustFlc2Params``: ``law`` (a dict of v1's fields,
     merged into v2's defaults), ``sight_distance``, ``sight_decel``, ``release_speed``,
-    ``release_closing``, ``approach_time_gap``, ``firm_error``, ``firm_gain``.
+    ``release_closing``, ``approach_time_gap``, ``firm_error``, ``firm_gain``, ``comfort`` (a
+    dict of the comfort layer's fields: ``memory``, ``response_time``, ``clock_accel``,
+    ``accel``, ``decel``, ``fade_speed``).
     ``terms()``: distance, gap_speed, envelope_speed, approach_speed, target_speed, held,
-    pending, revealed, latched, a; flags ``held``, ``pending``, ``revealed``, ``latched``.
+    pending, revealed, latched, a_law, closing, closing_brake, comfort, a; flags ``held``,
+    ``pending``, ``revealed``, ``latched``, ``comfort``.
     """
 
     _COMPONENT = "flc_robust"

@@ -30,7 +30,7 @@
 /**
  * Words (8 bytes each) of `FlcRobust2::storage`.
  */
-#define FLC_ROBUST2_WORDS 40
+#define FLC_ROBUST2_WORDS 57
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.
@@ -695,6 +695,36 @@ typedef struct FlcRobustTerms {
 } FlcRobustTerms;
 
 /**
+ * Mirror of the Rust `ComfortParams` (v2's comfort layer, (C1)-(C2)).
+ */
+typedef struct FlcComfortParams {
+    /**
+     * (C1) memory of the closing-speed estimate, s.
+     */
+    double memory;
+    /**
+     * (C1) time constant of the modelled response to the commanded acceleration, s.
+     */
+    double response_time;
+    /**
+     * (C1) smallest modelled acceleration that counts as a clock, m/s².
+     */
+    double clock_accel;
+    /**
+     * (C2) IDM's maximum acceleration `a`, m/s².
+     */
+    double accel;
+    /**
+     * (C2) IDM's comfortable deceleration `b`, m/s².
+     */
+    double decel;
+    /**
+     * Own speed from which (C2) applies in full, m/s.
+     */
+    double fade_speed;
+} FlcComfortParams;
+
+/**
  * Mirror of the Rust `RobustFlc2Params`: v1's laws plus v2's event rules.
  */
 typedef struct FlcRobust2Params {
@@ -730,6 +760,10 @@ typedef struct FlcRobust2Params {
      * (R5') gain on the negative speed error beyond `firm_error`, 1/s.
      */
     double firm_gain;
+    /**
+     * (C1)-(C2) the comfort layer.
+     */
+    struct FlcComfortParams comfort;
 } FlcRobust2Params;
 
 /**
@@ -765,7 +799,19 @@ typedef struct FlcRobust2Terms {
      */
     double target_speed;
     /**
-     * (R5) acceleration, m/s².
+     * (R5') the laws' acceleration before the comfort layer, m/s².
+     */
+    double a_law;
+    /**
+     * (C1) closing speed, m/s (0 without an estimate).
+     */
+    double closing;
+    /**
+     * (C2) the braking strategy's term, m/s² (0 without an estimate).
+     */
+    double closing_brake;
+    /**
+     * The commanded acceleration, m/s².
      */
     double a;
     /**
@@ -784,6 +830,10 @@ typedef struct FlcRobust2Terms {
      * The latch is set after this frame.
      */
     bool latched;
+    /**
+     * (C1) an estimate was available on this frame.
+     */
+    bool comfort;
 } FlcRobust2Terms;
 
 /**

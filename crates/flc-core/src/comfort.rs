@@ -28,7 +28,8 @@
 //!   following is v2's.
 //! - **The command** is v2's `a_law` with the term, `min(a_law, a_law + Δa)`, limited to IDM's
 //!   `a` (`accel`) plus v2's `accel_gain` times an opening speed (no approach at 2 m/s² toward a
-//!   lead that may be braking), and to `-law.max_decel`; before the first estimate it is limited
+//!   lead that may be braking), and to `-max_decel` (5 m/s²: harder braking is v2's laws'
+//!   own); before the first estimate it is limited
 //!   to `accel`. Below `fade_speed` it blends into `a_law` with the weight `(v / fade_speed)²`
 //!   (v2's own stops are comfortable). It never exceeds `a_law` ([`ComfortParams::compose`]):
 //!   every bound of v2's laws (stop envelope, reveals,
@@ -68,6 +69,12 @@ pub struct ComfortParams {
     /// are comfortable on their own; with the full term down to standstill the stop-and-go 1-s
     /// jerk was 2.84 m/s³).
     pub fade_speed: f64,
+    /// Largest deceleration the comfort layer commands, m/s²; harder braking is left to v2's
+    /// laws, the safety layer underneath. Default 5 (the largest deceleration ISO 22179 allows a
+    /// full-speed-range ACC, at low speed; without this limit IDM's term, `1 / d²`, braked at
+    /// 10 m/s² in emergencies and made the stop depend on the LiDAR's latency: 0.52 m of
+    /// standstill gap at 130 km/h behind a lead braking at 9 m/s², against 0.06 m with it).
+    pub max_decel: f64,
 }
 
 impl Default for ComfortParams {
@@ -79,7 +86,7 @@ impl Default for ComfortParams {
 impl ComfortParams {
     /// The documented design (identical to `Default`).
     pub const fn documented() -> Self {
-        Self { memory: 1.0, response_time: 0.45, clock_accel: 0.3, accel: 0.85, decel: 1.67, fade_speed: 14.0 }
+        Self { memory: 1.0, response_time: 0.45, clock_accel: 0.3, accel: 0.85, decel: 1.67, fade_speed: 14.0, max_decel: 5.0 }
     }
 
     /// Checks every field; the error names the first offending one.
@@ -90,6 +97,7 @@ impl ComfortParams {
         check_positive("accel", self.accel, 20.0, "must be finite and in (0, 20] m/s²")?;
         check_positive("decel", self.decel, 20.0, "must be finite and in (0, 20] m/s²")?;
         check_positive("fade_speed", self.fade_speed, 100.0, "must be finite and in (0, 100] m/s")?;
+        check_positive("max_decel", self.max_decel, 50.0, "must be finite and in (0, 50] m/s²")?;
         Ok(())
     }
 
@@ -128,7 +136,7 @@ impl ComfortParams {
             // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach
             // at v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes
             // sign.
-            Some((c, brake)) => (a_law + brake).min(self.accel + law.accel_gain * (-c).max(0.0)).max(-law.max_decel),
+            Some((c, brake)) => (a_law + brake).min(self.accel + law.accel_gain * (-c).max(0.0)).max(-law.max_decel.min(self.max_decel)),
             None => a_law.min(self.accel),
         }
         .min(a_law);

@@ -182,7 +182,7 @@ fn law_field(field: &str) -> &'static str {
 
 /// A comfort field's name inside v2's parameters (`comfort.<field>`).
 fn comfort_field(field: &str) -> &'static str {
-    crate::params::nested_field!("comfort", field, ["memory", "response_time", "clock_accel", "accel", "decel", "fade_speed"])
+    crate::params::nested_field!("comfort", field, ["memory", "response_time", "clock_accel", "accel", "decel", "fade_speed", "max_decel"])
 }
 
 /// The terms of one v2 step (for plots, logs and tests).
@@ -698,14 +698,17 @@ mod tests {
         assert!((t.approach_speed - (25.0 + (d - 1.0 - 40.5) / 6.0)).abs() < 1e-9, "{t:?}");
         assert_eq!(t.target_speed, t.approach_speed);
         assert!(t.gap_speed > t.approach_speed + 15.0);
-        assert!((out.accel - 2.0).abs() < 1e-12, "{out:?}");
+        assert!((t.a_law - 2.0).abs() < 1e-12, "{t:?}");
+        // (C2) limits the command to IDM's `a` before its first estimate (blended in at 27 m/s).
+        assert!((out.accel - c.params.comfort.accel).abs() < 1e-12, "{out:?}");
         // Closing at 33 m/s, beyond V_a: the law slows although the gap is still large.
         let out = c.step(Some(d - 3.0), 33.0);
         assert!(out.accel < 0.0, "{out:?}");
         // A frame that does not close shows no closing speed to limit: the gap policy alone.
         let out = c.step(Some(d - 3.0), 26.0);
         assert_eq!(c.terms().approach_speed, c.params.law.max_speed);
-        assert_eq!(out.accel, 2.0);
+        assert_eq!(c.terms().a_law, 2.0);
+        assert!(out.accel <= 2.0);
     }
 
     #[test]

@@ -545,7 +545,7 @@ fn stack_use_of_every_c_function_is_bounded() {
         ("flc_fallback_step", 1024),
         ("flc_robust_init", 1024),
         ("flc_robust_step", 1024),
-        ("flc_robust2_init", 1024),
+        ("flc_robust2_init", 2048),
         ("flc_robust2_step", 1024),
         ("flc_pid_init", 1024),
         ("flc_pid_step", 1024),

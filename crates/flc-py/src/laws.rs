@@ -46,7 +46,7 @@ macro_rules! impl_law {
 
 impl_law!(flc_core::FallbackController, flc_core::FlcParams, "FallbackController", flags ["braking_branch", "overridden"]);
 impl_law!(flc_core::RobustFallbackController, flc_core::RobustFlcParams, "RobustFallbackController", flags ["revealed", "latched"]);
-impl_law!(flc_core::RobustFallbackController2, flc_core::RobustFlc2Params, "RobustFallbackController2", flags ["held", "pending", "revealed", "latched"]);
+impl_law!(flc_core::RobustFallbackController2, flc_core::RobustFlc2Params, "RobustFallbackController2", flags ["held", "pending", "revealed", "latched", "comfort"]);
 impl_law!(flc_core::PidController, flc_core::PidParams, "PidController", flags []);
 
 /// The terms as serde writes [`Terms`] (name -> value, the law's order), flags as booleans.

@@ -104,6 +104,8 @@ pub struct FlcComfortParams {
     pub decel: f64,
     /// Own speed from which (C2) applies in full, m/s.
     pub fade_speed: f64,
+    /// Largest deceleration the comfort layer commands, m/s².
+    pub max_decel: f64,
 }
 
 /// Mirror of the Rust `RobustFlcTerms` (v1's terms of the last step).
@@ -209,7 +211,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
 pub const FLC_ROBUST_WORDS: usize = 29;
 
 /// Words (8 bytes each) of `FlcRobust2::storage`.
-pub const FLC_ROBUST2_WORDS: usize = 64;
+pub const FLC_ROBUST2_WORDS: usize = 57;
 
 /// Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
 #[repr(C)]
@@ -305,13 +307,13 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
 
 impl From<ComfortParams> for FlcComfortParams {
     fn from(p: ComfortParams) -> Self {
-        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed }
+        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed, max_decel: p.max_decel }
     }
 }
 
 impl From<FlcComfortParams> for ComfortParams {
     fn from(p: FlcComfortParams) -> Self {
-        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed }
+        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed, max_decel: p.max_decel }
     }
 }
 
