@@ -30,7 +30,7 @@
 /**
  * Words (8 bytes each) of `FlcRobust2::storage`.
  */
-#define FLC_ROBUST2_WORDS 57
+#define FLC_ROBUST2_WORDS 60
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.
@@ -722,6 +722,10 @@ typedef struct FlcComfortParams {
      * Own speed from which (C2) applies in full, m/s.
      */
     double fade_speed;
+    /**
+     * Largest deceleration the comfort layer commands, m/s².
+     */
+    double max_decel;
 } FlcComfortParams;
 
 /**

@@ -39,7 +39,7 @@
 //! there scales `ĉ` and so the comfort term, never v2's laws underneath it (the issue's
 //! impairments, 0.3 + 0.3 s of actuator delay and untold 6 m/s² brakes, are in the tests).
 
-use crate::flc_robust2::RobustFlc2Params;
+use crate::flc_robust::RobustFlcParams;
 use crate::params::{ParamError, check_positive};
 
 /// Parameters of the comfort layer (C1)-(C2), `[flc_robust.comfort]` in a scenario file.
@@ -102,36 +102,37 @@ impl ComfortParams {
     }
 
     /// (C2) IDM's braking strategy for the closing speed `c` at own speed `v` and distance `d`,
-    /// m/s² (<= 0): `-a [(g + c⁺ p)² - g²] / d²` with v2's desired gap `g = D_r(v)` (R1) and the
-    /// pace `p = min(v / (2 sqrt(a b)), H)` (`H` = v2's `approach_time_gap`; `d` floored at
-    /// [`MIN_DISTANCE`]).
+    /// m/s² (<= 0): `-a [(g + c⁺ p)² - g²] / d²` with v2's desired gap `g = D_r(v)` ((R1) of
+    /// `law`) and the pace `p = min(v / (2 sqrt(a b)), H)` (`H` = v2's `approach_time_gap`; `d`
+    /// floored at [`MIN_DISTANCE`]).
     ///
     /// ```
     /// use flc_core::{ComfortParams, RobustFlc2Params};
     ///
     /// let (p, base) = (ComfortParams::default(), RobustFlc2Params::default());
+    /// let (law, h) = (&base.law, base.approach_time_gap);
     /// // Not closing: nothing (steady following is v2's).
-    /// assert_eq!(p.closing_brake(&base, 20.0, 0.0, 33.0), 0.0);
+    /// assert_eq!(p.closing_brake(law, h, 20.0, 0.0, 33.0), 0.0);
     /// // Closing at 4 m/s at v2's desired gap g = 3 + 1.5 * 20 = 33 m: the pace is
     /// // min(20 / (2 sqrt(0.85 * 1.67)), 6) = min(8.39, 6) = 6 s, so
     /// // Δa = -0.85 ((33 + 4 * 6)² - 33²) / 33² = -1.69 m/s².
-    /// let a = p.closing_brake(&base, 20.0, 4.0, 33.0);
+    /// let a = p.closing_brake(law, h, 20.0, 4.0, 33.0);
     /// assert!((a + 1.686).abs() < 1e-3);
     /// ```
-    pub fn closing_brake(&self, base: &RobustFlc2Params, v: f64, c: f64, d: f64) -> f64 {
+    pub fn closing_brake(&self, law: &RobustFlcParams, approach_time_gap: f64, v: f64, c: f64, d: f64) -> f64 {
         let v = v.max(0.0);
-        let pace = (v / (2.0 * libm::sqrt(self.accel * self.decel))).min(base.approach_time_gap);
-        let gap = base.law.desired_gap(v);
+        let pace = (v / (2.0 * libm::sqrt(self.accel * self.decel))).min(approach_time_gap);
+        let gap = law.desired_gap(v);
         let desired = gap + c.max(0.0) * pace;
         let d = d.max(MIN_DISTANCE);
         -self.accel * (desired * desired - gap * gap) / (d * d)
     }
 
-    /// The command at own speed `v` from v2's law `a_law`, with the closing speed `c` and its
-    /// term `brake` = [`ComfortParams::closing_brake`] when there is an estimate (`None`: before
-    /// the first, limited to `accel`), m/s². Never above `a_law`.
-    pub fn compose(&self, base: &RobustFlc2Params, v: f64, a_law: f64, estimate: Option<(f64, f64)>) -> f64 {
-        let law = &base.law;
+    /// The command at own speed `v` from v2's laws' `a_law` (with `law`'s `accel_gain` and
+    /// `max_decel`), with the closing speed `c` and its term `brake` =
+    /// [`ComfortParams::closing_brake`] when there is an estimate (`None`: before the first,
+    /// limited to `accel`), m/s². Never above `a_law`.
+    pub fn compose(&self, law: &RobustFlcParams, v: f64, a_law: f64, estimate: Option<(f64, f64)>) -> f64 {
         let full = match estimate {
             // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach
             // at v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes
@@ -141,7 +142,11 @@ impl ComfortParams {
         }
         .min(a_law);
         let share = (v / self.fade_speed).clamp(0.0, 1.0);
-        a_law + share * share * (full - a_law)
+        let a = a_law + share * share * (full - a_law);
+        // The clock is the law's own motion: the term never parks the command in the clock's dead
+        // band against the law (it would hold a stale estimate forever); there it brakes at
+        // `clock_accel`.
+        if a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel { -self.clock_accel } else { a }
     }
 }
 
@@ -164,6 +169,8 @@ pub(crate) struct ClosingEstimate {
     response: f64,
     /// The acceleration commanded on the last frame, m/s².
     command: f64,
+    /// The distance of the last frame that had a clock (`None` after [`ClosingEstimate::forget`]), m.
+    clocked: Option<f64>,
 }
 
 impl ClosingEstimate {
@@ -171,6 +178,7 @@ impl ClosingEstimate {
     pub(crate) fn forget(&mut self) {
         self.sum_d = 0.0;
         self.sum_t = 0.0;
+        self.clocked = None;
     }
 
     /// The next frame is not compared with the last one.
@@ -189,8 +197,11 @@ impl ClosingEstimate {
         self.sum_t = keep * self.sum_t + dt;
     }
 
-    /// An accepted frame at `(d, v)`, timed by the law's own motion: `Δτ = Δv / â`.
-    pub(crate) fn observe_motion(&mut self, d: f64, v: f64, p: &ComfortParams) {
+    /// An accepted frame at `(d, v)`, timed by the law's own motion: `Δτ = Δv / â`. Without a
+    /// clock the estimate holds until the distance contradicts it: once it has moved more than
+    /// `noise` against the estimate's sign since the last frame with a clock (opened while it
+    /// says closing, or closed while it says opening), it is forgotten.
+    pub(crate) fn observe_motion(&mut self, d: f64, v: f64, noise: f64, p: &ComfortParams) {
         if let Some((d1, v1, _)) = self.anchor {
             let (dv, a) = (v - v1, self.response);
             let dt = (libm::fabs(a) >= p.clock_accel && dv * a > 0.0).then(|| dv / a);
@@ -200,8 +211,13 @@ impl ClosingEstimate {
                 Some(dt) => self.command + (a - self.command) * libm::exp(-dt / p.response_time),
                 None => self.command,
             };
-            if let Some(dt) = dt {
-                self.add(d - d1, dt, p);
+            match (dt, self.clocked, self.closing(p)) {
+                (Some(dt), ..) => {
+                    self.add(d - d1, dt, p);
+                    self.clocked = Some(d);
+                }
+                (None, Some(dc), Some(c)) if (c > 0.0 && d > dc + noise) || (c < 0.0 && d < dc - noise) => self.forget(),
+                _ => {}
             }
         }
         self.anchor = Some((d, v, None));
@@ -224,5 +240,76 @@ impl ClosingEstimate {
     /// `ĉ = -Σ Δd / Σ Δτ` once the sums cover half the memory, m/s.
     pub(crate) fn closing(&self, p: &ComfortParams) -> Option<f64> {
         (self.sum_t >= 0.5 * p.memory).then(|| -self.sum_d / self.sum_t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{RobustFallbackController2, Status};
+    use proptest::prelude::*;
+
+    /// Frames at irregular, unknown times of a follower accelerating exactly as commanded (`a`)
+    /// while the gap closes at `c`: the estimate is `c` whatever the frame times.
+    fn estimate_at(a: f64, c: f64, times: &[f64]) -> Option<f64> {
+        let p = ComfortParams::default();
+        let mut e = ClosingEstimate::default();
+        e.commanded(a);
+        // Settled: the first frame's comparison has no clock and takes the response as the command.
+        e.response = a;
+        for &t in times {
+            e.observe_motion(60.0 - c * t, 20.0 + a * t, 0.1, &p);
+            e.commanded(a);
+        }
+        e.closing(&p)
+    }
+
+    #[test]
+    fn the_motion_clock_reads_the_closing_speed_at_any_frame_times() {
+        let regular: std::vec::Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        // 10-40 Hz with jitter: the frame times never enter the law.
+        let irregular: std::vec::Vec<f64> = (0..40).map(|k| 0.05 * k as f64 + 0.015 * ((k * 7 % 5) as f64 - 2.0)).collect();
+        for times in [&regular, &irregular] {
+            let c = estimate_at(1.0, 3.0, times).unwrap();
+            assert!((c - 3.0).abs() < 1e-9, "{c}");
+            let c = estimate_at(-2.0, 5.0, times).unwrap();
+            assert!((c - 5.0).abs() < 1e-9, "{c}");
+        }
+        // Near zero acceleration there is no clock: no estimate.
+        assert_eq!(estimate_at(0.1, 3.0, &regular), None);
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_field() {
+        let mut p = crate::RobustFlc2Params::default();
+        p.comfort.response_time = 0.0;
+        assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "comfort.response_time");
+        p.comfort = ComfortParams { max_decel: f64::NAN, ..ComfortParams::default() };
+        assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "comfort.max_decel");
+    }
+
+    fn input() -> impl Strategy<Value = (Option<f64>, f64)> {
+        let d = prop_oneof![8 => (0.0..150.0f64).prop_map(Some), 1 => Just(None), 1 => proptest::num::f64::ANY.prop_map(Some)];
+        let v = prop_oneof![9 => 0.0..40.0f64, 1 => proptest::num::f64::ANY];
+        (d, v)
+    }
+
+    proptest! {
+        /// Whatever the inputs, v2's command is finite and never above its laws' (the comfort
+        /// layer only brakes, and never harder than `max(law.max_decel, comfort.max_decel)`
+        /// beyond them).
+        #[test]
+        fn the_comfort_layer_never_exceeds_the_laws(seq in proptest::collection::vec(input(), 1..120)) {
+            let mut c = RobustFallbackController2::new(crate::RobustFlc2Params::default()).unwrap();
+            for (d, v) in seq {
+                let out = c.step(d, v);
+                let t = *c.terms();
+                prop_assert!(out.accel.is_finite() && out.speed.is_finite());
+                if out.status == Status::Ok {
+                    prop_assert!(out.accel <= t.a_law, "{out:?} {t:?}");
+                    prop_assert!(out.accel >= t.a_law.min(-c.params().comfort.max_decel) - 1e-9, "{out:?} {t:?}");
+                }
+            }
+        }
     }
 }

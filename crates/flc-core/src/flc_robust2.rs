@@ -303,7 +303,7 @@ impl RobustFallbackController2 {
             }
             match wheels {
                 Some((s, min_speed)) => self.estimate.observe_wheels(t.distance, own_speed, s, min_speed, &c),
-                None => self.estimate.observe_motion(t.distance, own_speed, &c),
+                None => self.estimate.observe_motion(t.distance, own_speed, self.params.release_closing, &c),
             }
         } else {
             self.estimate.interrupt();
@@ -311,8 +311,9 @@ impl RobustFallbackController2 {
                 self.estimate.forget();
             }
         }
-        let estimate = if usable { self.estimate.closing(&c).map(|k| (k, c.closing_brake(&self.params, own_speed, k, t.distance))) } else { None };
-        let a = if usable { c.compose(&self.params, own_speed, t.a, estimate) } else { t.a };
+        let (law, h) = (&self.params.law, self.params.approach_time_gap);
+        let estimate = if usable { self.estimate.closing(&c).map(|k| (k, c.closing_brake(law, h, own_speed, k, t.distance))) } else { None };
+        let a = if usable { c.compose(law, own_speed, t.a, estimate) } else { t.a };
         self.estimate.commanded(a);
         t.a_law = t.a;
         (t.closing, t.closing_brake) = estimate.unwrap_or((0.0, 0.0));

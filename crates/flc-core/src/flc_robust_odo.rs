@@ -107,13 +107,14 @@ impl OdometryFallbackController {
 ///     LongitudinalController::step(&mut c, &Frame { travelled: Some(s), ..Frame::new(Some(d), v, 0.05) });
 ///     (d, s) = (d - 0.2, s + 1.0);
 /// }
-/// // (C1) ĉ -> 20 * 0.2 / 1 = 4 m/s (3.98: the memory, 1 s, still weighs the first two
-/// // frames). v2's laws still approach (v_0 is 20 m/s: a_law = +0.33); (C2) at 34.2 m,
-/// // Δa = -0.85 ((33 + 3.98 * 6)² - 33²) / 34.2² = -1.57 m/s², so the command is
-/// // 0.33 - 1.57 = -1.24 m/s².
+/// // (C1) ĉ -> 20 * 0.2 / 1 = 4 m/s (3.89: the memory, 1 s, still weighs the frames that did
+/// // not close). v2's laws still approach (v_0 is 20 m/s: a_law = +0.20); (C2) at 34.2 m,
+/// // Δa = -0.85 ((33 + 3.89 * 6)² - 33²) / 34.2² = -1.52 m/s², so the command is
+/// // 0.20 - 1.52 = -1.32 m/s².
 /// let t = *c.terms();
-/// assert!(t.comfort && (t.closing - 3.98).abs() < 0.01, "{t:?}");
-/// assert!((t.a - t.a_law - t.closing_brake).abs() < 1e-9 && t.a < -1.0, "{t:?}");
+/// assert!(t.comfort && (t.closing - 3.889).abs() < 1e-3, "{t:?}");
+/// assert!((t.a_law - 0.200).abs() < 1e-3 && (t.closing_brake + 1.515).abs() < 1e-3, "{t:?}");
+/// assert!((t.a + 1.315).abs() < 1e-3, "{t:?}");
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
 impl LongitudinalController for OdometryFallbackController {

@@ -388,13 +388,19 @@ mod tests {
             }
         }
 
-        /// Time independence proven: the FLC and the robust FLC give the same outputs whatever
-        /// `dt` and V2V the frames carry.
+        /// Time independence proven: the FLC, the robust FLC v1 and v2 (its comfort layer
+        /// included) and v2's odometry variant give the same outputs whatever `dt` and V2V the
+        /// frames carry.
         #[test]
         fn flc_family_ignores_dt_and_v2v(seq in proptest::collection::vec((input(), proptest::num::f64::ANY, proptest::option::of((proptest::num::f64::ANY, any::<u32>()))), 1..60)) {
             let mut flc = (FallbackController::new(FlcParams::paper()).unwrap(), FallbackController::new(FlcParams::paper()).unwrap());
             let mut rob = (RobustFallbackController::new(RobustFlcParams::default()).unwrap(), RobustFallbackController::new(RobustFlcParams::default()).unwrap());
-            prop_assert!(!flc.0.uses_dt() && !rob.0.uses_dt());
+            let v2 = || crate::RobustFallbackController2::new(crate::RobustFlc2Params::default()).unwrap();
+            let mut rob2 = (v2(), v2());
+            let odo = || crate::OdometryFallbackController::new(crate::RobustFlc2Params::default(), crate::OdometryFlcParams::default()).unwrap();
+            let mut odo = (odo(), odo());
+            prop_assert!(!flc.0.uses_dt() && !rob.0.uses_dt() && !rob2.0.uses_dt() && !odo.0.uses_dt());
+            let mut odometer = 0.0;
             for (i, other_dt, other_v2v) in seq {
                 let f = frame(i);
                 let g = Frame { dt: other_dt, v2v: other_v2v.map(|(lead_speed, seq)| crate::V2vMessage::speed_only(lead_speed, seq)), ..f };
@@ -404,6 +410,16 @@ mod tests {
                 let (a, b) = (LongitudinalController::step(&mut rob.0, &f), LongitudinalController::step(&mut rob.1, &g));
                 prop_assert!(same(a.command, b.command));
                 prop_assert_eq!(a.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>(), b.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>());
+                // v2 and its odometry variant (the variant reads the odometer, the same in both).
+                odometer += f.own_speed.abs().min(50.0) * 0.05;
+                let (f, g) = (Frame { travelled: Some(odometer), ..f }, Frame { travelled: Some(odometer), ..g });
+                for (a, b) in [
+                    (LongitudinalController::step(&mut rob2.0, &f), LongitudinalController::step(&mut rob2.1, &g)),
+                    (LongitudinalController::step(&mut odo.0, &f), LongitudinalController::step(&mut odo.1, &g)),
+                ] {
+                    prop_assert!(same(a.command, b.command));
+                    prop_assert_eq!(a.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>(), b.terms.values().iter().map(|v| v.to_bits()).collect::<std::vec::Vec<_>>());
+                }
             }
         }
 
