@@ -22,7 +22,7 @@ use std::mem::MaybeUninit;
 struct Input {
     law: [Param; 8],
     rules: [Param; 7],
-    comfort: [Param; 6],
+    comfort: [Param; 7],
     min_speed: Param,
     unknown_first: bool,
     travelled: Vec<Option<Num>>,
@@ -65,7 +65,7 @@ fuzz_target!(|inp: Input| {
     let d2 = RobustFlc2Params::documented();
     let [sight_distance, sight_decel, release_speed, release_closing, approach_time_gap, firm_error, firm_gain] = inp.rules;
     let dc = ComfortParams::documented();
-    let [memory, response_time, clock_accel, accel, decel, fade_speed] = inp.comfort;
+    let [memory, response_time, clock_accel, accel, decel, fade_speed, max_decel] = inp.comfort;
     let comfort = ComfortParams {
         memory: memory.get(dc.memory, -1.0, 110.0),
         response_time: response_time.get(dc.response_time, -1.0, 110.0),
@@ -73,6 +73,7 @@ fuzz_target!(|inp: Input| {
         accel: accel.get(dc.accel, -1.0, 25.0),
         decel: decel.get(dc.decel, -1.0, 25.0),
         fade_speed: fade_speed.get(dc.fade_speed, -1.0, 110.0),
+        max_decel: max_decel.get(dc.max_decel, -1.0, 60.0),
     };
     let p2 = RobustFlc2Params {
         law,

@@ -17,8 +17,10 @@
 //!   `Δτ = Δv / â`, when `|â| >= clock_accel` and `Δv` has the sign of `â`; frames without that
 //!   clock (the acceleration near zero) add nothing and the estimate holds. The closing speed is
 //!   `ĉ = -Σ Δd / Σ Δτ` over sums discounted with the memory `memory`, once they cover half of
-//!   it. No timestamp and no `dt`: `Δτ` is a ratio of the law's own inputs and outputs.
-//!   With the wheel odometry (the variant) `Δτ = Δs / v̄` instead.
+//!   it. No timestamp and no `dt`: `Δτ` is a ratio of the law's own inputs and outputs. A held
+//!   estimate is forgotten when the distance contradicts it (it opened by more than v2's
+//!   `release_closing` since the last frame with a clock while the estimate says closing, or the
+//!   reverse). With the wheel odometry (the variant) `Δτ = Δs / v̄` instead.
 //! - **(C2) IDM's braking strategy.** IDM (Treiber et al. 2000) brakes for a closing speed by
 //!   lengthening its desired gap by `v ĉ / (2 sqrt(a b))`. On v2's gap policy the part of IDM's
 //!   interaction this lengthening causes is
@@ -31,8 +33,11 @@
 //!   lead that may be braking), and to `-max_decel` (5 m/s²: harder braking is v2's laws'
 //!   own); before the first estimate it is limited
 //!   to `accel`. Below `fade_speed` it blends into `a_law` with the weight `(v / fade_speed)²`
-//!   (v2's own stops are comfortable). It never exceeds `a_law` ([`ComfortParams::compose`]):
-//!   every bound of v2's laws (stop envelope, reveals,
+//!   (v2's own stops are comfortable). Where a braking term would hold the command inside the
+//!   clock's dead band (`|a| < clock_accel`) against a law that accelerates, it brakes at
+//!   `clock_accel`: a law that reads time from its motion must keep moving to read it (without
+//!   this a stale estimate cancelled the law for good, 1.1 m behind the desired gap). It never
+//!   exceeds `a_law` ([`ComfortParams::compose`]): every bound of v2's laws (stop envelope, reveals,
 //!   missed frames) holds unchanged.
 //!
 //! The clock trusts the vehicle only to realize its command within `response_time`; an error
@@ -48,11 +53,13 @@ use crate::params::{ParamError, check_positive};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ComfortParams {
     /// (C1) memory of the closing-speed estimate, s of the estimate's own time `Δτ`. Default 1.0
-    /// (0.5-1.5 meet the comfort target of CCRb 40 m / -2 m/s²; 0.3 does not: `docs/robust-flc.md`).
+    /// (0.3-1.5 meet the comfort target of CCRb 40 m / -2 m/s², 2 and 3 do not:
+    /// `docs/robust-flc.md`, "How firm").
     pub memory: f64,
     /// (C1) time constant of the modelled response of the vehicle to the commanded acceleration,
-    /// s. Default 0.45 (the default vehicle's 0.1 s dead time and 0.2 s lag behind the speed loop;
-    /// `docs/sim-model.md`).
+    /// s. Default 0.45 (the default vehicle's 0.1 s dead time and 0.2 s lag behind the speed loop,
+    /// `docs/sim-model.md`; CCRb 40 m / -2 m/s² meets the comfort target with 0.2-0.6, on the
+    /// limit with 0.1 and 1.0).
     pub response_time: f64,
     /// (C1) smallest modelled acceleration that counts as a clock, m/s². Default 0.3 (near zero
     /// acceleration `Δv / â` tells no time: an error of 0.1 m/s² in the realized acceleration
@@ -145,8 +152,13 @@ impl ComfortParams {
         let a = a_law + share * share * (full - a_law);
         // The clock is the law's own motion: the term never parks the command in the clock's dead
         // band against the law (it would hold a stale estimate forever); there it brakes at
-        // `clock_accel`.
-        if a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel { -self.clock_accel } else { a }
+        // `clock_accel` (within the decelerations allowed above).
+        let braking = estimate.is_some_and(|(_, brake)| brake < 0.0);
+        if braking && a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel {
+            -self.clock_accel.min(law.max_decel).min(self.max_decel)
+        } else {
+            a
+        }
     }
 }
 
@@ -286,6 +298,22 @@ mod tests {
         assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "comfort.response_time");
         p.comfort = ComfortParams { max_decel: f64::NAN, ..ComfortParams::default() };
         assert_eq!(RobustFallbackController2::new(p).unwrap_err().field, "comfort.max_decel");
+    }
+
+    #[test]
+    fn the_dead_band_rule_brakes_only_for_an_estimate_and_within_the_limits() {
+        let law = crate::RobustFlcParams::default();
+        // Found by the `robust` fuzz target: with IDM's `a` below `clock_accel` and no estimate
+        // the rule braked at `clock_accel` while the law accelerated.
+        let p = ComfortParams { accel: 0.1, ..ComfortParams::default() };
+        assert!((p.compose(&law, 20.0, 2.0, None) - 0.1).abs() < 1e-12);
+        // With a braking estimate it brakes at `clock_accel`, never beyond the laws' limit.
+        let p = ComfortParams::default();
+        assert_eq!(p.compose(&law, 20.0, 0.5, Some((1.0, -0.6))), -0.3);
+        let weak = crate::RobustFlcParams { max_decel: 0.2, ..law };
+        assert_eq!(p.compose(&weak, 20.0, 0.5, Some((1.0, -0.6))), -0.2);
+        // Outside the dead band the composition stands: 0.5 - 1.5 = -1.0.
+        assert!((p.compose(&law, 20.0, 0.5, Some((1.0, -1.5))) + 1.0).abs() < 1e-12);
     }
 
     fn input() -> impl Strategy<Value = (Option<f64>, f64)> {

@@ -42,11 +42,12 @@ macro_rules! for_each_controller {
             /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
             CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, truth false, starts Flc;
             /// Beyond the paper: the robust FLC v2 (LiDAR distance + own speed, rate invariant, no
-            /// braking for missed or spurious frames; `[flc_robust]`, `docs/robust-flc.md`).
+            /// braking for missed or spurious frames, a comfort layer timed by its own motion;
+            /// `[flc_robust]`, `docs/robust-flc.md`).
             FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
-            /// Beyond the paper: v2 with wheel odometry (issue 24's separately named variant: a
-            /// clock-free closing speed per metre driven and an IDM comfort term under v2's
-            /// command; base parameters `[flc_robust]`, its own `[flc_robust_odo]`).
+            /// Beyond the paper: v2 with wheel odometry (issue 24's separately named variant: v2
+            /// with the closing speed per metre driven as its comfort layer's clock; v2's
+            /// parameters `[flc_robust]`, its own `[flc_robust_odo]`).
             FlcRobustOdo = "flc-robust-odo", flc_robust_odo: flc_core::OdometryFlcParams, build |c| flc_core::OdometryFallbackController::new(c.flc_robust, c.flc_robust_odo), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
             /// The robust FLC v1, kept for comparison (`[flc_robust_v1]`, `docs/robust-flc.md`).
             FlcRobustV1 = "flc-robust-v1", flc_robust_v1: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust_v1), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
