@@ -379,8 +379,9 @@ fn v2_comfort_in_the_standard_cases() {
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn comfort_band() {
-    type Set = fn(&mut flc_core::ComfortParams, f64);
-    let axes: [(&str, Set, &[(f64, bool)]); 3] = [
+    /// A constant's key, how to set it, and its values with whether each is inside the stated band.
+    type Axis = (&'static str, fn(&mut flc_core::ComfortParams, f64), &'static [(f64, bool)]);
+    let axes: [Axis; 3] = [
         ("comfort.memory", |c, x| c.memory = x, &[(0.3, true), (0.5, true), (0.75, true), (1.0, true), (1.5, false), (2.0, false), (3.0, false)]),
         ("comfort.response_time", |c, x| c.response_time = x, &[(0.1, false), (0.2, true), (0.3, true), (0.45, true), (0.6, true), (1.0, false), (2.0, false)]),
         ("comfort.accel", |c, x| c.accel = x, &[(0.5, false), (0.6, false), (0.75, true), (0.85, true), (1.0, true), (1.25, true), (1.5, false), (2.0, false)]),
