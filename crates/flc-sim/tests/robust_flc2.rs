@@ -455,3 +455,35 @@ fn under_the_four_impairments_at_once() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// Beyond the list: each pair of the impairments, and brakes limited to 4 m/s²
+/// (a wet road, not told): both laws end in contact only where braking fully from the first
+/// detection does too (R157 cut-ins first seen too close for the detector and the actuator).
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
+fn under_each_pair_of_impairments_and_4_m_s2_brakes() {
+    let imps = impairments();
+    let mut combos: Vec<(String, Patch)> = Vec::new();
+    for (i, (a, pa)) in imps.iter().enumerate().skip(1) {
+        for (b, pb) in imps.iter().skip(i + 1) {
+            let mut p = Patch::new();
+            for (k, v) in pa.entries().into_iter().chain(pb.entries()) {
+                p.set(k, v.clone());
+            }
+            combos.push((format!("{a} + {b}"), p));
+        }
+    }
+    let mut wet = Patch::new();
+    wet.set("follower.vehicle.max_brake", toml::Value::Float(4.0));
+    combos.push(("brakes 4 m/s²".into(), wet));
+    assert_eq!(combos.len(), 4);
+    let mut bad = Vec::new();
+    for (name, patch) in &combos {
+        for law in LAWS {
+            let (n, contacts, bound) = failures(law, patch);
+            println!("{name}, {}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}", law.as_str(), contacts.len());
+            bad.extend(contacts.into_iter().map(|c| format!("{name}, {}: {c}", law.as_str())));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
