@@ -467,7 +467,7 @@ fn under_each_pair_of_impairments_and_4_m_s2_brakes() {
     for (i, (a, pa)) in imps.iter().enumerate().skip(1) {
         for (b, pb) in imps.iter().skip(i + 1) {
             let mut p = Patch::new();
-            for (k, v) in pa.entries().into_iter().chain(pb.entries()) {
+            for (k, v) in pa.entries().chain(pb.entries()) {
                 p.set(k, v.clone());
             }
             combos.push((format!("{a} + {b}"), p));
