@@ -87,7 +87,7 @@ class RobustFallbackController2(_DistanceLaw):
     merged into v2's defaults), ``sight_distance``, ``sight_decel``, ``release_speed``,
     ``release_closing``, ``approach_time_gap``, ``firm_error``, ``firm_gain``, ``comfort`` (a
     dict of the comfort layer's fields: ``memory``, ``response_time``, ``clock_accel``,
-    ``accel``, ``decel``, ``fade_speed``).
+    ``accel``, ``decel``, ``fade_speed``, ``max_decel``).
     ``terms()``: distance, gap_speed, envelope_speed, approach_speed, target_speed, held,
     pending, revealed, latched, a_law, closing, closing_brake, comfort, a; flags ``held``,
     ``pending``, ``revealed``, ``latched``, ``comfort``.

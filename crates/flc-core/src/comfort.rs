@@ -33,10 +33,11 @@
 //!   lead that may be braking), and to `-max_decel` (5 m/s²: harder braking is v2's laws'
 //!   own); before the first estimate it is limited
 //!   to `accel`. Below `fade_speed` it blends into `a_law` with the weight `(v / fade_speed)²`
-//!   (v2's own stops are comfortable). Where a braking term would hold the command inside the
-//!   clock's dead band (`|a| < clock_accel`) against a law that accelerates, it brakes at
-//!   `clock_accel`: a law that reads time from its motion must keep moving to read it (without
-//!   this a stale estimate cancelled the law for good, 1.1 m behind the desired gap). It never
+//!   (v2's own stops are comfortable). With the motion clock, where a braking term would hold
+//!   the command inside the clock's dead band (`|a| < clock_accel`) against a law that
+//!   accelerates, it brakes at `clock_accel`: a law that reads time from its motion must keep
+//!   moving to read it (without this a stale estimate cancelled the law for good, 1.1 m behind
+//!   the desired gap). The wheels' clock needs no such rule. It never
 //!   exceeds `a_law` ([`ComfortParams::compose`]): every bound of v2's laws (stop envelope, reveals,
 //!   missed frames) holds unchanged.
 //!
@@ -138,27 +139,24 @@ impl ComfortParams {
     /// The command at own speed `v` from v2's laws' `a_law` (with `law`'s `accel_gain` and
     /// `max_decel`), with the closing speed `c` and its term `brake` =
     /// [`ComfortParams::closing_brake`] when there is an estimate (`None`: before the first,
-    /// limited to `accel`), m/s². Never above `a_law`.
-    pub fn compose(&self, law: &RobustFlcParams, v: f64, a_law: f64, estimate: Option<(f64, f64)>) -> f64 {
+    /// limited to `accel`), m/s². Never above `a_law`. With `motion_clock` (v2: the estimate is
+    /// timed by the law's own motion) a braking term never parks the command in the clock's dead
+    /// band against a law that accelerates (it would hold a stale estimate forever); there it
+    /// brakes at `clock_accel`. The wheels' clock (the odometry variant) has no dead band.
+    pub fn compose(&self, law: &RobustFlcParams, v: f64, a_law: f64, estimate: Option<(f64, f64)>, motion_clock: bool) -> f64 {
+        let floor = -law.max_decel.min(self.max_decel);
         let full = match estimate {
             // IDM's acceleration limit `a`, raised by v2's gain on an opening speed: no approach
             // at v2's 2 m/s² toward a lead that may be braking, and no step where `ĉ` changes
             // sign.
-            Some((c, brake)) => (a_law + brake).min(self.accel + law.accel_gain * (-c).max(0.0)).max(-law.max_decel.min(self.max_decel)),
+            Some((c, brake)) => (a_law + brake).min(self.accel + law.accel_gain * (-c).max(0.0)).max(floor),
             None => a_law.min(self.accel),
         }
         .min(a_law);
         let share = (v / self.fade_speed).clamp(0.0, 1.0);
         let a = a_law + share * share * (full - a_law);
-        // The clock is the law's own motion: the term never parks the command in the clock's dead
-        // band against the law (it would hold a stale estimate forever); there it brakes at
-        // `clock_accel` (within the decelerations allowed above).
         let braking = estimate.is_some_and(|(_, brake)| brake < 0.0);
-        if braking && a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel {
-            -self.clock_accel.min(law.max_decel).min(self.max_decel)
-        } else {
-            a
-        }
+        if motion_clock && braking && a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel { (-self.clock_accel).max(floor) } else { a }
     }
 }
 
@@ -301,19 +299,21 @@ mod tests {
     }
 
     #[test]
-    fn the_dead_band_rule_brakes_only_for_an_estimate_and_within_the_limits() {
+    fn the_dead_band_rule_brakes_only_for_an_estimate_of_the_motion_clock_and_within_the_limits() {
         let law = crate::RobustFlcParams::default();
         // Found by the `robust` fuzz target: with IDM's `a` below `clock_accel` and no estimate
         // the rule braked at `clock_accel` while the law accelerated.
         let p = ComfortParams { accel: 0.1, ..ComfortParams::default() };
-        assert!((p.compose(&law, 20.0, 2.0, None) - 0.1).abs() < 1e-12);
+        assert!((p.compose(&law, 20.0, 2.0, None, true) - 0.1).abs() < 1e-12);
         // With a braking estimate it brakes at `clock_accel`, never beyond the laws' limit.
         let p = ComfortParams::default();
-        assert_eq!(p.compose(&law, 20.0, 0.5, Some((1.0, -0.6))), -0.3);
+        assert_eq!(p.compose(&law, 20.0, 0.5, Some((1.0, -0.6)), true), -0.3);
+        // The wheels' clock has no dead band: the composition stands, 0.5 - 0.6 = -0.1.
+        assert!((p.compose(&law, 20.0, 0.5, Some((1.0, -0.6)), false) + 0.1).abs() < 1e-12);
         let weak = crate::RobustFlcParams { max_decel: 0.2, ..law };
-        assert_eq!(p.compose(&weak, 20.0, 0.5, Some((1.0, -0.6))), -0.2);
+        assert_eq!(p.compose(&weak, 20.0, 0.5, Some((1.0, -0.6)), true), -0.2);
         // Outside the dead band the composition stands: 0.5 - 1.5 = -1.0.
-        assert!((p.compose(&law, 20.0, 0.5, Some((1.0, -1.5))) + 1.0).abs() < 1e-12);
+        assert!((p.compose(&law, 20.0, 0.5, Some((1.0, -1.5)), true) + 1.0).abs() < 1e-12);
     }
 
     fn input() -> impl Strategy<Value = (Option<f64>, f64)> {

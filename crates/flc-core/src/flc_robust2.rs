@@ -296,8 +296,7 @@ impl RobustFallbackController2 {
         let c = self.params.comfort;
         // v2's acceptance decides what the estimate may compare: a held frame interrupts (and a
         // pending jump may be another object), a reveal starts over.
-        let usable = !t.held && out.status == Status::Ok;
-        if usable {
+        let (estimate, a) = if !t.held && out.status == Status::Ok {
             if t.revealed {
                 self.estimate = ClosingEstimate::default();
             }
@@ -305,15 +304,16 @@ impl RobustFallbackController2 {
                 Some((s, min_speed)) => self.estimate.observe_wheels(t.distance, own_speed, s, min_speed, &c),
                 None => self.estimate.observe_motion(t.distance, own_speed, self.params.release_closing, &c),
             }
+            let (law, h) = (&self.params.law, self.params.approach_time_gap);
+            let estimate = self.estimate.closing(&c).map(|k| (k, c.closing_brake(law, h, own_speed, k, t.distance)));
+            (estimate, c.compose(law, own_speed, t.a, estimate, wheels.is_none()))
         } else {
             self.estimate.interrupt();
             if t.pending {
                 self.estimate.forget();
             }
-        }
-        let (law, h) = (&self.params.law, self.params.approach_time_gap);
-        let estimate = if usable { self.estimate.closing(&c).map(|k| (k, c.closing_brake(law, h, own_speed, k, t.distance))) } else { None };
-        let a = if usable { c.compose(law, own_speed, t.a, estimate) } else { t.a };
+            (None, t.a)
+        };
         self.estimate.commanded(a);
         t.a_law = t.a;
         (t.closing, t.closing_brake) = estimate.unwrap_or((0.0, 0.0));

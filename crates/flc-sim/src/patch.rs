@@ -61,6 +61,12 @@ impl Patch {
         self
     }
 
+    /// Adds `other`'s entries after these (applied after them: a combination of patches).
+    pub fn append(&mut self, other: &Patch) -> &mut Self {
+        self.entries.extend(other.entries.iter().cloned());
+        self
+    }
+
     /// `key = value` with a JSON value (sweep axes, Python). JSON `null` is an error naming the key.
     pub fn set_json(&mut self, key: impl Into<String>, value: &serde_json::Value) -> Result<&mut Self, ConfigError> {
         let key = key.into();
@@ -185,6 +191,19 @@ pub(crate) fn entry_path(root: &toml::Value, path: &str, msg: &str) -> Option<St
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_appended_patch_applies_after_the_first() {
+        let mut a = Patch::new();
+        a.set("x", toml::Value::Integer(1)).set("y", toml::Value::Integer(2));
+        let mut b = Patch::new();
+        b.set("y", toml::Value::Integer(3));
+        a.append(&b);
+        assert_eq!(a.keys().collect::<Vec<_>>(), ["x", "y", "y"]);
+        let mut root = toml::Value::Table(toml::Table::new());
+        a.apply_value(&mut root).unwrap();
+        assert_eq!((root["x"].as_integer(), root["y"].as_integer()), (Some(1), Some(3)));
+    }
 
     #[test]
     fn errors_inside_tagged_tables_name_the_entry() {

@@ -382,7 +382,7 @@ fn comfort_band() {
     /// A constant's key, how to set it, and its values with whether each is inside the stated band.
     type Axis = (&'static str, fn(&mut flc_core::ComfortParams, f64), &'static [(f64, bool)]);
     let axes: [Axis; 3] = [
-        ("comfort.memory", |c, x| c.memory = x, &[(0.3, true), (0.5, true), (0.75, true), (1.0, true), (1.5, false), (2.0, false), (3.0, false)]),
+        ("comfort.memory", |c, x| c.memory = x, &[(0.3, true), (0.5, true), (0.75, true), (1.0, true), (1.5, true), (2.0, false), (3.0, false)]),
         ("comfort.response_time", |c, x| c.response_time = x, &[(0.1, false), (0.2, true), (0.3, true), (0.45, true), (0.6, true), (1.0, false), (2.0, false)]),
         ("comfort.accel", |c, x| c.accel = x, &[(0.5, false), (0.6, false), (0.75, true), (0.85, true), (1.0, true), (1.25, true), (1.5, false), (2.0, false)]),
     ];
@@ -443,9 +443,7 @@ fn odo_with_an_odometry_scale_error() {
 fn under_the_four_impairments_at_once() {
     let mut all = Patch::new();
     for (_, p) in impairments() {
-        for (k, v) in p.entries() {
-            all.set(k, v.clone());
-        }
+        all.append(&p);
     }
     let mut bad = Vec::new();
     for law in LAWS {
@@ -466,11 +464,7 @@ fn under_each_pair_of_impairments_and_4_m_s2_brakes() {
     let mut combos: Vec<(String, Patch)> = Vec::new();
     for (i, (a, pa)) in imps.iter().enumerate().skip(1) {
         for (b, pb) in imps.iter().skip(i + 1) {
-            let mut p = Patch::new();
-            for (k, v) in pa.entries().chain(pb.entries()) {
-                p.set(k, v.clone());
-            }
-            combos.push((format!("{a} + {b}"), p));
+            combos.push((format!("{a} + {b}"), Patch::new().append(pa).append(pb).clone()));
         }
     }
     let mut wet = Patch::new();
