@@ -1,7 +1,7 @@
 """``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``,
 ``python -m flc reproduction --out DIR``,
 ``python -m flc sumo-tables --out DIR`` (every SUMO result the documents state, ``DIR/sumo-tables.json``; :mod:`flc.sumo`),
-``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``,
+``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series] [--restart]``,
 ``python -m flc docs [--check] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
 (the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs).
 
@@ -76,6 +76,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sw.add_argument("--chunk-size", type=int, default=None, help="runs per task (default: automatic, flc.sweep_file)")
     sw.add_argument("--threads", type=int, default=None, help="local threads without --dask (default: all cores); results do not depend on it")
     sw.add_argument("--series", action="store_true", help="also write every run's series as <out stem>-series/<run_id>.parquet")
+    sw.add_argument(
+        "--restart",
+        action="store_true",
+        help="start the output over; without it an output whose rows ran other inputs (changed sweep file, scenario or flc version) is refused",
+    )
     dc = sub.add_parser(
         "docs",
         help="rewrite (or with --check, compare) the generated blocks of README.md and docs/*.md; `docs show NAME [ARG ...]` prints one block (docs/README.md)",
@@ -168,7 +173,7 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             import distributed
 
             client = distributed.Client(args.dask)
-        s = sweep_file(args.file, executor=client, out=args.out, chunk_size=args.chunk_size, series=args.series, threads=args.threads)
+        s = sweep_file(args.file, executor=client, out=args.out, chunk_size=args.chunk_size, series=args.series, threads=args.threads, restart=args.restart)
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -108,6 +108,7 @@ def sweep_file(
     threads: Optional[int] = None,
     partition_rows: int = 1000,
     progress: Optional[Callable[[int, int], None]] = None,
+    restart: bool = False,
 ) -> SweepSummary:
     """Runs a sweep file (TOML, ``docs/safety-envelope.md``) or an OpenSCENARIO distribution
     (``.xosc``) with the Rust sweep engine, locally or on a cluster; the rows are those of
@@ -115,7 +116,13 @@ def sweep_file(
 
     ``out``: ``*.csv`` (default: the sweep file with ``.csv``) or ``*.parquet`` (a directory of
     Parquet parts with units in the column metadata, :mod:`flc.parquet`, needs pyarrow). Runs
-    already in ``out`` are skipped (resume); a run that fails is a row with its ``error``.
+    already in ``out`` are skipped (resume) only if they ran exactly this sweep's inputs: the
+    digest of the inputs (``flc_sim::sweep::inputs_digest``: the flc version and every
+    run's scenario) is kept with the output (``<out>.digest`` next to a CSV, as ``scenario
+    sweep`` writes it; each Parquet part's metadata ``flc.inputs_digest``), and an output of
+    other inputs, or with rows but no digest, raises :class:`flc.ParameterError` naming ``out``.
+    ``restart=True`` starts ``out`` over (its rows, Parquet parts and series files are dropped).
+    A run that fails is a row with its ``error``.
 
     ``executor``: ``None`` runs here on ``threads`` (default all cores); a Dask
     ``distributed.Client`` (or its ``get_executor()``) or any ``concurrent.futures.Executor``
@@ -137,19 +144,22 @@ def sweep_file(
     if threads is not None and (not isinstance(threads, int) or threads < 1):
         raise _flc.ParameterError(f"threads: expected a positive integer, got {threads!r}")
     if executor is None and not parquet and not series:
-        done, total = _flc.sweep_local_csv(str(src), str(out_path), threads)
+        done, total = _flc.sweep_local_csv(str(src), str(out_path), threads, bool(restart))
         return SweepSummary(out_path, total, total - done, done, 0, 0, time.perf_counter() - t0)
 
-    keys, schema, points = _flc.sweep_plan(str(src))
+    keys, schema, points, digest = _flc.sweep_plan(str(src))
     if parquet:
         from .parquet import SweepWriter
 
         meta = {"flc.source": str(src), "flc.keys": json.dumps(keys)}
-        sink: Any = SweepWriter(out_path, schema, partition_rows=partition_rows, metadata=meta)
+        sink: Any = SweepWriter(out_path, schema, partition_rows=partition_rows, metadata=meta, digest=digest, restart=bool(restart))
         finished: set[int] = sink.finished
     else:
-        finished = set(_flc.sweep_open_csv(str(out_path), keys))
+        finished = set(_flc.sweep_open_csv(str(out_path), keys, digest, bool(restart)))
         sink = _CsvSink(out_path)
+    if restart and _series_dir(out_path).is_dir():
+        for old in _series_dir(out_path).glob("*.parquet"):
+            old.unlink()
     if series:
         from .parquet import write_series
 

@@ -116,3 +116,48 @@ fn paper_reproduction_tracking_table_equals_what_scenario_prints() {
         assert!(row.contains(&ends_doc), "doc row `{row}` does not say how the run ends: `{ends}`");
     }
 }
+
+/// `scenario sweep`: a sweep file changed since its CSV was written is refused (exit 2, one line
+/// naming the CSV and `--restart`), the CSV untouched; `--restart` runs the new sweep.
+#[test]
+fn sweep_refuses_a_changed_file_and_restart_starts_over() {
+    let d = tmpdir("stale");
+    let text = "family = \"paper\"\n[[axes]]\nkey = \"speed_kmh\"\nvalues = [30.0]\n[[axes]]\nkey = \"lead_decel\"\nvalues = [4.0, 8.0]\n";
+    let f = write(&d, "s.toml", text);
+    let csv = d.join("s.csv");
+    let ok = scenario().arg("sweep").arg(&f).output().expect("run");
+    assert_eq!(ok.status.code(), Some(0), "{}", String::from_utf8_lossy(&ok.stderr));
+    let rows = std::fs::read_to_string(&csv).expect("csv");
+    assert!(d.join("s.csv.digest").exists());
+    write(&d, "s.toml", &text.replace("[4.0, 8.0]", "[2.0, 9.0]"));
+    let out = scenario().arg("sweep").arg(&f).output().expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("s.csv") && err.contains("--restart"), "{err}");
+    assert_eq!(std::fs::read_to_string(&csv).expect("csv"), rows);
+    let out = scenario().arg("sweep").arg(&f).arg("--restart").output().expect("run");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let new = std::fs::read_to_string(&csv).expect("csv");
+    assert!(new.lines().skip(1).all(|l| l.contains(",2.0,") || l.contains(",9.0,")), "{new}");
+    assert_eq!(new.lines().count(), 3);
+}
+
+/// `scenario sweep FILE.xosc`: the import options are inputs too; another `--controllers` does
+/// not resume the first one's CSV.
+#[test]
+fn sweep_of_a_distribution_refuses_other_import_options() {
+    let d = tmpdir("stale-xosc");
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/openscenario");
+    let f = data.join("distribution_2x2.xosc");
+    let csv = d.join("x.csv");
+    let ok = scenario().arg("sweep").arg(&f).arg("--out").arg(&csv).output().expect("run");
+    assert_eq!(ok.status.code(), Some(0), "{}", String::from_utf8_lossy(&ok.stderr));
+    let again = scenario().arg("sweep").arg(&f).arg("--out").arg(&csv).output().expect("run");
+    assert_eq!(again.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("0 runs done"), "{}", String::from_utf8_lossy(&again.stderr));
+    let out = scenario().arg("sweep").arg(&f).arg("--out").arg(&csv).args(["--controllers", "pid"]).output().expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.lines().last().is_some_and(|l| l.contains("--restart")), "{err}");
+}

@@ -99,14 +99,21 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Run a sweep file (grid or random sample over scenario fields; docs/safety-envelope.md) in
-    /// parallel, streaming one CSV row per finished run; re-running skips finished rows.
+    /// parallel, streaming one CSV row per finished run; re-running the same sweep skips finished
+    /// rows (an output of other inputs is refused: see --restart).
     Sweep {
         /// The sweep file (TOML).
         file: PathBuf,
-        /// Output CSV (default: the sweep file's name with `.csv`). Parquet output and Dask
-        /// clusters: `python -m flc sweep FILE` (docs/distributed.md), same rows.
+        /// Output CSV (default: the sweep file's name with `.csv`); the digest of its rows'
+        /// inputs goes into `<CSV>.digest`. Parquet output and Dask clusters: `python -m flc
+        /// sweep FILE` (docs/distributed.md), same rows.
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
+        /// Start the output over (its rows are dropped). Without it, an output whose rows ran
+        /// other inputs (the sweep file, a base scenario, an option or the flc version changed)
+        /// is refused, never resumed.
+        #[arg(long)]
+        restart: bool,
     },
     /// Run a standard test suite (docs/standard-suites.md): `ncap-ccr` (Euro NCAP AEB
     /// Car-to-Car Rear), `r157` (UN R157 ALKS), `all`, or a folder with a `suite.toml`. Every
@@ -200,7 +207,7 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
 /// combination with its parameter values.
-fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>, restart: bool) -> ExitCode {
     use flc_sim::sweep::{distribution_points, run_points};
     let runs = match import_xosc(file, cli) {
         Ok(r) => r,
@@ -208,11 +215,12 @@ fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) 
     };
     let (keys, points) = distribution_points(runs);
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_points(&keys, &points, &out, true) {
+    match run_points(&keys, &points, &out, true, restart) {
         Ok(n) => {
             eprintln!("{n} runs done ({} in the distribution), rows in {}", points.len(), out.display());
             ExitCode::SUCCESS
         }
+        Err(e @ SimError::StaleOutput { .. }) => stale(e),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -220,7 +228,7 @@ fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) 
     }
 }
 
-fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+fn sweep(file: &std::path::Path, out: Option<&std::path::Path>, restart: bool) -> ExitCode {
     use flc_sim::sweep::{SweepSpec, run_sweep};
     let (spec, dir) = match SweepSpec::from_file(file) {
         Ok(s) => s,
@@ -231,16 +239,22 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
         Err(e) => return bad_input(format!("{}: {e}", file.display())),
     };
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_sweep(&spec, &points, &out, true) {
+    match run_sweep(&spec, &points, &out, true, restart) {
         Ok(n) => {
             eprintln!("{n} runs done ({} in the sweep), rows in {}", points.len(), out.display());
             ExitCode::SUCCESS
         }
+        Err(e @ SimError::StaleOutput { .. }) => stale(e),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
     }
+}
+
+/// A sweep output that cannot be resumed (exit 2): what is wrong and how to start over.
+fn stale(e: SimError) -> ExitCode {
+    bad_input(format!("{e}; start over with `--restart` (or give another `--out`)"))
 }
 
 /// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
@@ -399,7 +413,7 @@ fn main() -> ExitCode {
         }
     }
     match &cli.command {
-        Some(Command::Sweep { file, out }) => {
+        Some(Command::Sweep { file, out, restart }) => {
             if cli.record.is_some() {
                 return bad_input("`--record` does not apply to `sweep`");
             }
@@ -410,9 +424,9 @@ fn main() -> ExitCode {
                 ));
             }
             if is_xosc(file) {
-                return sweep_xosc(&cli, file, out.as_deref());
+                return sweep_xosc(&cli, file, out.as_deref(), *restart);
             }
-            return sweep(file, out.as_deref());
+            return sweep(file, out.as_deref(), *restart);
         }
         Some(Command::Convert { file, out }) => return convert(&cli, file, out.as_deref()),
         Some(Command::Suite { name, out }) => return suite(&cli, name, out.as_deref()),
