@@ -2,17 +2,23 @@
 ``python -m flc reproduction --out DIR``,
 ``python -m flc sumo-tables --out DIR`` (every SUMO result the documents state, ``DIR/sumo-tables.json``; :mod:`flc.sumo`),
 ``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series] [--restart]``,
-``python -m flc docs [--check] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
-(the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs).
+``python -m flc docs [--check] [--root DIR] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
+(the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs; they need the
+source tree: the one this package runs from, a checkout around the working directory, or ``--root DIR``; exit 2
+when there is none).
 
-Exit status 0 on success, 2 on bad arguments (argparse) or a bad sweep file, 1 if an optional
+Exit status 0 on success, 2 on bad arguments (argparse), a bad sweep file or no source tree for a command
+that needs one, 1 if an optional
 dependency (matplotlib, pyarrow, distributed, SUMO) is missing.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Optional, Sequence
+
+from ._paths import SOURCE_TREE_ENV, SourceTreeError, require_source_tree
 
 
 def _speeds(text: str) -> list[float]:
@@ -48,10 +54,19 @@ def _freqs(text: str) -> list[float]:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["docs"] and argv[1:2] not in (["-h"], ["--help"]):
-        # Its own small grammar (`--check`, `show NAME ARG...`): flc.docs parses it.
+        # Its own small grammar (`--check`, `show NAME ARG...`): flc.docs parses it. `--root DIR`
+        # names the source tree whose documents it reads (before flc.docs looks for one).
+        rest = argv[1:]
+        if "--root" in rest:
+            i = rest.index("--root")
+            if i + 1 >= len(rest):
+                print("error: `--root` needs the source tree's folder", file=sys.stderr)
+                return 2
+            os.environ[SOURCE_TREE_ENV] = rest[i + 1]
+            rest = rest[:i] + rest[i + 2 :]
         from . import docs
 
-        return docs.main(argv[1:])
+        return docs.main(rest)
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser(
@@ -59,7 +74,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         help="the paper's outcome pattern over the constants it leaves open: sweeps/paper-reproduction-*.csv and two figures (docs/paper-reproduction.md)",
     )
     rep.add_argument("--out", required=True, help="figure directory (created if needed)")
-    rep.add_argument("--data", default=None, help="CSV directory (default: the repository's sweeps/)")
+    rep.add_argument("--data", default=None, help="CSV directory (default: the source tree's sweeps/; needed outside a checkout)")
     rep.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores); results do not depend on it")
     st = sub.add_parser(
         "sumo-tables",
@@ -133,11 +148,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         try:
             from .figures import make_reproduction
 
-            kw = {} if args.data is None else {"data_dir": args.data}
-            summary = make_reproduction(args.out, threads=args.threads, **kw)
+            data = args.data if args.data is not None else require_source_tree("`python -m flc reproduction` (it rewrites sweeps/paper-reproduction-*.csv; or give --data DIR)") / "sweeps"
+            summary = make_reproduction(args.out, data_dir=data, threads=args.threads)
         except ImportError as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
+        except SourceTreeError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
         print(summary)
         return 0
     try:
@@ -156,6 +174,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
+    except FileNotFoundError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     for p in paths:
         print(p)
     return 0

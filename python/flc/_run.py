@@ -208,7 +208,10 @@ def run_suite(name: str, controllers: Optional[Sequence[str]] = None, root: Opti
     ``runs``, ``collisions``, ``below_reference``, ``ncap_score``) and ``results`` (one per run:
     ``case``, ``run``, ``controller``, ``outcome``, ``score``, ``below_reference``, ``metrics``).
     ``pandas.json_normalize(report["results"])`` gives a table. ``root``: the folder of the named
-    suites (default: the source tree's ``scenarios/suites``). An unknown suite or controller
-    raises :class:`flc.ScenarioError`."""
-    texts = _flc.run_suite(name, None if controllers is None else list(controllers), None if root is None else str(root))
+    suites (default: the suites that ship with the package, ``flc/data/suites``, the same files as
+    the source tree's ``scenarios/suites``; never the working directory). An unknown suite or
+    controller raises :class:`flc.ScenarioError`."""
+    from ._paths import SUITES
+
+    texts = _flc.run_suite(name, None if controllers is None else list(controllers), str(SUITES if root is None else root))
     return [json.loads(t) for t in texts]

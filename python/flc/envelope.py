@@ -326,8 +326,10 @@ def robust_summaries(out_dir: PathLike, threads: Optional[int] = None) -> list[P
     ``<stem>-summary.md`` into ``out_dir`` (``docs/figures``; ``docs/robust-flc.md`` includes them)."""
     import tempfile
 
+    from ._paths import require_source_tree
     from ._sweep import sweep_file
-    from .reproduction import ROOT
+
+    sweeps = require_source_tree("flc.envelope.robust_summaries (it runs sweeps/envelope-robust*.toml)") / "sweeps"
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -335,7 +337,7 @@ def robust_summaries(out_dir: PathLike, threads: Optional[int] = None) -> list[P
     for stem in ROBUST_SWEEPS:
         with tempfile.TemporaryDirectory() as tmp:
             csv_path = Path(tmp) / f"{stem}.csv"
-            sweep_file(ROOT / "sweeps" / f"{stem}.toml", out=csv_path, threads=threads)
+            sweep_file(sweeps / f"{stem}.toml", out=csv_path, threads=threads)
             p = out / f"{stem}-summary.md"
             p.write_text(write_table(summary(load_sweep(csv_path), "lead_decel")))
         written.append(p)

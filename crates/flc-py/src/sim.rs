@@ -83,8 +83,8 @@ fn import_openscenario(
 }
 
 /// Runs standard test suites (`flc_sim::suite`, GIL released): `name` is `ncap-ccr`, `r157`,
-/// `all` or a folder with a `suite.toml`; `root` the folder of the named suites (default: the
-/// source tree's `scenarios/suites`). Returns one report per suite as JSON
+/// `all` or a folder with a `suite.toml`; `root` the folder of the named suites (`flc.run_suite`
+/// passes the package's own; without it, `flc_sim::suite::default_root`). Returns one report per suite as JSON
 /// (`flc_sim::suite::SuiteReport`). An unknown suite or controller raises `ScenarioError`.
 #[pyfunction]
 #[pyo3(signature = (name, controllers=None, root=None))]
@@ -97,7 +97,10 @@ fn run_suite(py: Python<'_>, name: &str, controllers: Option<Vec<String>>, root:
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| ScenarioError::new_err(e.to_string()))?,
     };
-    let root = root.unwrap_or_else(flc_sim::suite::default_root);
+    let root = match root {
+        Some(r) => r,
+        None => flc_sim::suite::default_root().map_err(scenario_err)?,
+    };
     let suites = flc_sim::suite::Suite::find(&root, name).map_err(scenario_err)?;
     let reports = py.detach(|| suites.iter().map(|s| s.run(&kinds)).collect::<Result<Vec<_>, _>>()).map_err(scenario_err)?;
     Ok(reports.iter().map(flc_sim::suite::SuiteReport::to_json).collect())

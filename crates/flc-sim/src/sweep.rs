@@ -507,12 +507,9 @@ pub fn open_output(out: &Path, keys: &[String], digest: &str, restart: bool) -> 
     if done.is_empty() {
         let mut file = std::fs::File::create(out)?;
         writeln!(file, "{}", header_of(keys))?;
-        let record = DigestRecord {
-            format: DIGEST_FORMAT.into(),
-            flc_version: FLC_VERSION.into(),
-            inputs_digest: digest.into(),
-        };
-        let text = serde_json::to_string(&record).map_err(|e| SimError::File { path: record_path.display().to_string(), message: e.to_string() })?;
+        let record = DigestRecord { format: DIGEST_FORMAT.into(), flc_version: FLC_VERSION.into(), inputs_digest: digest.into() };
+        let text = serde_json::to_string(&record)
+            .map_err(|e| SimError::File { path: record_path.display().to_string(), message: e.to_string() })?;
         std::fs::write(&record_path, text + "\n")?;
         return Ok((file, done));
     }

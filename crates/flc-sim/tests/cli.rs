@@ -161,3 +161,29 @@ fn sweep_of_a_distribution_refuses_other_import_options() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.lines().last().is_some_and(|l| l.contains("--restart")), "{err}");
 }
+
+/// `scenario suite`: the suites are found from the executable, not the working directory; `--root`
+/// names their folder (a wrong one: exit 2, one line naming it).
+#[test]
+fn suite_finds_its_folder_from_any_working_directory_and_takes_root() {
+    let d = tmpdir("suite-root");
+    // A folder that looks like the suites, in the working directory: not used.
+    std::fs::create_dir_all(d.join("scenarios/suites/r157")).expect("mkdir");
+    std::fs::write(d.join("scenarios/suites/r157/suite.toml"), "title = \"not this one\"\n").expect("write");
+    let out = scenario().current_dir(&d).args(["suite", "r157", "--controllers", "flc"]).output().expect("run");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("flc"));
+    let bad = scenario()
+        .current_dir(&d)
+        .args(["suite", "r157", "--controllers", "flc", "--root"])
+        .arg(d.join("scenarios/suites"))
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("suite.toml"), "{err}");
+    let none = scenario().current_dir(&d).args(["suite", "r157", "--root"]).arg(d.join("nowhere")).output().expect("run");
+    assert_eq!(none.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&none.stderr).contains("nowhere"));
+}

@@ -8,7 +8,7 @@ use flc_sim::suite::{Suite, default_root};
 use flc_sim::{ControllerKind, RunResult, Scenario, run};
 
 fn suite(name: &str) -> Suite {
-    Suite::find(&default_root(), name).expect("suite").remove(0)
+    Suite::find(&default_root().expect("suites folder"), name).expect("suite").remove(0)
 }
 
 /// The run of `case` whose label contains `label`, driven by `kind`.

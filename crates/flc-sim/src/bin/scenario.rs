@@ -125,6 +125,10 @@ enum Command {
         /// Write `<suite>.md`, `<suite>.json` and `<suite>.svg` (the overview figure) into DIR.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        /// The folder of the named suites (default: `scenarios/suites` of the source tree
+        /// holding this executable, else of the one it was built from).
+        #[arg(long, value_name = "DIR")]
+        root: Option<PathBuf>,
     },
 }
 
@@ -259,7 +263,7 @@ fn stale(e: SimError) -> ExitCode {
 
 /// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
 /// reports into `--out`.
-fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
+fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>, root: Option<&std::path::Path>) -> ExitCode {
     use flc_sim::suite::{Suite, default_root, markdown, summary_line, summary_table, svg};
     // The cases fix their own parameters, ego and road: the per-file options do not apply.
     for (given, flag) in
@@ -276,7 +280,17 @@ fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
             Err(e) => return bad_input(format!("`--controllers`: {e}")),
         },
     };
-    let suites = match Suite::find(&default_root(), name) {
+    // A suite's own folder needs no root; a name needs the folder of the suites.
+    let own_folder = std::path::Path::new(name).join("suite.toml").is_file();
+    let root = match root {
+        Some(r) => r.to_path_buf(),
+        None if own_folder => std::path::PathBuf::new(),
+        None => match default_root() {
+            Ok(r) => r,
+            Err(e) => return bad_input(format!("suite `{name}`: {e}")),
+        },
+    };
+    let suites = match Suite::find(&root, name) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
@@ -429,7 +443,7 @@ fn main() -> ExitCode {
             return sweep(file, out.as_deref(), *restart);
         }
         Some(Command::Convert { file, out }) => return convert(&cli, file, out.as_deref()),
-        Some(Command::Suite { name, out }) => return suite(&cli, name, out.as_deref()),
+        Some(Command::Suite { name, out, root }) => return suite(&cli, name, out.as_deref(), root.as_deref()),
         None => {}
     }
     let list = match scenarios(&cli) {
