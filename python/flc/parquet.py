@@ -172,8 +172,8 @@ class SweepWriter:
             stored.add(meta[DIGEST_KEY.encode()].decode() if DIGEST_KEY.encode() in meta else None)
         if digest is not None and parts:
             # One digest for all the parts, and it is this sweep's; a part without one is old.
-            old = None if None in stored else (next(iter(stored)) if len(stored) == 1 else ",".join(sorted(str(d) for d in stored)))
-            reason = _flc.sweep_stale_reason(len(self.finished), old, digest)
+            kept = None if None in stored else (next(iter(stored)) if len(stored) == 1 else ",".join(sorted(str(d) for d in stored)))
+            reason = _flc.sweep_stale_reason(len(self.finished), kept, digest)
             if reason is not None:
                 raise _flc.ParameterError(f"out: {self.dir}: {reason}")
         self._next = 1 + max((int(p.stem.split("-")[1]) for p in parts), default=-1)
