@@ -652,7 +652,12 @@ fn main() -> ExitCode {
         None
     };
     if cli.json {
-        let summary_line = summary.as_ref().map(|s| serde_json::json!({ "paper_summary": s }));
+        /// The last line of the paper experiment's `--json`.
+        #[derive(serde::Serialize)]
+        struct SummaryLine<'a> {
+            paper_summary: &'a PaperSummary,
+        }
+        let summary_line = summary.as_ref().map(|s| SummaryLine { paper_summary: s });
         for line in records.iter().map(serde_json::to_string).chain(summary_line.iter().map(serde_json::to_string)) {
             match line {
                 Ok(line) => println!("{line}"),
