@@ -514,6 +514,31 @@ impl Scenario {
         Ok(s)
     }
 
+    /// One `KEY=VALUE` of `scenario --set`, as [`Scenario::with_overrides`] takes it: the key as
+    /// Python's keyword overrides name it (`lidar_rate_hz`, `lidar.rate_hz`, `lead_decel`,
+    /// `seed`), the value read as a TOML value (`10`, `6.5`, `true`, `"x"`, `[1, 2]`,
+    /// `{ loss_prob = 0.5 }`), else taken as a bare string (`controller=pid`). Errors are keyed
+    /// `--set`.
+    pub fn override_pair(arg: &str) -> Result<(String, serde_json::Value), ConfigError> {
+        let Some((key, text)) = arg.split_once('=') else {
+            return Err(ConfigError::new("--set", format!("expected KEY=VALUE, got `{arg}`")));
+        };
+        let key = key.trim();
+        if key.is_empty() {
+            return Err(ConfigError::new("--set", format!("empty key in `{arg}`")));
+        }
+        let text = text.trim();
+        if text.is_empty() {
+            return Err(ConfigError::new("--set", format!("`{key}`: empty value")));
+        }
+        let value = match toml::from_str::<toml::Table>(&format!("v = {text}")) {
+            Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(text.to_string())),
+            Err(_) => toml::Value::String(text.to_string()),
+        };
+        let json = serde_json::to_value(&value).map_err(|e| ConfigError::new("--set", format!("`{key}`: {e}")))?;
+        Ok((key.to_string(), json))
+    }
+
     /// The scenarios to run for this one: each variant if it has `[[variants]]`, else itself.
     pub fn expand_variants(&self) -> Result<Vec<Scenario>, ConfigError> {
         if self.variants.is_empty() {
