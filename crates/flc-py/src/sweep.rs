@@ -48,12 +48,13 @@ fn sweep_plan(py: Python<'_>, path: PathBuf) -> PyResult<Plan> {
 
 /// Runs a sweep file locally exactly as `scenario sweep FILE --out CSV` does (the same engine,
 /// rayon on `threads` or all cores, GIL released): rows streamed into `out`, finished ids
-/// skipped. Returns `(runs done now, runs in the sweep)`.
+/// skipped, rows in `run_id` order at the end; with `progress` the CLI's progress bar on stderr
+/// (drawn only on a terminal). Returns `(runs done now, runs in the sweep)`.
 #[pyfunction]
-#[pyo3(signature = (path, out, threads=None))]
-fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>) -> PyResult<(usize, usize)> {
+#[pyo3(signature = (path, out, threads=None, progress=false))]
+fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>, progress: bool) -> PyResult<(usize, usize)> {
     let (keys, points) = py.detach(|| points_of(&path))?;
-    let go = || sweep::run_points(&keys, &points, &out, false);
+    let go = || sweep::run_points(&keys, &points, &out, progress);
     let done = py
         .detach(|| match threads {
             Some(n) if n > 0 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
@@ -108,6 +109,12 @@ fn sweep_open_csv(out: PathBuf, keys: Vec<String>) -> PyResult<Vec<usize>> {
     Ok(ids)
 }
 
+/// Puts the rows of a sweep CSV in `run_id` order (`flc_sim::sweep::sort_output`).
+#[pyfunction]
+fn sweep_sort_csv(out: PathBuf) -> PyResult<()> {
+    sweep::sort_output(&out).map_err(|e| SimulationError::new_err(format!("{}: {e}", out.display())))
+}
+
 /// The per-step series columns `(name, type, unit)` (`flc_sim::Series::COLUMNS`, types `f64` or
 /// `u8` for codes): the one list of series columns.
 #[pyfunction]
@@ -126,6 +133,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep_local_csv, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_run_chunk, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_open_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_sort_csv, m)?)?;
     m.add_function(wrap_pyfunction!(series_columns, m)?)?;
     m.add_function(wrap_pyfunction!(metric_columns, m)?)?;
     Ok(())
