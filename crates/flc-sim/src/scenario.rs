@@ -638,13 +638,18 @@ mod tests {
 
     #[test]
     fn an_unknown_top_level_key_lists_every_valid_key_with_the_family_key() {
-        let e = Scenario::default().with_overrides(&[("lead_decl".into(), serde_json::json!(4.0))]).expect_err("typo");
+        // A sweep axis is a dotted key as written (no keyword resolution).
+        let mut patch = Patch::new();
+        patch.set("lead_decl", toml::Value::Float(4.0));
+        let e = Scenario::default().patched(&patch).expect_err("typo");
         assert_eq!(Scenario::unknown_top_level_key(&e), Some("lead_decl"));
         let text = e.to_string();
         assert!(text.starts_with("`lead_decl`: unknown field `lead_decl`"), "{text}");
         for key in ["`lead_decel`", "`speed_kmh`", "`controller`", "`lidar`", "`seed`"] {
             assert!(text.contains(key), "{key} in {text}");
         }
+        let e = Scenario::default().with_overrides(&[("speed".into(), serde_json::json!(70.0))]).expect_err("not a key");
+        assert_eq!(Scenario::unknown_top_level_key(&e), Some("speed"));
         // Inside a section the list is the section's keys, and it is not a top-level key.
         let e = Scenario::default().with_overrides(&[("lidar.rate_hzz".into(), serde_json::json!(4.0))]).expect_err("typo");
         assert_eq!(Scenario::unknown_top_level_key(&e), None);
