@@ -26,8 +26,11 @@ def _speeds(text: str) -> list[float]:
         speeds = [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers (km/h), got {text!r}") from None
-    if not speeds or not all(0 < v <= 250 for v in speeds):
-        raise argparse.ArgumentTypeError(f"expected one or more speeds in (0, 250] km/h, got {text!r}")
+    from ._flc import paper_speed_range_kmh
+
+    lo, hi = paper_speed_range_kmh()  # the one limit of every entry point (flc_sim::paper::SPEED_RANGE_KMH)
+    if not speeds or not all(lo <= v <= hi for v in speeds):
+        raise argparse.ArgumentTypeError(f"expected one or more speeds in [{lo:g}, {hi:g}] km/h, got {text!r}")
     return speeds
 
 
@@ -96,6 +99,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         action="store_true",
         help="start the output over; without it an output whose rows ran other inputs (changed sweep file, scenario or flc version) is refused",
     )
+    sw.add_argument("--quiet", action="store_true", help="no progress bar (drawn on stderr only when it is a terminal)")
     dc = sub.add_parser(
         "docs",
         help="rewrite (or with --check, compare) the generated blocks of README.md and docs/*.md; `docs show NAME [ARG ...]` prints one block (docs/README.md)",
@@ -105,7 +109,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
     fig.add_argument("--preset", choices=["paper", "realistic"], default="paper", help="vehicle preset of Fig. 4 (default paper)")
-    fig.add_argument("--no-envelope", action="store_true", help="skip the safety-envelope maps (about 1200 runs, ~30 s on 2 cores)")
+    fig.add_argument("--no-envelope", action="store_true", help="skip the safety-envelope maps (2 145 runs, ~75 s on 2 cores)")
+    fig.add_argument("--quiet", action="store_true", help="no progress on stderr (shown only when it is a terminal)")
     fig.add_argument(
         "--envelope-preset", choices=["paper", "realistic"], default="realistic", help="vehicle preset of the safety-envelope maps (default realistic)"
     )
@@ -162,15 +167,24 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from . import envelope
         from .figures import make_all
 
-        paths = make_all(args.out, args.speeds, args.preset, args.platoon_frequencies)
+        from ._progress import Bar, stderr_is_terminal
+
+        bar = None if args.quiet or not stderr_is_terminal() else Bar(0, "figures")
+        paths = make_all(args.out, args.speeds, args.preset, args.platoon_frequencies, progress=bar)
+        if bar is not None:
+            bar.close()
         if not args.no_envelope:
+            runs = None if bar is None else Bar(0, "envelope runs")
             paths += envelope.make_all(
                 args.out,
                 controllers=args.envelope_controllers or envelope.CONTROLLERS,
                 speeds_kmh=args.envelope_speeds or envelope.SPEEDS_KMH,
                 preset=args.envelope_preset,
                 threads=args.threads,
+                progress=None if runs is None else (lambda d, n, stem: runs(d, n, stem)),
             )
+            if runs is not None:
+                runs.close()
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
@@ -194,7 +208,16 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             import distributed
 
             client = distributed.Client(args.dask)
-        s = sweep_file(args.file, executor=client, out=args.out, chunk_size=args.chunk_size, series=args.series, threads=args.threads, restart=args.restart)
+        s = sweep_file(
+            args.file,
+            executor=client,
+            out=args.out,
+            chunk_size=args.chunk_size,
+            series=args.series,
+            threads=args.threads,
+            progress=False if args.quiet else None,
+            restart=args.restart,
+        )
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

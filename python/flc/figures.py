@@ -499,12 +499,14 @@ def make_all(
     speeds_kmh: Sequence[float] = (30, 50, 70, 90),
     preset: str = "paper",
     platoon_freqs_hz: Optional[Sequence[float]] = None,
+    progress: Optional[Callable[[int, int, str], None]] = None,
 ) -> list[Path]:
     """Writes ``following.png``, ``truncated_cosine.png``, ``lyapunov.png`` and the platoon
     figures ``platoon_space_time.png``, ``platoon_gap_errors.png``, ``platoon_gamma.png`` (the
     brake demo; ``|Gamma|`` at ``platoon_freqs_hz``, default its own frequencies) and the paper
     reproduction map from its committed data (``paper_reproduction*.png``) into ``out_dir``
-    (created if needed); returns their paths."""
+    (created if needed); returns their paths. ``progress(done, total, name)`` is called after each
+    figure."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs: dict[str, RunResult] = {}
@@ -532,8 +534,10 @@ def make_all(
         ("paper_reproduction.png", lambda p: fig_reproduction(data, p)),
         ("paper_reproduction_clearances.png", lambda p: fig_reproduction_clearances(data, p)),
     ]
-    for name, make in jobs:
+    for k, (name, make) in enumerate(jobs):
         make(out / name)
+        if progress is not None:
+            progress(k + 1, len(jobs), name)
     return [out / name for name, _ in jobs]
 
 

@@ -176,7 +176,7 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
     LiDAR's ``max_range`` (1: none), as highway-env's ``LidarObservation``; then own speed m/s) or
     ``"detector"`` (Box(9): :data:`DETECTOR`: the detector's lead in the sensor frame).
     ``action``: ``"acceleration"`` (Box(1) in ``[-max_brake, max_accel]`` of the ego's vehicle, m/s²;
-    default ``[-8, 3]``) or ``"speed"`` (Box(1) in ``[0, max_speed]``, m/s; default ``[0, 40]``).
+    default ``[-8, 3.5]``) or ``"speed"`` (Box(1) in ``[0, max_speed]``, m/s; default ``[0, 40]``).
     ``policy_frequency`` (Hz, default 10): decisions per simulated second, at most the LiDAR's
     rate (a decision is held over the scans until the next); ``simulation_frequency`` (Hz, default
     100): the physics rate. ``time_limit``: episode length, s (default 60; ``truncated``).
@@ -299,10 +299,31 @@ class FollowingEnv(gymnasium.Env):  # type: ignore[misc]
         self._collided = obs.truth.collision is not None
         return self._vector(obs), self._info(obs)
 
+    def _action_value(self, action: Any) -> float:
+        """The one number of an action (a number or anything array-like holding exactly one);
+        anything else raises ``TypeError`` / ``ValueError`` saying what an action must be."""
+        unit = "m/s²" if self.action_type == "acceleration" else "m/s"
+        what = (
+            f"FollowingEnv.step: `action` must be one number or an array of shape (1,): the {self.action_type} "
+            f"in [{float(self._act_box.low[0]):g}, {float(self._act_box.high[0]):g}] {unit} (values outside are clipped)"
+        )
+        if action is None or isinstance(action, (str, bytes, dict)):
+            raise TypeError(f"{what}, got {type(action).__name__} {action!r:.60}")
+        try:
+            arr = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{what}, got {type(action).__name__} {action!r:.60}") from None
+        if arr.size != 1:
+            raise ValueError(f"{what}, got shape {arr.shape}")
+        x = float(arr.reshape(-1)[0])
+        if not np.isfinite(x):
+            raise ValueError(f"{what}, got {x}")
+        return x
+
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None or self._obs is None:
             raise RuntimeError("FollowingEnv.step: call reset() first")
-        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], self._act_box.low[0], self._act_box.high[0]))
+        a = float(np.clip(self._action_value(action), self._act_box.low[0], self._act_box.high[0]))
         cmd: Union[SpeedCommand, AccelCommand] = AccelCommand(a) if self.action_type == "acceleration" else SpeedCommand(a)
         # The decision is held over the scans of the policy period (in Rust).
         obs = self._sim.step(cmd, hold_until=self._obs.t + 1.0 / self.policy_frequency)

@@ -72,13 +72,14 @@ fn sweep_stale_reason(rows: usize, stored: Option<&str>, digest: &str) -> Option
 
 /// Runs a sweep file locally exactly as `scenario sweep FILE --out CSV [--restart]` does (the
 /// same engine, rayon on `threads` or all cores, GIL released): rows streamed into `out`,
-/// finished ids of the same inputs skipped; an output of other inputs raises `ParameterError`
-/// unless `restart`. Returns `(runs done now, runs in the sweep)`.
+/// finished ids of the same inputs skipped, rows in `run_id` order at the end; an output of
+/// other inputs raises `ParameterError` unless `restart`; with `progress` the CLI's progress bar
+/// on stderr (drawn only on a terminal). Returns `(runs done now, runs in the sweep)`.
 #[pyfunction]
-#[pyo3(signature = (path, out, threads=None, restart=false))]
-fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>, restart: bool) -> PyResult<(usize, usize)> {
+#[pyo3(signature = (path, out, threads=None, restart=false, progress=false))]
+fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>, restart: bool, progress: bool) -> PyResult<(usize, usize)> {
     let (keys, points) = py.detach(|| points_of(&path))?;
-    let go = || sweep::run_points(&keys, &points, &out, false, restart);
+    let go = || sweep::run_points(&keys, &points, &out, progress, restart);
     let done = py
         .detach(|| match threads {
             Some(n) if n > 0 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
@@ -138,6 +139,12 @@ fn sweep_open_csv(out: PathBuf, keys: Vec<String>, digest: &str, restart: bool) 
     Ok(ids)
 }
 
+/// Puts the rows of a sweep CSV in `run_id` order (`flc_sim::sweep::sort_output`).
+#[pyfunction]
+fn sweep_sort_csv(out: PathBuf) -> PyResult<()> {
+    sweep::sort_output(&out).map_err(|e| SimulationError::new_err(format!("{}: {e}", out.display())))
+}
+
 /// The per-step series columns `(name, type, unit)` (`flc_sim::Series::COLUMNS`, types `f64` or
 /// `u8` for codes): the one list of series columns.
 #[pyfunction]
@@ -157,6 +164,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep_run_chunk, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_open_csv, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_stale_reason, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_sort_csv, m)?)?;
     m.add_function(wrap_pyfunction!(series_columns, m)?)?;
     m.add_function(wrap_pyfunction!(metric_columns, m)?)?;
     Ok(())

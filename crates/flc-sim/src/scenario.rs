@@ -184,7 +184,7 @@ impl Scenario {
         self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
-            check_range("speed_kmh", s, 0.0, 252.0, "km/h")?;
+            crate::paper::check_speed_kmh("speed_kmh", s)?;
         }
         if let Some(p) = &self.platoon {
             p.validate().map_err(|e| e.within("platoon"))?;
@@ -458,11 +458,20 @@ impl Scenario {
                 resolved.set(key, value.clone());
             }
         }
-        let mut out = resolved.apply(&base)?;
+        let mut out = resolved.apply(&base).map_err(with_family_key)?;
         if !sets_seed {
             out.seed = self.seed;
         }
         Ok(out)
+    }
+
+    /// The unknown top-level key an error of [`Scenario::patched`] / [`Scenario::with_overrides`]
+    /// reports (a key that names nothing in a scenario, `speed`), or `None` for any other error
+    /// (an unknown key inside a section, a bad value). Python raises `TypeError` for such a
+    /// keyword, as for any unexpected keyword argument.
+    pub fn unknown_top_level_key(e: &ConfigError) -> Option<&str> {
+        let name = e.problem.strip_prefix("unknown field `")?.split('`').next()?;
+        (e.key.is_empty() || e.key == name).then_some(name)
     }
 
     /// The scenario's sections (top-level tables: `follower`, `lidar`, `flc`, `platoon`, ...),
@@ -636,9 +645,41 @@ fn table_paths() -> &'static [(String, String)] {
     })
 }
 
+/// An unknown top-level key of a patch: serde's list of the scenario's keys, plus the family key
+/// [`LEAD_DECEL_KEY`] that a patch also takes (a sweep axis, a Python keyword), so that the list
+/// holds every valid key.
+fn with_family_key(mut e: ConfigError) -> ConfigError {
+    if let Some(name) = Scenario::unknown_top_level_key(&e) {
+        let name = name.to_string();
+        e.problem = format!("{}, or `{LEAD_DECEL_KEY}` (every brake phase's deceleration, m/s²)", e.problem);
+        e.key = name;
+    }
+    e
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unknown_top_level_key_lists_every_valid_key_with_the_family_key() {
+        // A sweep axis is a dotted key as written (no keyword resolution).
+        let mut patch = Patch::new();
+        patch.set("lead_decl", toml::Value::Float(4.0));
+        let e = Scenario::default().patched(&patch).expect_err("typo");
+        assert_eq!(Scenario::unknown_top_level_key(&e), Some("lead_decl"));
+        let text = e.to_string();
+        assert!(text.starts_with("`lead_decl`: unknown field `lead_decl`"), "{text}");
+        for key in ["`lead_decel`", "`speed_kmh`", "`controller`", "`lidar`", "`seed`"] {
+            assert!(text.contains(key), "{key} in {text}");
+        }
+        let e = Scenario::default().with_overrides(&[("speed".into(), serde_json::json!(70.0))]).expect_err("not a key");
+        assert_eq!(Scenario::unknown_top_level_key(&e), Some("speed"));
+        // Inside a section the list is the section's keys, and it is not a top-level key.
+        let e = Scenario::default().with_overrides(&[("lidar.rate_hzz".into(), serde_json::json!(4.0))]).expect_err("typo");
+        assert_eq!(Scenario::unknown_top_level_key(&e), None);
+        assert!(!e.to_string().contains("lead_decel"), "{e}");
+    }
 
     #[test]
     fn sections_keys_and_overrides() {

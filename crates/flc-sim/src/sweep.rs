@@ -563,5 +563,34 @@ pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: 
         b.finish_and_clear();
     }
     results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    sort_output(out)?;
     Ok(todo.len())
+}
+
+/// Puts the rows of a finished sweep CSV in `run_id` order (rows are appended as runs finish, in
+/// any order): the header and any lines before the first row stay first, the rows follow sorted
+/// by id (stable), lines without an id after them. Written to a temporary file beside `out` and
+/// renamed over it; a file already in order is not touched. Resuming reads ids, not positions,
+/// so a sorted file resumes as before.
+pub fn sort_output(out: &Path) -> Result<(), SimError> {
+    let text = std::fs::read_to_string(out)?;
+    let id = |l: &str| l.split(',').next().and_then(|f| f.parse::<usize>().ok());
+    let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    let first = lines.iter().skip(1).position(|l| id(l).is_some()).map_or(lines.len(), |i| i + 1);
+    let (head, body) = lines.split_at(first);
+    let mut rows: Vec<(usize, &str)> = body.iter().filter_map(|l| id(l).map(|i| (i, *l))).collect();
+    if rows.windows(2).all(|w| w[0].0 <= w[1].0) {
+        return Ok(());
+    }
+    rows.sort_by_key(|(i, _)| *i);
+    let tmp = out.with_extension("sorting.tmp");
+    {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        for l in head.iter().copied().chain(rows.iter().map(|(_, l)| *l)).chain(body.iter().copied().filter(|l| id(l).is_none())) {
+            w.write_all(l.as_bytes())?;
+        }
+        w.flush()?;
+    }
+    std::fs::rename(&tmp, out)?;
+    Ok(())
 }

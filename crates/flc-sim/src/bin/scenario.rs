@@ -479,7 +479,7 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
             }
         };
         for &speed in &cli.speeds {
-            flc_sim::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
+            flc_sim::paper::check_speed_kmh("--speeds", speed)?;
         }
         for &preset in &presets {
             for &speed in &cli.speeds {

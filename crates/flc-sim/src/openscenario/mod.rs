@@ -105,6 +105,9 @@ pub struct Imported {
     /// The parameter values of this run: a distribution's combination, else the given
     /// overrides.
     pub params: Vec<(String, String)>,
+    /// The same values typed by their declarations ([`params::Param::to_json`]: numbers,
+    /// integers, booleans, text), in the order of `params`.
+    pub typed_params: Vec<(String, serde_json::Value)>,
     /// The entities, in file order.
     pub entities: Vec<EntityInfo>,
 }
@@ -396,7 +399,14 @@ fn import_doc(
     };
     let cats = Catalogs::new(&files);
     let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new() };
-    let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads);
+    let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads).map(|mut imp| {
+        // The given values typed by their declarations (an undeclared one stays text).
+        imp.typed_params = values
+            .iter()
+            .map(|(n, text)| (n.clone(), ctx.params.get(n).map_or_else(|| serde_json::Value::String(text.clone()), params::Param::to_json)))
+            .collect();
+        imp
+    });
     *warn = std::mem::take(&mut ctx.warn);
     r
 }
@@ -651,7 +661,8 @@ fn translate(
             width: d.vehicle.width,
         })
         .collect();
-    Ok(Imported { scenario: s, params: opts.params.clone(), entities: infos })
+    // `import_doc` fills `typed_params` from the values it was given.
+    Ok(Imported { scenario: s, params: opts.params.clone(), typed_params: Vec::new(), entities: infos })
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the

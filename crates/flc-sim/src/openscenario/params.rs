@@ -148,6 +148,19 @@ pub struct Param {
     pub value: Value,
 }
 
+impl Param {
+    /// The value as JSON, typed by its declaration: whole-number types as integers, `double` as
+    /// a number, `boolean` as a boolean, `string` and `dateTime` as text.
+    pub fn to_json(&self) -> serde_json::Value {
+        match (&self.value, self.ty) {
+            (Value::Num(x), ParamType::Integer | ParamType::UnsignedInt | ParamType::UnsignedShort) => serde_json::Value::from(*x as i64),
+            (Value::Num(x), _) => serde_json::Value::from(*x),
+            (Value::Bool(b), _) => serde_json::Value::Bool(*b),
+            (Value::Str(s), _) => serde_json::Value::String(s.clone()),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Default)]
 struct Scope {
     params: Vec<Param>,
