@@ -45,6 +45,14 @@ cargo test --locked --release -p flc-sim --test mutation
 echo "== Rust: robust FLC v2 against missed detections (release; issue 24)"
 cargo test --locked --release -p flc-sim --test robust_flc2
 
+echo "== ASAM's quality checker: every .xosc/.xodr the project ships or writes has 0 issues (tools/asam_qc.py)"
+# Its own venv: asam-qc-opendrive pins numpy < 2 and Python >= 3.10 (tools/asam_qc-requirements.txt).
+QC_VENV="${FLC_QC_VENV:-target/qc-venv}"
+python3 -m venv "$QC_VENV"
+"$QC_VENV/bin/python" -m pip install --quiet -r tools/asam_qc-requirements.txt
+"$QC_VENV/bin/python" tools/asam_qc.py --self-test
+"$QC_VENV/bin/python" tools/asam_qc.py
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"
