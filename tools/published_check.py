@@ -173,7 +173,9 @@ def flc_run(flc: Path, file: Path, perm: int | None, features: dict, timeout: fl
         if code != 0:
             status = {2: "refused", 124: "timeout"}.get(code, "failed")
             msg = (errors[-1] if errors else err.strip().splitlines()[-1] if err.strip() else f"exit {code}")
-            return {"status": status, "message": msg.replace(str(file.parent) + "/", "")[:300]}
+            top = git(file.parent, "rev-parse", "--show-toplevel") or str(file.parent)
+            msg = msg.replace(str(file.parent) + "/", "").replace(top + "/", "")  # paths as in the collection
+            return {"status": status, "message": msg[:300]}
         records = [json.loads(ln) for ln in out.splitlines() if ln.startswith("{")]
         traj = None
         for f in sorted(Path(tmp).rglob("*.csv")):
@@ -206,7 +208,7 @@ def compare(f: dict, e: dict) -> dict:
     a, b = by(f["traj"]), by(e["traj"])
     names_f, names_e = {k[1] for k in a}, {k[1] for k in b}
     worst: dict[str, list] = {}
-    for key in a.keys() & b.keys():
+    for key in sorted(a.keys() & b.keys()):  # in time order: the first step of a maximum, reproducibly
         (x1, y1, _, v1), (x2, y2, _, v2) = a[key], b[key]
         dp, dv = math.hypot(x1 - x2, y1 - y2), abs(v1 - v2)
         w = worst.setdefault(key[1], [0.0, 0.0, 0.0, 0.0])
