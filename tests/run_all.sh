@@ -52,6 +52,14 @@ echo "== Rust: the main job's build, so that \`cargo run --release --bin scenari
 # foxglove, mcap, rand, flc-core, flc-sim), 2 min 48 s on the first \`cargo run\` otherwise.
 cargo build --locked --release --bin scenario
 
+echo "== ASAM's quality checker: every .xosc/.xodr the project ships or writes has 0 issues (tools/asam_qc.py)"
+# Its own venv: asam-qc-opendrive pins numpy < 2 and Python >= 3.10 (tools/asam_qc-requirements.txt).
+QC_VENV="${FLC_QC_VENV:-target/qc-venv}"
+python3 -m venv "$QC_VENV"
+"$QC_VENV/bin/python" -m pip install --quiet -r tools/asam_qc-requirements.txt
+"$QC_VENV/bin/python" tools/asam_qc.py --self-test
+"$QC_VENV/bin/python" tools/asam_qc.py
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"
