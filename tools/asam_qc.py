@@ -12,7 +12,7 @@ fails on any issue, printing one line per issue: file, line, rule UID, message.
 
 What "the project's files" are (`./tests/run_all.sh` checks them all):
 * every `.xosc` / `.xodr` under `tests/data/openscenario/` (fixtures, catalogs, roads) and
-  `scenarios/` (the standard suites and their road);
+  `python/flc/data/suites` (the standard suites and their road; `scenarios/suites` links there);
 * what the generators write: `tools/fixture_cases.py` and `tools/suite_cases.py` are run into a
   temporary folder and must write exactly the committed files (else the committed ones are stale
   and the check fails, naming the generator to run), so checking the committed files checks what
@@ -46,9 +46,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Folders whose `.xosc` / `.xodr` files the project ships.
-SHIPPED = ["tests/data/openscenario", "scenarios"]
+SHIPPED = ["tests/data/openscenario", "python/flc/data/suites"]
 #: Generators and the folder (relative to ROOT) they write; each takes `--out DIR`.
-GENERATORS = [("tools/fixture_cases.py", "tests/data/openscenario"), ("tools/suite_cases.py", "scenarios/suites")]
+GENERATORS = [("tools/fixture_cases.py", "tests/data/openscenario"), ("tools/suite_cases.py", "python/flc/data/suites")]
 #: Files that break ASAM rules on purpose: path relative to ROOT -> rule UIDs that must be found.
 EXPECTED: dict[str, set[str]] = {}
 #: A checker skipped for one of these reasons did not run because of the file's version or content
