@@ -54,6 +54,11 @@ struct Cli {
     /// model: actuator lag, dead time, limits).
     #[arg(long, value_name = "MODEL", default_value = "kinematic", global = true)]
     traffic_dynamics: String,
+    /// `.xosc`: refuse what esmini accepts but OpenSCENARIO does not (the expression extensions
+    /// `pi`, `sin`, ...; a negative dynamics value; a value its declaration's constraints forbid)
+    /// instead of warning.
+    #[arg(long, global = true)]
+    strict: bool,
     /// Print one JSON record per run on stdout (fields documented in docs/scenarios.md) instead of the table.
     #[arg(long)]
     json: bool,
@@ -125,7 +130,8 @@ enum Command {
 fn import_options(cli: &Cli) -> Result<ImportOptions, String> {
     let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
     let params = cli.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
-    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)
+    let opts = ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)?;
+    Ok(ImportOptions { strict: cli.strict, ..opts })
 }
 
 /// `true` for an OpenSCENARIO file name.
