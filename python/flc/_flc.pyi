@@ -22,6 +22,7 @@ def import_openscenario(
     road: str,
     traffic_dynamics: str,
     controller: Optional[str],
+    strict: bool = False,
 ) -> list[tuple[str, str]]: ...
 def check_scenario(json: str) -> str: ...
 _RunTuple = tuple[str, dict[str, npt.NDArray[np.float64]], Optional[tuple[str, dict[str, npt.NDArray[np.float64]]]], str]

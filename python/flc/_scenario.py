@@ -119,6 +119,7 @@ class Scenario:
         road: str = "file",
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
+        strict: bool = False,
         **overrides: Any,
     ) -> "Scenario":
         """Read a scenario file: TOML, or ASAM OpenSCENARIO ``.xosc`` (``docs/openscenario.md``).
@@ -127,7 +128,10 @@ class Scenario:
         names the entity flc drives, ``ego_mode="scripted"`` makes it follow its storyboard (as
         esmini does), ``road="straight"`` replaces a missing road, ``traffic_dynamics="vehicle"``
         moves the scripted entities through their vehicle models, ``controller`` overrides the
-        file's controller. A distribution file has several runs: use :meth:`load_all`.
+        file's controller, ``strict=True`` refuses what only esmini accepts (its expression
+        extensions such as ``pi`` and ``sin``, a negative dynamics value, a value its
+        declaration's constraints forbid) instead of warning. A distribution file has several
+        runs: use :meth:`load_all`.
         Keyword ``overrides`` patch the result as in :meth:`from_dict`.
         """
         runs = cls.load_all(
@@ -138,6 +142,7 @@ class Scenario:
             road=road,
             traffic_dynamics=traffic_dynamics,
             controller=controller,
+            strict=strict,
             **overrides,
         )
         if len(runs) != 1:
@@ -155,6 +160,7 @@ class Scenario:
         road: str = "file",
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
+        strict: bool = False,
         **overrides: Any,
     ) -> "list[Scenario]":
         """Every run of a scenario file: one for TOML and ``.xosc`` files, one per combination of
@@ -170,7 +176,7 @@ class Scenario:
             return [cls._patched(_flc.load_scenario(p), overrides, "Scenario.load")]
         pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
         out = []
-        for scenario_json, values in _flc.import_openscenario(p, pairs, ego, ego_mode, road, traffic_dynamics, controller):
+        for scenario_json, values in _flc.import_openscenario(p, pairs, ego, ego_mode, road, traffic_dynamics, controller, strict):
             s = cls._patched(scenario_json, overrides, "Scenario.load")
             s._params = {str(k): v for k, v in json.loads(values)}
             out.append(s)

@@ -68,7 +68,8 @@ type ImportedRun = (String, String);
 /// parameter values)` per run (a `ParameterValueDistribution` has one per combination). Bad
 /// files and options raise `ScenarioError` naming the file, line and element, or the option.
 #[pyfunction]
-#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller))]
+#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller, strict=false))]
+#[allow(clippy::too_many_arguments)]
 fn import_openscenario(
     path: PathBuf,
     params: Vec<(String, String)>,
@@ -77,9 +78,11 @@ fn import_openscenario(
     road: &str,
     traffic_dynamics: &str,
     controller: Option<&str>,
+    strict: bool,
 ) -> PyResult<Vec<ImportedRun>> {
     let opts = flc_sim::openscenario::ImportOptions::from_words(params, ego, ego_mode, road, traffic_dynamics, controller)
         .map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let opts = flc_sim::openscenario::ImportOptions { strict, ..opts };
     let import = flc_sim::openscenario::import(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
     import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, to_json(&r.typed_params)?))).collect()
 }

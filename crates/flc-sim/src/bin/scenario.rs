@@ -38,6 +38,11 @@ struct XoscArgs {
     /// model: actuator lag, dead time, limits).
     #[arg(long, value_name = "MODEL", default_value = "kinematic")]
     traffic_dynamics: String,
+    /// `.xosc`: refuse what esmini accepts but OpenSCENARIO does not (the expression extensions
+    /// `pi`, `sin`, ...; a negative dynamics value; a value its declaration's constraints forbid)
+    /// instead of warning.
+    #[arg(long)]
+    strict: bool,
 }
 
 /// What an OpenSCENARIO import needs from the command line.
@@ -215,7 +220,8 @@ impl Command {
 fn import_options(x: &XoscArgs) -> Result<ImportOptions, String> {
     let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
     let params = x.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
-    ImportOptions::from_words(params, x.ego.clone(), &x.ego_mode, &x.road, &x.traffic_dynamics, None).map_err(flag)
+    let opts = ImportOptions::from_words(params, x.ego.clone(), &x.ego_mode, &x.road, &x.traffic_dynamics, None).map_err(flag)?;
+    Ok(ImportOptions { strict: x.strict, ..opts })
 }
 
 /// `true` for an OpenSCENARIO file name.

@@ -79,6 +79,10 @@ pub struct ImportOptions {
     pub road: RoadChoice,
     /// How the scripted entities move (`--traffic-dynamics`).
     pub dynamics: Dynamics,
+    /// `--strict`: what esmini accepts but the standard does not (its expression extensions
+    /// such as `pi` and `sin`, a negative dynamics value, a value its declaration's
+    /// `ValueConstraint`s forbid) is an error instead of a warning.
+    pub strict: bool,
 }
 
 /// How an OpenSCENARIO entity appears in the scenario.
@@ -195,6 +199,16 @@ impl<'a, 't> Ctx<'a, 't> {
             }
             None => Err(ImportError::unsupported(file, node)),
         }
+    }
+
+    /// `node` uses what esmini accepts but OpenSCENARIO does not (`what`): with `--strict` an
+    /// error, else one warning line per `key` saying that flc plays it as esmini does (`how`).
+    pub(crate) fn esmini_extension(&mut self, key: &str, file: &str, node: Node<'_, '_>, what: &str, how: &str) -> Result<(), ImportError> {
+        if self.params.strict() {
+            return Err(ImportError::at(file, node, format!("{what}: not OpenSCENARIO, accepted by esmini only (refused with --strict)")));
+        }
+        self.warn.note(key, file, node, format!("{what}: not OpenSCENARIO; {how}, as esmini does (--strict refuses it)"));
+        Ok(())
     }
 
     /// Enters catalog entry `catalog`/`entry` referenced at `node`: a reference cycle or
@@ -392,7 +406,12 @@ fn import_doc(
 
     let overrides: BTreeMap<String, String> = values.iter().cloned().collect();
     let mut params = Params::new();
-    params.declare_in(root, file, &overrides)?;
+    params.set_strict(opts.strict);
+    let declared = params.declare_in(root, file, &overrides);
+    for (k, l) in params.take_notes() {
+        warn.line(&k, l);
+    }
+    declared?;
     let files = match locations {
         Some(l) => CatalogFiles::list(l, &base, &params, file)?,
         None => CatalogFiles::empty(),
@@ -407,6 +426,9 @@ fn import_doc(
             .collect();
         imp
     });
+    for (k, l) in ctx.params.take_notes() {
+        ctx.warn.line(&k, l);
+    }
     *warn = std::mem::take(&mut ctx.warn);
     r
 }
