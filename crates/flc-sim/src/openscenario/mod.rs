@@ -538,6 +538,16 @@ fn translate(
     if let Some(note) = &lanes.note {
         ctx.warn.line("lanes", format!("{file}: lanes of road `{}`: {note}", geo.road.id));
     }
+    let (lo, hi) = crate::track::USUAL_LANE_WIDTH;
+    if track.lane_width < lo || track.lane_width > hi {
+        ctx.warn.line(
+            "lane_width",
+            format!(
+                "{file}: lane {ego_lane} of road `{}` is {} m wide, outside the usual {lo}-{hi} m of a road (a test track?): taken as it is",
+                geo.road.id, track.lane_width
+            ),
+        );
+    }
     let placed: Vec<Placement> = defs
         .iter()
         .zip(&poses)
