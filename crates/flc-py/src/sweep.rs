@@ -77,7 +77,14 @@ fn sweep_stale_reason(rows: usize, stored: Option<&str>, digest: &str) -> Option
 /// on stderr (drawn only on a terminal). Returns `(runs done now, runs in the sweep)`.
 #[pyfunction]
 #[pyo3(signature = (path, out, threads=None, restart=false, progress=false))]
-fn sweep_local_csv(py: Python<'_>, path: PathBuf, out: PathBuf, threads: Option<usize>, restart: bool, progress: bool) -> PyResult<(usize, usize)> {
+fn sweep_local_csv(
+    py: Python<'_>,
+    path: PathBuf,
+    out: PathBuf,
+    threads: Option<usize>,
+    restart: bool,
+    progress: bool,
+) -> PyResult<(usize, usize)> {
     let (keys, points) = py.detach(|| points_of(&path))?;
     let go = || sweep::run_points(&keys, &points, &out, progress, restart);
     let done = py

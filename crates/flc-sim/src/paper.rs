@@ -19,16 +19,8 @@ use crate::scenario::{ControllerKind, KMH, Scenario, StopSpec, TrackSpec};
 use crate::v2v::V2vParams;
 use crate::vehicle::VehicleParams;
 
-/// The speeds (km/h) the paper experiment takes, inclusive: the one limit of every entry point
-/// (`scenario --speeds`, a scenario's `speed_kmh`, `flc.Scenario.paper`, `python -m flc figures
-/// --speeds`; checked by [`check_speed_kmh`]). The lead must move (1 km/h) and stay below the
-/// lead's speed limit of 70 m/s (252 km/h).
-pub const SPEED_RANGE_KMH: (f64, f64) = (1.0, 250.0);
-
-/// Checks a paper-experiment speed against [`SPEED_RANGE_KMH`]; the error names `key`.
-pub fn check_speed_kmh(key: &str, speed_kmh: f64) -> Result<(), crate::ConfigError> {
-    crate::check_range(key, speed_kmh, SPEED_RANGE_KMH.0, SPEED_RANGE_KMH.1, "km/h")
-}
+/// The speed range of the paper experiment (owned by the scenario, whose `speed_kmh` it bounds).
+pub use crate::scenario::{SPEED_RANGE_KMH, check_speed_kmh};
 
 /// The paper's results (Sec. IV, Fig. 4), per speed of [`PAPER_SPEEDS_KMH`]: clearance at
 /// standstill in m, `None` for a collision.

@@ -184,7 +184,7 @@ impl Scenario {
         self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
-            crate::paper::check_speed_kmh("speed_kmh", s)?;
+            check_speed_kmh("speed_kmh", s)?;
         }
         if let Some(p) = &self.platoon {
             p.validate().map_err(|e| e.within("platoon"))?;
@@ -655,6 +655,17 @@ fn with_family_key(mut e: ConfigError) -> ConfigError {
         e.key = name;
     }
     e
+}
+
+/// The speeds (km/h) the paper experiment takes, inclusive: the one limit of every entry point
+/// (`scenario --speeds`, a scenario's `speed_kmh`, `flc.Scenario.paper`, `python -m flc figures
+/// --speeds`; checked by [`check_speed_kmh`]). The lead must move (1 km/h) and stay below the
+/// lead's speed limit of 70 m/s (252 km/h).
+pub const SPEED_RANGE_KMH: (f64, f64) = (1.0, 250.0);
+
+/// Checks a paper-experiment speed against [`SPEED_RANGE_KMH`]; the error names `key`.
+pub fn check_speed_kmh(key: &str, speed_kmh: f64) -> Result<(), crate::ConfigError> {
+    crate::check_range(key, speed_kmh, SPEED_RANGE_KMH.0, SPEED_RANGE_KMH.1, "km/h")
 }
 
 #[cfg(test)]
