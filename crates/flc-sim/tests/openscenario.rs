@@ -215,7 +215,8 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         ("noroad.xosc", target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
     ];
     for (name, text, needle) in &cases {
-        let (code, err) = cli(&dir, name, text, &[]);
+        // `--strict`: a negative dynamics value is an error (without it, a warning: below).
+        let (code, err) = cli(&dir, name, text, &["--strict"]);
         assert_eq!(code, 2, "{name}: exit {code}, stderr {err}");
         let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
         assert_eq!(lines.len(), 1, "{name}: one error line: {err}");
@@ -228,6 +229,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
             "{name}: no line number in `{line}`"
         );
     }
+    // Without `--strict`, a negative dynamics value plays with its magnitude, warned once (as esmini).
+    let neg = target_brakes_with(r#"dynamicsDimension="rate" value="$Decel""#, r#"dynamicsDimension="time" value="-2""#);
+    let (code, err) = cli(&dir, "negative.xosc", &neg, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(err.lines().filter(|l| l.contains("negative SpeedActionDynamics value")).count(), 1, "{err}");
     // A file over the size limit is refused before it is parsed.
     let huge = format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO>{}</OpenSCENARIO>", " ".repeat(33 * 1024 * 1024));
     let (code, err) = cli(&dir, "huge.xosc", &huge, &[]);
