@@ -1,5 +1,5 @@
 //! The sweep engine: a grid or a random sample over any scenario fields, run in parallel
-//! (rayon), deterministic per run, streamed to CSV as runs finish, resumable.
+//! (rayon), deterministic per run, streamed to CSV as runs finish (rows in run order), resumable.
 //!
 //! The pieces are public so that a distributed driver (`flc.sweep_file` on Dask,
 //! `docs/distributed.md`) runs exactly this engine: [`SweepSpec::points`] expands the runs (ids,
@@ -30,7 +30,6 @@
 use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -445,32 +444,109 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
 }
 
 /// Runs `points` (their values named `keys`, the CSV's columns after `run_id`) in parallel,
-/// streaming one row per finished run into `out` and skipping the ids already there, as
-/// [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
-/// (the keys are their parameters). A run that fails is a row with its `error`. Returns the
-/// number of runs done.
+/// streaming one row per finished run into `out` in id order and skipping the ids already there,
+/// as [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
+/// ([`run_points_with`]). A run that fails is a row with its `error`. Returns the number of
+/// runs done.
 pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
-    use rayon::prelude::*;
+    let ids: Vec<usize> = points.iter().map(|p| p.id).collect();
+    let by_id = |id: usize| points.iter().find(|p| p.id == id).cloned().ok_or_else(|| format!("no point {id}"));
+    if ids.iter().enumerate().all(|(k, &id)| k == id) {
+        return run_points_with(keys, points.len(), |i| points.get(i).cloned().ok_or_else(|| format!("no point {i}")), out, progress);
+    }
     let (file, done) = open_output(out, keys)?;
-    let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
-    let writer = Mutex::new(std::io::BufWriter::new(file));
+    let todo: Vec<usize> = ids.into_iter().filter(|id| !done.contains(id)).collect();
+    write_rows(file, &todo, keys.len(), by_id, progress)
+}
+
+/// [`run_points`] over points `0..n` built on demand by `point(i)` (an error text makes the row
+/// of `i` an error row): memory does not grow with `n` (an OpenSCENARIO distribution's runs are
+/// imported one at a time, `openscenario::Source`).
+pub fn run_points_with(
+    keys: &[String],
+    n: usize,
+    point: impl Fn(usize) -> Result<SweepPoint, String> + Sync,
+    out: &Path,
+    progress: bool,
+) -> Result<usize, SimError> {
+    let (file, done) = open_output(out, keys)?;
+    let todo: Vec<usize> = (0..n).filter(|id| !done.contains(id)).collect();
+    write_rows(file, &todo, keys.len(), point, progress)
+}
+
+fn write_rows(
+    file: std::fs::File,
+    todo: &[usize],
+    nkeys: usize,
+    point: impl Fn(usize) -> Result<SweepPoint, String> + Sync,
+    progress: bool,
+) -> Result<usize, SimError> {
+    let mut w = std::io::BufWriter::new(file);
     let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));
-    let results: Vec<Result<(), SimError>> = todo
-        .par_iter()
-        .map(|p| {
-            let (line, _) = run_point(p);
-            let mut w = writer.lock().map_err(|_| SimError::File { path: out.display().to_string(), message: "writer poisoned".into() })?;
+    let work = |k: usize| {
+        let id = todo.get(k).copied().unwrap_or_default();
+        match point(id) {
+            Ok(p) => run_point(&p).0,
+            Err(e) => error_row(id, nkeys, &e),
+        }
+    };
+    let n = stream_ordered(
+        todo.len(),
+        work,
+        |_, line: String| {
             writeln!(w, "{line}")?;
             w.flush()?;
             if let Some(b) = &bar {
                 b.inc(1);
             }
             Ok(())
-        })
-        .collect();
+        },
+        None,
+    );
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    results.into_iter().collect::<Result<Vec<_>, _>>()?;
-    Ok(todo.len())
+    n
+}
+
+/// The row of point `id` that could not be built: its id, empty values and metrics, `error`.
+fn error_row(id: usize, nkeys: usize, error: &str) -> String {
+    let mut f = vec![id.to_string()];
+    f.extend(std::iter::repeat_n(String::new(), nkeys + 2 + Metrics::names().len()));
+    f.push(csv_text(error));
+    f.join(",")
+}
+
+/// How many jobs run at a time per thread in [`stream_ordered`]: the window of finished outputs
+/// waiting for their turn.
+pub const WINDOW_PER_THREAD: usize = 4;
+
+/// Runs jobs `0..n` on rayon's threads, `work(k)` each, and hands their outputs to `sink(k,
+/// output)` on the calling thread **in order of `k`** (deterministic output whatever the thread
+/// count), a window of [`WINDOW_PER_THREAD`] jobs per thread at a time: at most that many outputs
+/// are held, whatever `n`. Stops before the next window once `stop` is set, or at the first
+/// error of `sink`. Returns the number of outputs sunk.
+pub fn stream_ordered<T: Send>(
+    n: usize,
+    work: impl Fn(usize) -> T + Sync,
+    mut sink: impl FnMut(usize, T) -> Result<(), SimError>,
+    stop: Option<&std::sync::atomic::AtomicBool>,
+) -> Result<usize, SimError> {
+    use rayon::prelude::*;
+    let window = (rayon::current_num_threads() * WINDOW_PER_THREAD).max(1);
+    let mut done = 0;
+    let mut start = 0;
+    while start < n {
+        if stop.is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed)) {
+            break;
+        }
+        let end = (start + window).min(n);
+        let outs: Vec<T> = (start..end).into_par_iter().map(&work).collect();
+        for (k, o) in (start..end).zip(outs) {
+            sink(k, o)?;
+            done += 1;
+        }
+        start = end;
+    }
+    Ok(done)
 }

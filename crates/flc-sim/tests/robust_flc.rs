@@ -216,7 +216,10 @@ fn rate_invariance() {
     }
     table += &format!("\n|---|---|{}\n", "---|".repeat(VARIANTS.len()));
     for (i, &(v, b)) in cases.iter().enumerate() {
-        for (k, (label, runs)) in [("flc-robust-v1", &robust), ("flc-robust", &robust2), ("flc-robust-odo", &odo), ("paper's FLC", &paper)].into_iter().enumerate() {
+        for (k, (label, runs)) in [("flc-robust-v1", &robust), ("flc-robust", &robust2), ("flc-robust-odo", &odo), ("paper's FLC", &paper)]
+            .into_iter()
+            .enumerate()
+        {
             let scenario = if k == 0 { format!("{v} km/h, −{b}") } else { String::new() };
             table += &format!("| {scenario} | {label} |");
             for r in &runs[i * VARIANTS.len()..(i + 1) * VARIANTS.len()] {

@@ -85,6 +85,16 @@ struct Cli {
     /// Exit with status 1 when any run collided.
     #[arg(long)]
     fail_on_collision: bool,
+    /// `.xosc` distribution: run only permutation I (0-based, as esmini's --param_permutation).
+    #[arg(long, value_name = "I")]
+    permutation: Option<usize>,
+    /// `.xosc`: print the number of runs (permutations) of each file and exit.
+    #[arg(long)]
+    permutations: bool,
+    /// `.xosc`: the guard on a run's length, s (default 3600): a run whose StopTrigger has not
+    /// fired by then is cut, with a line on stderr and `"end": "duration"` in its JSON.
+    #[arg(long, value_name = "SECONDS")]
+    max_duration: Option<f64>,
 }
 
 #[derive(Debug, clap::Subcommand)]
@@ -125,7 +135,163 @@ enum Command {
 fn import_options(cli: &Cli) -> Result<ImportOptions, String> {
     let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
     let params = cli.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
-    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)
+    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None)
+        .and_then(|o| o.with_max_duration(cli.max_duration))
+        .map_err(flag)
+}
+
+/// `--config` with `.xosc` files only: every run imported on demand and streamed (JSON lines
+/// or table rows in run order as runs finish), in bounded memory (`flc_sim::stream`).
+fn run_xosc_stream(cli: &Cli) -> ExitCode {
+    use flc_sim::stream::{StreamOptions, run_sources};
+    let opts = match import_options(cli) {
+        Ok(o) => o,
+        Err(e) => return bad_input(e),
+    };
+    let controllers = match &cli.controllers {
+        None => vec![None],
+        Some(list) => match list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>() {
+            Ok(c) => c,
+            Err(e) => return bad_input(format!("`--controllers`: {e}")),
+        },
+    };
+    let mut sources = Vec::new();
+    for path in &cli.config {
+        for c in &controllers {
+            match openscenario::Source::open(path, &ImportOptions { controller: *c, ..opts.clone() }) {
+                Ok(s) => sources.push(s),
+                Err(e) => return bad_input(e),
+            }
+        }
+    }
+    if cli.permutations {
+        for (path, src) in cli.config.iter().zip(sources.iter().step_by(controllers.len())) {
+            if cli.config.len() == 1 {
+                println!("{}", src.len());
+            } else {
+                println!("{}\t{}", src.len(), path.display());
+            }
+        }
+        return ExitCode::SUCCESS;
+    }
+    if let Some(i) = cli.permutation {
+        for (path, src) in cli.config.iter().zip(sources.iter().step_by(controllers.len())) {
+            if i >= src.len() {
+                return bad_input(format!(
+                    "`--permutation`: {}: permutation {i} does not exist: the file has {} run(s), permutations 0-{}",
+                    path.display(),
+                    src.len(),
+                    src.len() - 1
+                ));
+            }
+        }
+    }
+    // The jobs: (source, permutation), file by file, controller by controller.
+    let counts: Vec<usize> = sources.iter().map(|s| if cli.permutation.is_some() { 1 } else { s.len() }).collect();
+    let total: usize = counts.iter().sum();
+    let job = |mut k: usize| {
+        for (s, &n) in counts.iter().enumerate() {
+            if k < n {
+                return (s, cli.permutation.unwrap_or(k));
+            }
+            k -= n;
+        }
+        (usize::MAX, 0)
+    };
+    for dir in [&cli.out, &cli.record].into_iter().flatten() {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return bad_input(format!("`--out` {}: {e}", dir.display()));
+        }
+    }
+    let stop = &STOP;
+    if let Err(e) = ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    }) {
+        eprintln!("warning: cannot handle Ctrl-C ({e})");
+    }
+    let sopts = StreamOptions { out: cli.out.as_deref(), record: cli.record.as_deref(), stop: Some(stop) };
+    let bar = (total > 1).then(|| {
+        let b = indicatif::ProgressBar::new(total as u64);
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed_precise} {msg}") {
+            b.set_style(style);
+        }
+        b
+    });
+    let say = |line: String| match &bar {
+        Some(b) => b.suspend(|| eprintln!("{line}")),
+        None => eprintln!("{line}"),
+    };
+    let mut seen = std::collections::HashSet::new();
+    let mut table = flc_sim::report::TableWriter::new(0);
+    let (mut collided, mut failed, mut cut, mut n_coll) = (false, 0usize, 0usize, 0usize);
+    let mut stdout = std::io::stdout();
+    let result = run_sources(&sources, total, job, &sopts, |item| {
+        use std::io::Write;
+        for w in item.warnings {
+            if seen.insert(w.clone()) {
+                say(format!("warning: {w}"));
+            }
+        }
+        let rec = match item.record {
+            Ok(r) => r,
+            Err(e) => {
+                failed += 1;
+                say(format!("error: permutation {}: {e}", item.permutation));
+                return Ok(());
+            }
+        };
+        if item.end == Some(flc_sim::RunEnd::Duration) {
+            cut += 1;
+            say(format!(
+                "warning: {}: cut at --max-duration {} s: its StopTrigger had not fired",
+                rec.label(),
+                cli.max_duration.unwrap_or(openscenario::DEFAULT_MAX_DURATION)
+            ));
+        }
+        if rec.any_collision() {
+            collided = true;
+            n_coll += 1;
+        }
+        let text = if cli.json {
+            serde_json::to_string(&rec).map(|l| l + "\n").map_err(|e| SimError::Input(e.to_string()))?
+        } else {
+            table.row(&rec)
+        };
+        match &bar {
+            Some(b) => b.suspend(|| write!(stdout, "{text}").and_then(|()| stdout.flush())),
+            None => write!(stdout, "{text}").and_then(|()| stdout.flush()),
+        }?;
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+        Ok(())
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let done = match result {
+        Ok(n) => n,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if total > 1 {
+        eprintln!("{done} of {total} runs: {n_coll} with a collision, {cut} cut by --max-duration, {failed} failed");
+    }
+    if STOP.load(Ordering::SeqCst) {
+        eprintln!("interrupted: {done} of {total} runs finished and written; the outputs hold only finished runs");
+        return ExitCode::from(130);
+    }
+    if failed > 0 {
+        return ExitCode::from(2);
+    }
+    if cli.fail_on_collision && collided {
+        return ExitCode::from(1);
+    }
+    ExitCode::SUCCESS
 }
 
 /// `true` for an OpenSCENARIO file name.
@@ -418,6 +584,12 @@ fn main() -> ExitCode {
         Some(Command::Suite { name, out }) => return suite(&cli, name, out.as_deref()),
         None => {}
     }
+    if !cli.config.is_empty() && cli.config.iter().all(|p| is_xosc(p)) {
+        return run_xosc_stream(&cli);
+    }
+    if cli.permutation.is_some() || cli.permutations {
+        return bad_input("`--permutation` / `--permutations`: only for `--config` with `.xosc` files");
+    }
     let list = match scenarios(&cli) {
         Ok(l) => l,
         Err(e) => return bad_input(e),
@@ -444,7 +616,7 @@ fn main() -> ExitCode {
             }) {
                 eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted recording may be incomplete");
             }
-            let results = RunOptions { record: Some(dir), stop: Some(stop), progress }.run_batch(&scenarios);
+            let results = RunOptions { record: Some(dir), stop: Some(stop), progress, ..RunOptions::default() }.run_batch(&scenarios);
             if stop.load(Ordering::SeqCst) {
                 eprintln!("interrupted: the recordings in {} are finished up to the interrupt", dir.display());
                 return ExitCode::from(130);
