@@ -103,6 +103,7 @@ class Scenario:
         road: str = "file",
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
+        permutation: Optional[int] = None,
         **overrides: Any,
     ) -> "Scenario":
         """Read a scenario file: TOML, or ASAM OpenSCENARIO ``.xosc`` (``docs/openscenario.md``).
@@ -111,9 +112,25 @@ class Scenario:
         names the entity flc drives, ``ego_mode="scripted"`` makes it follow its storyboard (as
         esmini does), ``road="straight"`` replaces a missing road, ``traffic_dynamics="vehicle"``
         moves the scripted entities through their vehicle models, ``controller`` overrides the
-        file's controller. A distribution file has several runs: use :meth:`load_all`.
+        file's controller. A distribution file has several runs: use :meth:`load_all`, or
+        ``permutation=i`` for run ``i`` alone (0-based, as esmini's ``--param_permutation``;
+        ``scenario --permutation i``; only run ``i`` is built; out of range: ``ValueError``
+        naming ``permutation`` and the number of runs).
         Keyword ``overrides`` patch the result as in :meth:`from_dict`.
         """
+        if permutation is not None:
+            p = os.fspath(path)
+            if not p.lower().endswith(".xosc"):
+                raise ScenarioError("`permutation`: only OpenSCENARIO (.xosc) files have permutations")
+            if isinstance(permutation, bool) or not isinstance(permutation, int):
+                raise ValueError(f"`permutation`: must be an integer, got {permutation!r}")
+            pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
+            [(scenario_json, values)] = _flc.import_openscenario(
+                p, pairs, ego, ego_mode, road, traffic_dynamics, controller, permutation
+            )
+            s = cls._patched(scenario_json, overrides)
+            s._params = dict(values)
+            return s
         runs = cls.load_all(
             path,
             params,

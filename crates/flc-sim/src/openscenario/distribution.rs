@@ -336,6 +336,7 @@ mod tests {
     }
 
     /// A distribution with its runs expanded (the tests compare them whole).
+    #[derive(Debug)]
     struct Expanded {
         scenario_file: PathBuf,
         runs: Vec<Vec<(String, String)>>,
@@ -352,7 +353,8 @@ mod tests {
     #[test]
     fn one_run_without_the_others() {
         let r = range_xml("a", "1", "1000", "1") + &range_xml("b", "1", "100", "1");
-        let doc = xml::parse(&file(&r), "d").expect("xml");
+        let text = file(&r);
+        let doc = xml::parse(&text, "d").expect("xml");
         let t = std::time::Instant::now();
         let d = read(&doc, Path::new("d.xosc")).expect("read");
         let last = d.run(99_999).expect("last");

@@ -278,7 +278,7 @@ pub struct Source {
     opts: ImportOptions,
     roads: Roads,
     /// Warnings of reading the distribution file itself.
-    opening: Vec<String>,
+    opening: Warnings,
 }
 
 impl Source {
@@ -303,7 +303,7 @@ impl Source {
                 dist: None,
                 opts: opts.clone(),
                 roads: Roads::default(),
-                opening: Vec::new(),
+                opening: Warnings::default(),
             });
         }
         let mut warn = Warnings::default();
@@ -326,7 +326,7 @@ impl Source {
             dist: Some(dist),
             opts: opts.clone(),
             roads: Roads::default(),
-            opening: warn.into_lines(),
+            opening: warn,
         })
     }
 
@@ -354,11 +354,9 @@ impl Source {
     /// lines its import gave (those of reading the distribution file first). `i` out of range
     /// is an error naming `permutation` and the number of runs.
     pub fn run(&self, i: usize) -> Result<(Imported, Vec<String>), ImportError> {
-        let mut warn = Warnings::default();
+        let mut warn = self.opening.clone();
         let imp = self.run_into(i, &mut warn)?;
-        let mut lines = self.opening.clone();
-        lines.extend(warn.into_lines());
-        Ok((imp, lines))
+        Ok((imp, warn.into_lines()))
     }
 
     fn run_into(&self, i: usize, warn: &mut Warnings) -> Result<Imported, ImportError> {
@@ -396,13 +394,9 @@ impl Source {
 /// time). Every problem is an [`ImportError`] naming the file, line and element.
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<Import, ImportError> {
     let src = Source::open(path, opts)?;
-    let mut warn = Warnings::default();
+    let mut warn = src.opening.clone();
     let runs = (0..src.len()).map(|i| src.run_into(i, &mut warn)).collect::<Result<Vec<_>, _>>()?;
-    let mut warnings = src.opening.clone();
-    warnings.extend(warn.into_lines());
-    warnings.sort();
-    warnings.dedup();
-    Ok(Import { runs, warnings })
+    Ok(Import { runs, warnings: warn.into_lines() })
 }
 
 /// Limits checked before anything is built: entities, storyboard elements, conditions per
@@ -982,7 +976,7 @@ mod tests {
         let run = &imp.runs[0];
         let s = &run.scenario;
         assert_eq!(s.name, "speed_linear_rate");
-        assert_eq!(s.duration, 300.0);
+        assert_eq!(s.duration, DEFAULT_MAX_DURATION);
         let st = story_of(&imp);
         match find_action(st, "BrakeAction") {
             Action::Speed { speed: Some(v), of: None, transition, .. } => {
