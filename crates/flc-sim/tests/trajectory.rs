@@ -104,3 +104,36 @@ fn max_duration_cuts_with_a_line_and_a_field() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("`--max-duration`"));
 }
+
+/// `--ego-mode scripted` runs on after a contact to the StopTrigger and lists every contact
+/// (`target_brakes.xosc`: the ego drives into the braking lead at 4.01 s, as in esmini; its
+/// StopTrigger moved to 8 s); controller mode keeps ending at the ego's first contact
+/// (`stop.on_collision`, tested in `tests/collisions.rs`).
+#[test]
+fn scripted_runs_on_after_contacts_to_the_stop_trigger() {
+    use flc_sim::openscenario::{self, ImportOptions};
+    use flc_sim::{Patch, RunEnd, run};
+    let path = repo().join("tests/data/openscenario/target_brakes.xosc");
+    let mut p = Patch::new();
+    p.set_json("stop.trigger", &serde_json::json!({"kind": "simulation_time", "rule": "greater_than", "value": 8.0})).expect("patch");
+    let controller = ImportOptions::from_words(Vec::new(), None, "controller", "file", "kinematic", None).expect("opts");
+    let s = openscenario::import(&path, &controller).expect("import").runs.remove(0).scenario;
+    assert!(s.stop.on_collision && s.stop.on_standstill);
+    for (mode, want_end) in [("scripted", RunEnd::StopTrigger)] {
+        let opts = ImportOptions::from_words(Vec::new(), None, mode, "file", "kinematic", Some("flc")).expect("opts");
+        let imp = openscenario::import(&path, &opts).expect("import").runs.remove(0);
+        assert!(!imp.scenario.stop.on_collision && !imp.scenario.stop.on_standstill);
+        let s = imp.scenario.patched(&p).expect("patched");
+        let r = run(&s).expect("run");
+        assert_eq!(r.end, want_end, "{mode}");
+        let first = r.contacts.first().unwrap_or_else(|| panic!("{mode}: no contact"));
+        assert!(r.metrics.collision, "{mode}");
+        let names = [first.a.label(), first.b.label()];
+        assert!(names.contains(&"follower 1".to_string()) && names.contains(&"lead".to_string()), "{mode}: {names:?}");
+        assert!(first.relative_speed > 1.0, "{mode}: {first:?}");
+        let end = r.series.t.last().copied().unwrap_or_default();
+        // On to the StopTrigger (true at the first step after 8 s), well past the contact.
+        assert!((end - 8.01).abs() < 1e-6, "{mode}: ended at {end}");
+        assert!((first.time - 4.01).abs() < 1e-6, "{first:?}");
+    }
+}
