@@ -119,7 +119,8 @@ fn scripted_runs_on_after_contacts_to_the_stop_trigger() {
     let controller = ImportOptions::from_words(Vec::new(), None, "controller", "file", "kinematic", None).expect("opts");
     let s = openscenario::import(&path, &controller).expect("import").runs.remove(0).scenario;
     assert!(s.stop.on_collision && s.stop.on_standstill);
-    for (mode, want_end) in [("scripted", RunEnd::StopTrigger)] {
+    {
+        let (mode, want_end) = ("scripted", RunEnd::StopTrigger);
         let opts = ImportOptions::from_words(Vec::new(), None, mode, "file", "kinematic", Some("flc")).expect("opts");
         let imp = openscenario::import(&path, &opts).expect("import").runs.remove(0);
         assert!(!imp.scenario.stop.on_collision && !imp.scenario.stop.on_standstill);

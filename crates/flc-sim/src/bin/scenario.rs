@@ -365,18 +365,51 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
 }
 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
-/// combination with its parameter values.
+/// combination with its parameter values, each run imported when its turn comes (bounded
+/// memory, `openscenario::Source`).
 fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
-    use flc_sim::sweep::{distribution_points, run_points};
-    let runs = match import_xosc(file, cli) {
-        Ok(r) => r,
+    use flc_sim::sweep::{SweepPoint, run_points_with};
+    let opts = match import_options(cli) {
+        Ok(o) => o,
         Err(e) => return bad_input(e),
     };
-    let (keys, points) = distribution_points(runs);
+    let controllers = match &cli.controllers {
+        None => vec![None],
+        Some(list) => match list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>() {
+            Ok(c) => c,
+            Err(e) => return bad_input(format!("`--controllers`: {e}")),
+        },
+    };
+    let mut sources = Vec::new();
+    for c in &controllers {
+        match openscenario::Source::open(file, &ImportOptions { controller: *c, ..opts.clone() }) {
+            Ok(s) => sources.push(s),
+            Err(e) => return bad_input(e),
+        }
+    }
+    let first = match sources.first().map(|s| s.run(0)) {
+        Some(Ok((imp, warnings))) => {
+            for w in warnings {
+                eprintln!("warning: {w}");
+            }
+            imp
+        }
+        Some(Err(e)) => return bad_input(e),
+        None => return bad_input("no run"),
+    };
+    let keys: Vec<String> = first.params.iter().map(|(k, _)| k.clone()).collect();
+    let per = sources.first().map_or(0, openscenario::Source::len);
+    let total = per * sources.len();
+    let point = |id: usize| {
+        let src = sources.get(id / per.max(1)).ok_or_else(|| format!("no run {id}"))?;
+        let (r, _) = src.run(id % per.max(1)).map_err(|e| e.to_string())?;
+        let values = r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect();
+        Ok(SweepPoint { id, values, scenario: r.scenario })
+    };
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_points(&keys, &points, &out, true) {
+    match run_points_with(&keys, total, point, &out, true) {
         Ok(n) => {
-            eprintln!("{n} runs done ({} in the distribution), rows in {}", points.len(), out.display());
+            eprintln!("{n} runs done ({total} in the distribution), rows in {}", out.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
