@@ -120,6 +120,7 @@ class Scenario:
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
         strict: bool = False,
+        permutation: Optional[int] = None,
         **overrides: Any,
     ) -> "Scenario":
         """Read a scenario file: TOML, or ASAM OpenSCENARIO ``.xosc`` (``docs/openscenario.md``).
@@ -131,9 +132,25 @@ class Scenario:
         file's controller, ``strict=True`` refuses what only esmini accepts (its expression
         extensions such as ``pi`` and ``sin``, a negative dynamics value, a value its
         declaration's constraints forbid) instead of warning. A distribution file has several
-        runs: use :meth:`load_all`.
+        runs: use :meth:`load_all`, or
+        ``permutation=i`` for run ``i`` alone (0-based, as esmini's ``--param_permutation``;
+        ``scenario --permutation i``; only run ``i`` is built; out of range: ``ValueError``
+        naming ``permutation`` and the number of runs).
         Keyword ``overrides`` patch the result as in :meth:`from_dict`.
         """
+        if permutation is not None:
+            p = os.fspath(path)
+            if not p.lower().endswith(".xosc"):
+                raise ScenarioError("`permutation`: only OpenSCENARIO (.xosc) files have permutations")
+            if isinstance(permutation, bool) or not isinstance(permutation, int):
+                raise ValueError(f"`permutation`: must be an integer, got {permutation!r}")
+            pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
+            [(scenario_json, values)] = _flc.import_openscenario(
+                p, pairs, ego, ego_mode, road, traffic_dynamics, controller, strict, permutation
+            )
+            s = cls._patched(scenario_json, overrides, "Scenario.load")
+            s._params = {str(k): v for k, v in json.loads(values)}
+            return s
         runs = cls.load_all(
             path,
             params,

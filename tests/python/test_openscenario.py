@@ -51,6 +51,16 @@ def test_distribution_runs_carry_their_parameters():
         flc.Scenario.load(DATA / "distribution_2x2.xosc")
 
 
+def test_one_permutation_of_a_distribution():
+    runs = flc.Scenario.load_all(DATA / "distribution_2x2.xosc", ego_mode="scripted")
+    third = flc.Scenario.load(DATA / "distribution_2x2.xosc", ego_mode="scripted", permutation=2)
+    assert third.params == runs[2].params
+    assert third.to_dict() == runs[2].to_dict()
+    for bad in (4, -1):
+        with pytest.raises(ValueError, match=r"`permutation`.*4 run\(s\)"):
+            flc.Scenario.load(DATA / "distribution_2x2.xosc", permutation=bad)
+
+
 def test_bad_files_and_options_name_the_problem(tmp_path):
     bad = tmp_path / "bad.xosc"
     bad.write_text('<?xml version="1.0"?>\n<OpenSCENARIO>\n  <FileHeader>\n</OpenSCENARIO>\n')

@@ -65,10 +65,12 @@ fn load_scenario(path: PathBuf) -> PyResult<String> {
 type ImportedRun = (String, String);
 
 /// Imports an OpenSCENARIO file (`flc_sim::openscenario::import`): one `(scenario JSON,
-/// parameter values)` per run (a `ParameterValueDistribution` has one per combination). Bad
-/// files and options raise `ScenarioError` naming the file, line and element, or the option.
+/// parameter values)` per run (a `ParameterValueDistribution` has one per combination), or only
+/// run `permutation` (0-based, as esmini's `--param_permutation`; built alone, no other run is).
+/// Bad files and options raise `ScenarioError` naming the file, line and element, or the
+/// option; a permutation out of range raises `ValueError` naming `permutation` and the count.
 #[pyfunction]
-#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller, strict=false))]
+#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller, strict=false, permutation=None))]
 #[allow(clippy::too_many_arguments)]
 fn import_openscenario(
     path: PathBuf,
@@ -79,10 +81,24 @@ fn import_openscenario(
     traffic_dynamics: &str,
     controller: Option<&str>,
     strict: bool,
+    permutation: Option<i64>,
 ) -> PyResult<Vec<ImportedRun>> {
     let opts = flc_sim::openscenario::ImportOptions::from_words(params, ego, ego_mode, road, traffic_dynamics, controller)
         .map_err(|e| ScenarioError::new_err(e.to_string()))?;
     let opts = flc_sim::openscenario::ImportOptions { strict, ..opts };
+    if let Some(i) = permutation {
+        let src = flc_sim::openscenario::Source::open(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+        let n = src.len();
+        let k = usize::try_from(i).ok().filter(|&k| k < n).ok_or_else(|| {
+            pyo3::exceptions::PyValueError::new_err(format!(
+                "`permutation`: {i} does not exist: {} has {n} run(s), permutations 0-{}",
+                path.display(),
+                n.saturating_sub(1)
+            ))
+        })?;
+        let (r, _) = src.run(k).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+        return Ok(vec![(to_json(&r.scenario)?, to_json(&r.typed_params)?)]);
+    }
     let import = flc_sim::openscenario::import(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
     import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, to_json(&r.typed_params)?))).collect()
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::metrics::{CollisionInfo, ContactRecord, Metrics, Series};
+use crate::metrics::{CollisionInfo, ContactRecord, Metrics, PairContact, Series};
 use crate::paper::{CellVerdict, paper_result};
 use crate::scenario::Scenario;
 use crate::sim::RunResult;
@@ -53,6 +53,15 @@ pub struct RunRecord {
     /// absent if none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub other_contacts: Vec<ContactRecord>,
+    /// `[story]` runs (OpenSCENARIO files): why the run ended (`stop_trigger`, `collision`,
+    /// `standstill`, `duration` = cut by the scenario's duration, for an imported file the
+    /// `--max-duration` guard, `interrupted`); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub end: Option<String>,
+    /// `[story]` runs: every contact of every pair (the ego's included), one per episode, in
+    /// time order (`crate::PairContact`: `time`, `a`, `b`, `relative_speed`, ...); absent if none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub contacts: Vec<PairContact>,
 }
 
 /// One follower of a platoon in the JSON record.
@@ -140,6 +149,8 @@ impl RunRecord {
             other_contacts: Vec::new(),
             // Only the built-in experiment is the paper's (a file may carry a speed too).
             paper_verdict: preset.and(scenario.speed_kmh).and_then(|v| CellVerdict::of(scenario.controller.as_str(), v, metrics)),
+            end: None,
+            contacts: Vec::new(),
         }
     }
 
@@ -149,6 +160,8 @@ impl RunRecord {
             platoon: PlatoonRecord::of(run),
             collision_info: run.collision.clone(),
             other_contacts: run.other_contacts.clone(),
+            end: run.scenario.story.is_some().then(|| run.end.as_str().to_string()),
+            contacts: run.contacts.clone(),
             ..Self::new(&run.scenario, preset, &run.metrics)
         }
     }
@@ -197,12 +210,31 @@ fn outcome(m: &Metrics, hit: Option<&CollisionInfo>, follower: usize) -> String 
 
 /// The results table: one row per run with the outcome next to the paper's.
 pub fn table(records: &[RunRecord]) -> String {
-    let mut out = String::new();
     // The scenario column fits the longest label (34 characters at least).
-    let w = records.iter().map(|r| r.label().chars().count()).max().unwrap_or(0).max(34);
-    let mut last_preset: Option<Option<String>> = None;
-    for r in records {
-        if last_preset.as_ref() != Some(&r.preset) {
+    let w = records.iter().map(|r| r.label().chars().count()).max().unwrap_or(0);
+    let mut t = TableWriter::new(w);
+    records.iter().map(|r| t.row(r)).collect()
+}
+
+/// The results table written row by row (runs streamed as they finish): the scenario column
+/// is as wide as the width given (34 characters at least); a longer label widens its row only.
+#[derive(Debug, Clone)]
+pub struct TableWriter {
+    w: usize,
+    last_preset: Option<Option<String>>,
+}
+
+impl TableWriter {
+    /// A table whose scenario column is `label_width` (at least 34) characters wide.
+    pub fn new(label_width: usize) -> Self {
+        Self { w: label_width.max(34), last_preset: None }
+    }
+
+    /// The text of `r`'s row (with the title and header before the first row of a preset).
+    pub fn row(&mut self, r: &RunRecord) -> String {
+        let w = self.w;
+        let mut out = String::new();
+        if self.last_preset.as_ref() != Some(&r.preset) {
             let title = match &r.preset {
                 Some(p) => format!("paper experiment, {p} preset (lead brakes at -6 m/s² after ~650 m)"),
                 None => "scenario files".to_string(),
@@ -212,7 +244,7 @@ pub fn table(records: &[RunRecord]) -> String {
                 "{:<w$} {:<14} {:>6}  {:<24} {:<15} {:<16} {:>8} {:>9} {:>9} {:>10}\n",
                 "scenario", "ctrl", "km/h", "outcome (clearance)", "paper", "verdict", "min gap", "min TTC", "max dec", "max jerk"
             ));
-            last_preset = Some(r.preset.clone());
+            self.last_preset = Some(r.preset.clone());
         }
         let m = &r.metrics;
         let paper = match r.speed_kmh.and_then(|s| paper_result(&r.controller, s)) {
@@ -235,9 +267,24 @@ pub fn table(records: &[RunRecord]) -> String {
             m.max_decel,
             m.max_jerk
         ));
-        out.push_str(&other_contacts_line(&r.other_contacts));
+        if r.contacts.is_empty() {
+            out.push_str(&other_contacts_line(&r.other_contacts));
+        } else {
+            out.push_str(&contacts_line(&r.contacts));
+        }
+        out
     }
-    out
+}
+
+/// `  contacts: ego - Target at 4.20 s (5.10 m/s), ...` (one line; the first 10 and a count).
+fn contacts_line(contacts: &[PairContact]) -> String {
+    let list: Vec<String> = contacts
+        .iter()
+        .take(10)
+        .map(|c| format!("{} - {} at {:.2} s ({:.2} m/s)", c.a.label(), c.b.label(), c.time, c.relative_speed))
+        .collect();
+    let more = if contacts.len() > 10 { format!(" and {} more", contacts.len() - 10) } else { String::new() };
+    format!("  contacts: {}{more}\n", list.join(", "))
 }
 
 /// `  other contacts: lead - guard_rail #0 at 12.30 s, ...` (one line), empty without any.

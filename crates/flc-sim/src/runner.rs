@@ -8,6 +8,7 @@ use crate::error::SimError;
 use crate::record::Recorder;
 use crate::scenario::Scenario;
 use crate::sim::{Observer, RunResult, Simulation};
+use crate::trajectory::TrajectoryWriter;
 
 /// How to run: `RunOptions::default()` runs to the end, records nothing, shows no progress.
 #[derive(Debug, Clone, Copy, Default)]
@@ -20,6 +21,9 @@ pub struct RunOptions<'a> {
     pub stop: Option<&'a AtomicBool>,
     /// Show a progress bar on stderr ([`RunOptions::run_batch`] only).
     pub progress: bool,
+    /// Write each run's per-entity trajectory (`crate::trajectory`) into this directory as
+    /// `<run file stem>-trajectory.csv`, for these entities.
+    pub trajectory: Option<(&'a std::path::Path, &'a [crate::trajectory::TrajectoryEntity])>,
 }
 
 impl RunOptions<'_> {
@@ -31,27 +35,47 @@ impl RunOptions<'_> {
     pub fn run(&self, scenario: &Scenario) -> Result<RunResult, SimError> {
         scenario.validate()?;
         let sim = Simulation::new(scenario)?;
+        let traj = match self.trajectory {
+            None => None,
+            Some((dir, entities)) => {
+                let path = dir.join(format!("{}-trajectory.csv", scenario.run_file_stem()));
+                Some(TrajectoryWriter::create(&path, entities)?)
+            }
+        };
         match self.record {
-            None => self.drive(sim),
+            None => self.drive(sim, traj),
             Some(dir) => {
                 let rec = Recorder::for_simulation(dir, &sim)?;
-                self.drive(sim.with_observer(rec))
+                self.drive(sim.with_observer(rec), traj)
             }
         }
     }
 
-    fn drive<O: Observer>(&self, mut sim: Simulation<O>) -> Result<RunResult, SimError> {
-        loop {
-            if self.stopped() {
-                sim.finish_observer(false)?;
-                return Ok(sim.finish());
-            }
-            if !sim.step()? {
-                break;
-            }
+    fn drive<O: Observer>(&self, mut sim: Simulation<O>, mut traj: Option<TrajectoryWriter>) -> Result<RunResult, SimError> {
+        if let Some(w) = &mut traj {
+            w.write_step(&sim)?;
         }
-        sim.finish_observer(true)?;
-        Ok(sim.finish())
+        let completed = loop {
+            if self.stopped() {
+                break false;
+            }
+            let more = sim.step()?;
+            if let Some(w) = &mut traj {
+                w.write_step(&sim)?;
+            }
+            if !more {
+                break true;
+            }
+        };
+        sim.finish_observer(completed)?;
+        if let Some(w) = traj {
+            w.finish()?;
+        }
+        let mut r = sim.finish();
+        if !completed {
+            r.end = crate::sim::RunEnd::Interrupted;
+        }
+        Ok(r)
     }
 
     /// Runs many scenarios in parallel; results in input order.

@@ -74,6 +74,11 @@ pub struct StopSpec {
     /// End the run once the lead has finished its phases and both vehicles have been at
     /// standstill (< 0.05 m/s) for this long, s.
     pub standstill_time: f64,
+    /// Whether the standstill rule above ends the run (default true; an OpenSCENARIO file
+    /// imported with `--ego-mode scripted` turns it off: its `StopTrigger` decides, as in
+    /// esmini).
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub on_standstill: bool,
     /// End the run when this trigger fires (OpenSCENARIO's storyboard `StopTrigger`,
     /// [`crate::trigger`]), evaluated on ground truth after every physics step.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -82,8 +87,20 @@ pub struct StopSpec {
 
 impl Default for StopSpec {
     fn default() -> Self {
-        Self { on_collision: true, standstill_time: 2.0, trigger: None }
+        Self { on_collision: true, standstill_time: 2.0, on_standstill: true, trigger: None }
     }
+}
+
+/// Longest `duration`, s.
+pub const MAX_DURATION: f64 = 36_000.0;
+
+fn yes() -> bool {
+    true
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 /// Most `[[vehicles]]` (as many as an imported file may have entities,
@@ -172,7 +189,7 @@ impl Scenario {
     /// Checks every value; the error names the dotted key and the allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.check_sizes()?;
-        check_range("duration", self.duration, 0.01, 36_000.0, "s")?;
+        check_range("duration", self.duration, 0.01, MAX_DURATION, "s")?;
         check_range("physics_dt", self.physics_dt, 0.0005, 0.05, "s")?;
         self.track.build().map_err(|e| e.within("track"))?;
         check_range("lead.initial_speed", self.lead.initial_speed, 0.0, 70.0, "m/s")?;

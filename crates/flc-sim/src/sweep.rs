@@ -1,5 +1,5 @@
 //! The sweep engine: a grid or a random sample over any scenario fields, run in parallel
-//! (rayon), deterministic per run, streamed to CSV as runs finish, resumable.
+//! (rayon), deterministic per run, streamed to CSV as runs finish (rows in run order), resumable.
 //!
 //! The pieces are public so that a distributed driver (`flc.sweep_file` on Dask,
 //! `docs/distributed.md`) runs exactly this engine: [`SweepSpec::points`] expands the runs (ids,
@@ -37,7 +37,6 @@
 use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -443,11 +442,47 @@ impl Write for Fnv1a128 {
 /// file, a base scenario it reads, an import option or the flc version changes it. The same
 /// function serves `scenario sweep` and `flc.sweep_file`: `fnv1a128:` and 32 hex digits.
 pub fn inputs_digest(keys: &[String], points: &[SweepPoint]) -> String {
+    let by_pos = |i: usize| points.get(i).cloned().ok_or_else(|| format!("no point {i}"));
+    // Serializing plain data does not fail; were it to, the text would be the same every time
+    // and never equal a real digest (so an output is refused, not resumed).
+    inputs_digest_with(keys, points.len(), by_pos).unwrap_or_else(|e| format!("no digest: {e}"))
+}
+
+/// [`inputs_digest`] over points `0..n` built on demand by `point(i)` (in parallel, hashed in
+/// order, a window at a time: memory does not grow with `n`); the same digest as
+/// [`inputs_digest`] of the same points. A point that cannot be built enters the digest as its
+/// error text.
+pub fn inputs_digest_with(
+    keys: &[String],
+    n: usize,
+    point: impl Fn(usize) -> Result<SweepPoint, String> + Sync,
+) -> Result<String, SimError> {
     let mut h = Fnv1a128(0x6c62_272e_07bb_0142_62b8_2175_6295_c58d);
-    // Serializing plain data into a writer that never fails cannot fail; were it to, the
-    // digest would still be deterministic (the error is the same every time).
-    let _ = serde_json::to_writer(&mut h, &(DIGEST_FORMAT, FLC_VERSION, keys, points));
-    format!("fnv1a128:{:032x}", h.0)
+    let json = |e: serde_json::Error| SimError::Input(format!("digest of the sweep's inputs: {e}"));
+    // The bytes of `serde_json::to_writer(&(DIGEST_FORMAT, FLC_VERSION, keys, points))`, written
+    // point by point: `["format","version",[keys]` (the head without its closing bracket), then
+    // `,[` and the points, then `]]`.
+    let head = serde_json::to_vec(&(DIGEST_FORMAT, FLC_VERSION, keys)).map_err(json)?;
+    h.write_all(head.strip_suffix(b"]").unwrap_or(&head))?;
+    h.write_all(b",[")?;
+    let work = |i: usize| match point(i) {
+        Ok(p) => serde_json::to_vec(&p),
+        Err(e) => serde_json::to_vec(&serde_json::json!({ "error": e })),
+    };
+    stream_ordered(
+        n,
+        work,
+        |i, bytes| {
+            if i > 0 {
+                h.write_all(b",")?;
+            }
+            h.write_all(&bytes.map_err(json)?)?;
+            Ok(())
+        },
+        None,
+    )?;
+    h.write_all(b"]]")?;
+    Ok(format!("fnv1a128:{:032x}", h.0))
 }
 
 /// Where a sweep CSV keeps the digest of its rows' inputs: `<out>.digest` (a small JSON file:
@@ -535,36 +570,118 @@ pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: 
 }
 
 /// Runs `points` (their values named `keys`, the CSV's columns after `run_id`) in parallel,
-/// streaming one row per finished run into `out` and skipping the ids already there, as
-/// [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
-/// (the keys are their parameters). A run that fails is a row with its `error`. An output of
-/// other inputs is refused unless `restart` ([`open_output`]). Returns the number of runs done.
+/// streaming one row per finished run into `out` in id order and skipping the ids already there,
+/// as [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
+/// ([`run_points_with`]; the keys are their parameters). A run that fails is a row with its
+/// `error`. An output of other inputs is refused unless `restart` ([`open_output`]). Returns the
+/// number of runs done.
 pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool, restart: bool) -> Result<usize, SimError> {
-    use rayon::prelude::*;
     let digest = inputs_digest(keys, points);
     let (file, done) = open_output(out, keys, &digest, restart)?;
-    let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
-    let writer = Mutex::new(std::io::BufWriter::new(file));
+    let by_id: std::collections::HashMap<usize, &SweepPoint> = points.iter().map(|p| (p.id, p)).collect();
+    let todo: Vec<usize> = points.iter().map(|p| p.id).filter(|id| !done.contains(id)).collect();
+    let point = |id: usize| by_id.get(&id).map(|p| (*p).clone()).ok_or_else(|| format!("no point {id}"));
+    let n = write_rows(file, &todo, keys.len(), point, progress)?;
+    sort_output(out)?;
+    Ok(n)
+}
+
+/// [`run_points`] over points `0..n` built on demand by `point(i)` (an error text makes the row
+/// of `i` an error row): memory does not grow with `n` (an OpenSCENARIO distribution's runs are
+/// imported one at a time, `openscenario::Source`). The digest of the inputs is taken over the
+/// same points ([`inputs_digest_with`]: each built once more, in parallel, before any row runs),
+/// so resuming is refused exactly as for [`run_points`].
+pub fn run_points_with(
+    keys: &[String],
+    n: usize,
+    point: impl Fn(usize) -> Result<SweepPoint, String> + Sync,
+    out: &Path,
+    progress: bool,
+    restart: bool,
+) -> Result<usize, SimError> {
+    let digest = inputs_digest_with(keys, n, &point)?;
+    let (file, done) = open_output(out, keys, &digest, restart)?;
+    let todo: Vec<usize> = (0..n).filter(|id| !done.contains(id)).collect();
+    let n = write_rows(file, &todo, keys.len(), point, progress)?;
+    sort_output(out)?;
+    Ok(n)
+}
+
+fn write_rows(
+    file: std::fs::File,
+    todo: &[usize],
+    nkeys: usize,
+    point: impl Fn(usize) -> Result<SweepPoint, String> + Sync,
+    progress: bool,
+) -> Result<usize, SimError> {
+    let mut w = std::io::BufWriter::new(file);
     let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));
-    let results: Vec<Result<(), SimError>> = todo
-        .par_iter()
-        .map(|p| {
-            let (line, _) = run_point(p);
-            let mut w = writer.lock().map_err(|_| SimError::File { path: out.display().to_string(), message: "writer poisoned".into() })?;
+    let work = |k: usize| {
+        let id = todo.get(k).copied().unwrap_or_default();
+        match point(id) {
+            Ok(p) => run_point(&p).0,
+            Err(e) => error_row(id, nkeys, &e),
+        }
+    };
+    let n = stream_ordered(
+        todo.len(),
+        work,
+        |_, line: String| {
             writeln!(w, "{line}")?;
             w.flush()?;
             if let Some(b) = &bar {
                 b.inc(1);
             }
             Ok(())
-        })
-        .collect();
+        },
+        None,
+    );
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    results.into_iter().collect::<Result<Vec<_>, _>>()?;
-    sort_output(out)?;
-    Ok(todo.len())
+    n
+}
+
+/// The row of point `id` that could not be built: its id, empty values and metrics, `error`.
+fn error_row(id: usize, nkeys: usize, error: &str) -> String {
+    let mut f = vec![id.to_string()];
+    f.extend(std::iter::repeat_n(String::new(), nkeys + 2 + Metrics::names().len()));
+    f.push(csv_text(error));
+    f.join(",")
+}
+
+/// How many jobs run at a time per thread in [`stream_ordered`]: the window of finished outputs
+/// waiting for their turn.
+pub const WINDOW_PER_THREAD: usize = 4;
+
+/// Runs jobs `0..n` on rayon's threads, `work(k)` each, and hands their outputs to `sink(k,
+/// output)` on the calling thread **in order of `k`** (deterministic output whatever the thread
+/// count), a window of [`WINDOW_PER_THREAD`] jobs per thread at a time: at most that many outputs
+/// are held, whatever `n`. Stops before the next window once `stop` is set, or at the first
+/// error of `sink`. Returns the number of outputs sunk.
+pub fn stream_ordered<T: Send>(
+    n: usize,
+    work: impl Fn(usize) -> T + Sync,
+    mut sink: impl FnMut(usize, T) -> Result<(), SimError>,
+    stop: Option<&std::sync::atomic::AtomicBool>,
+) -> Result<usize, SimError> {
+    use rayon::prelude::*;
+    let window = (rayon::current_num_threads() * WINDOW_PER_THREAD).max(1);
+    let mut done = 0;
+    let mut start = 0;
+    while start < n {
+        if stop.is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed)) {
+            break;
+        }
+        let end = (start + window).min(n);
+        let outs: Vec<T> = (start..end).into_par_iter().map(&work).collect();
+        for (k, o) in (start..end).zip(outs) {
+            sink(k, o)?;
+            done += 1;
+        }
+        start = end;
+    }
+    Ok(done)
 }
 
 /// Puts the rows of a finished sweep CSV in `run_id` order (rows are appended as runs finish, in
@@ -573,8 +690,30 @@ pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: 
 /// renamed over it; a file already in order is not touched. Resuming reads ids, not positions,
 /// so a sorted file resumes as before.
 pub fn sort_output(out: &Path) -> Result<(), SimError> {
-    let text = std::fs::read_to_string(out)?;
+    use std::io::BufRead;
     let id = |l: &str| l.split(',').next().and_then(|f| f.parse::<usize>().ok());
+    // Already in order (a streamed sweep's rows are): checked line by line, nothing held.
+    let mut last = None;
+    let mut sorted = true;
+    for line in std::io::BufReader::new(std::fs::File::open(out)?).lines().skip(1) {
+        let line = line?;
+        match (id(&line), last) {
+            (Some(i), Some(l)) if i < l => {
+                sorted = false;
+                break;
+            }
+            (Some(i), _) => last = Some(i),
+            (None, Some(_)) => {
+                sorted = false;
+                break;
+            }
+            (None, None) => {}
+        }
+    }
+    if sorted {
+        return Ok(());
+    }
+    let text = std::fs::read_to_string(out)?;
     let lines: Vec<&str> = text.split_inclusive('\n').collect();
     let first = lines.iter().skip(1).position(|l| id(l).is_some()).map_or(lines.len(), |i| i + 1);
     let (head, body) = lines.split_at(first);

@@ -2,7 +2,7 @@
 //! resuming never serves rows of other inputs.
 
 use flc_sim::SimError;
-use flc_sim::sweep::{SweepSpec, digest_path, inputs_digest, run_sweep};
+use flc_sim::sweep::{SweepSpec, digest_path, inputs_digest, inputs_digest_with, run_sweep};
 
 fn spec(text: &str) -> SweepSpec {
     let de = toml::Deserializer::parse(text).expect("toml");
@@ -194,6 +194,12 @@ fn any_input_of_a_row_changes_the_digest() {
     let mut edited = points.clone();
     edited[2].scenario.lidar.rate_hz += 1.0;
     assert_ne!(inputs_digest(&keys, &edited), d);
+    // Points built on demand (an OpenSCENARIO distribution, `scenario sweep FILE.xosc`) have
+    // the digest of the same points in a slice; a point that cannot be built changes it.
+    let lazy = |i: usize| points.get(i).cloned().ok_or_else(|| format!("no point {i}"));
+    assert_eq!(inputs_digest_with(&keys, points.len(), lazy).expect("digest"), d);
+    let broken = |i: usize| if i == 1 { Err("bad file".to_string()) } else { lazy(i) };
+    assert_ne!(inputs_digest_with(&keys, points.len(), broken).expect("digest"), d);
 }
 
 #[test]

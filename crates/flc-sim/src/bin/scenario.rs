@@ -43,6 +43,10 @@ struct XoscArgs {
     /// instead of warning.
     #[arg(long)]
     strict: bool,
+    /// `.xosc`: the guard on a run's length, s (default 3600): a run whose StopTrigger has not
+    /// fired by then is cut, with a line on stderr and `"end": "duration"` in its JSON.
+    #[arg(long, value_name = "SECONDS")]
+    max_duration: Option<f64>,
 }
 
 /// What an OpenSCENARIO import needs from the command line.
@@ -116,6 +120,12 @@ struct Cli {
     /// Exit with status 1 when any run collided.
     #[arg(long)]
     fail_on_collision: bool,
+    /// `.xosc` distribution: run only permutation I (0-based, as esmini's --param_permutation).
+    #[arg(long, value_name = "I")]
+    permutation: Option<usize>,
+    /// `.xosc`: print the number of runs (permutations) of each file and exit.
+    #[arg(long)]
+    permutations: bool,
     /// No warnings (OpenSCENARIO import, flags that do not apply) and no progress bar on
     /// stderr; errors still print.
     #[arg(long, short)]
@@ -220,8 +230,180 @@ impl Command {
 fn import_options(x: &XoscArgs) -> Result<ImportOptions, String> {
     let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
     let params = x.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
-    let opts = ImportOptions::from_words(params, x.ego.clone(), &x.ego_mode, &x.road, &x.traffic_dynamics, None).map_err(flag)?;
+    let opts = ImportOptions::from_words(params, x.ego.clone(), &x.ego_mode, &x.road, &x.traffic_dynamics, None)
+        .and_then(|o| o.with_max_duration(x.max_duration))
+        .map_err(flag)?;
     Ok(ImportOptions { strict: x.strict, ..opts })
+}
+
+/// `--config` with `.xosc` files only: every run imported on demand and streamed (JSON lines
+/// or table rows in run order as runs finish), in bounded memory (`flc_sim::stream`).
+fn run_xosc_stream(cli: &Cli) -> ExitCode {
+    use flc_sim::stream::{StreamOptions, run_sources};
+    let opts = match import_options(&cli.xosc) {
+        Ok(o) => o,
+        Err(e) => return bad_input(e),
+    };
+    let set = match overrides(cli) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    // `--set` and `--seed` on every run, as for TOML files.
+    let adjust = |s: Scenario| -> Result<Scenario, String> {
+        let origin = s.name.clone();
+        let mut s = apply_set(s, &set, &origin).map_err(|e| e.to_string())?;
+        if let Some(seed) = cli.seed {
+            s.seed = seed;
+        }
+        s.validate().map_err(|e| format!("{origin}: {e}"))?;
+        Ok(s)
+    };
+    let controllers = match &cli.controllers {
+        None => vec![None],
+        Some(list) => match list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>() {
+            Ok(c) => c,
+            Err(e) => return bad_input(format!("`--controllers`: {e}")),
+        },
+    };
+    let mut sources = Vec::new();
+    for path in &cli.config {
+        for c in &controllers {
+            match openscenario::Source::open(path, &ImportOptions { controller: *c, ..opts.clone() }) {
+                Ok(s) => sources.push(s),
+                Err(e) => return bad_input(e),
+            }
+        }
+    }
+    if cli.permutations {
+        for (path, src) in cli.config.iter().zip(sources.iter().step_by(controllers.len())) {
+            if cli.config.len() == 1 {
+                println!("{}", src.len());
+            } else {
+                println!("{}\t{}", src.len(), path.display());
+            }
+        }
+        return ExitCode::SUCCESS;
+    }
+    if let Some(i) = cli.permutation {
+        for (path, src) in cli.config.iter().zip(sources.iter().step_by(controllers.len())) {
+            if i >= src.len() {
+                return bad_input(format!(
+                    "`--permutation`: {}: permutation {i} does not exist: the file has {} run(s), permutations 0-{}",
+                    path.display(),
+                    src.len(),
+                    src.len() - 1
+                ));
+            }
+        }
+    }
+    // The jobs: (source, permutation), file by file, controller by controller.
+    let counts: Vec<usize> = sources.iter().map(|s| if cli.permutation.is_some() { 1 } else { s.len() }).collect();
+    let total: usize = counts.iter().sum();
+    let job = |mut k: usize| {
+        for (s, &n) in counts.iter().enumerate() {
+            if k < n {
+                return (s, cli.permutation.unwrap_or(k));
+            }
+            k -= n;
+        }
+        (usize::MAX, 0)
+    };
+    for dir in [&cli.out, &cli.record].into_iter().flatten() {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return bad_input(format!("`--out` {}: {e}", dir.display()));
+        }
+    }
+    let stop = &STOP;
+    if let Err(e) = ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    }) {
+        eprintln!("warning: cannot handle Ctrl-C ({e})");
+    }
+    let sopts = StreamOptions { out: cli.out.as_deref(), record: cli.record.as_deref(), stop: Some(stop), adjust: Some(&adjust) };
+    let bar = (total > 1 && !cli.quiet).then(|| {
+        let b = indicatif::ProgressBar::new(total as u64);
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed_precise} {msg}") {
+            b.set_style(style);
+        }
+        b
+    });
+    let say = |line: String| match &bar {
+        Some(b) => b.suspend(|| eprintln!("{line}")),
+        None => eprintln!("{line}"),
+    };
+    let mut seen = std::collections::HashSet::new();
+    let mut table = flc_sim::report::TableWriter::new(0);
+    let (mut collided, mut failed, mut cut, mut n_coll) = (false, 0usize, 0usize, 0usize);
+    let mut stdout = std::io::stdout();
+    let result = run_sources(&sources, total, job, &sopts, |item| {
+        use std::io::Write;
+        for w in item.warnings {
+            if !cli.quiet && seen.insert(w.clone()) {
+                say(format!("warning: {w}"));
+            }
+        }
+        let rec = match item.record {
+            Ok(r) => r,
+            Err(e) => {
+                failed += 1;
+                say(format!("error: permutation {}: {e}", item.permutation));
+                return Ok(());
+            }
+        };
+        if item.end == Some(flc_sim::RunEnd::Duration) {
+            cut += 1;
+        }
+        if item.end == Some(flc_sim::RunEnd::Duration) && !cli.quiet {
+            say(format!(
+                "warning: {}: cut at --max-duration {} s: its StopTrigger had not fired",
+                rec.label(),
+                cli.xosc.max_duration.unwrap_or(openscenario::DEFAULT_MAX_DURATION)
+            ));
+        }
+        if rec.any_collision() {
+            collided = true;
+            n_coll += 1;
+        }
+        let text = if cli.json {
+            serde_json::to_string(&rec).map(|l| l + "\n").map_err(|e| SimError::Input(e.to_string()))?
+        } else {
+            table.row(&rec)
+        };
+        match &bar {
+            Some(b) => b.suspend(|| write!(stdout, "{text}").and_then(|()| stdout.flush())),
+            None => write!(stdout, "{text}").and_then(|()| stdout.flush()),
+        }?;
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+        Ok(())
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let done = match result {
+        Ok(n) => n,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if total > 1 {
+        eprintln!("{done} of {total} runs: {n_coll} with a collision, {cut} cut by --max-duration, {failed} failed");
+    }
+    if STOP.load(Ordering::SeqCst) {
+        eprintln!("interrupted: {done} of {total} runs finished and written; the outputs hold only finished runs");
+        return ExitCode::from(130);
+    }
+    if failed > 0 {
+        return ExitCode::from(2);
+    }
+    if cli.fail_on_collision && collided {
+        return ExitCode::from(1);
+    }
+    ExitCode::SUCCESS
 }
 
 /// `true` for an OpenSCENARIO file name.
@@ -297,18 +479,54 @@ fn convert(flags: &ImportFlags<'_>, file: &std::path::Path, out: Option<&std::pa
 }
 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
-/// combination with its parameter values.
+/// combination with its parameter values, each run imported when its turn comes (bounded
+/// memory, `openscenario::Source`).
 fn sweep_xosc(flags: &ImportFlags<'_>, file: &std::path::Path, out: Option<&std::path::Path>, restart: bool) -> ExitCode {
-    use flc_sim::sweep::{distribution_points, run_points};
-    let runs = match import_xosc(file, flags) {
-        Ok(r) => r,
+    use flc_sim::sweep::{SweepPoint, run_points_with};
+    let opts = match import_options(flags.xosc) {
+        Ok(o) => o,
         Err(e) => return bad_input(e),
     };
-    let (keys, points) = distribution_points(runs);
+    let controllers = match flags.controllers {
+        None => vec![None],
+        Some(list) => match list.iter().map(|c| ControllerKind::parse(c).map(Some)).collect::<Result<Vec<_>, _>>() {
+            Ok(c) => c,
+            Err(e) => return bad_input(format!("`--controllers`: {e}")),
+        },
+    };
+    let mut sources = Vec::new();
+    for c in &controllers {
+        match openscenario::Source::open(file, &ImportOptions { controller: *c, ..opts.clone() }) {
+            Ok(s) => sources.push(s),
+            Err(e) => return bad_input(e),
+        }
+    }
+    let first = match sources.first().map(|s| s.run(0)) {
+        Some(Ok((imp, warnings))) => {
+            if !flags.quiet {
+                for w in warnings {
+                    eprintln!("warning: {w}");
+                }
+            }
+            imp
+        }
+        Some(Err(e)) => return bad_input(e),
+        None => return bad_input("no run"),
+    };
+    let keys: Vec<String> = first.params.iter().map(|(k, _)| k.clone()).collect();
+    drop(first);
+    let per = sources.first().map_or(0, openscenario::Source::len);
+    let total = per * sources.len();
+    let point = |id: usize| {
+        let src = sources.get(id / per.max(1)).ok_or_else(|| format!("no run {id}"))?;
+        let (r, _) = src.run(id % per.max(1)).map_err(|e| e.to_string())?;
+        let values = r.params.into_iter().map(|(k, v)| (k, serde_json::Value::String(v))).collect();
+        Ok(SweepPoint { id, values, scenario: r.scenario })
+    };
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_points(&keys, &points, &out, !flags.quiet, restart) {
+    match run_points_with(&keys, total, point, &out, !flags.quiet, restart) {
         Ok(n) => {
-            eprintln!("{n} runs done ({} in the distribution), rows in {}", points.len(), out.display());
+            eprintln!("{n} runs done ({total} in the distribution), rows in {}", out.display());
             ExitCode::SUCCESS
         }
         Err(e @ SimError::StaleOutput { .. }) => stale(e),
@@ -622,6 +840,12 @@ fn main() -> ExitCode {
         None => {}
     }
     warn_ignored(&matches, &cli);
+    if !cli.config.is_empty() && cli.config.iter().all(|p| is_xosc(p)) {
+        return run_xosc_stream(&cli);
+    }
+    if cli.permutation.is_some() || cli.permutations {
+        return bad_input("`--permutation` / `--permutations`: only for `--config` with `.xosc` files");
+    }
     let list = match scenarios(&cli) {
         Ok(l) => l,
         Err(e) => return bad_input(e),
@@ -648,7 +872,7 @@ fn main() -> ExitCode {
             }) {
                 eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted recording may be incomplete");
             }
-            let results = RunOptions { record: Some(dir), stop: Some(stop), progress }.run_batch(&scenarios);
+            let results = RunOptions { record: Some(dir), stop: Some(stop), progress, ..RunOptions::default() }.run_batch(&scenarios);
             if stop.load(Ordering::SeqCst) {
                 eprintln!("interrupted: the recordings in {} are finished up to the interrupt", dir.display());
                 return ExitCode::from(130);

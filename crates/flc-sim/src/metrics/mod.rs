@@ -14,7 +14,7 @@ mod ssm;
 use serde::{Deserialize, Serialize};
 
 pub use params::MetricsParams;
-pub use records::{CollisionInfo, ContactRecord, FollowerRun, HitObject, ObjectKind};
+pub use records::{CollisionInfo, ContactRecord, FollowerRun, HitObject, ObjectKind, PairContact};
 pub use signal::HARD_BRAKING;
 use signal::{TIME_EPS, finite_or, max_abs_jerk, step_durations, weighted_mean};
 

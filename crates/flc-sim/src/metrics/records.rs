@@ -118,6 +118,24 @@ pub struct CollisionInfo {
     pub normal: [f64; 2],
 }
 
+/// One contact episode of a pair of bodies (the step they start touching), in a `[story]` run:
+/// what `scenario --json` lists as `contacts` (every contact, the ego's included).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairContact {
+    /// Time of the step the pair started touching, s.
+    pub time: f64,
+    /// One body (a vehicle: `{kind, name}`).
+    pub a: HitObject,
+    /// The other (a vehicle or a road-side object).
+    pub b: HitObject,
+    /// Magnitude of the relative velocity `v_a - v_b` (world frame), m/s.
+    pub relative_speed: f64,
+    /// Closing speed along the contact normal (`>= 0`), m/s.
+    pub impact_speed_normal: f64,
+    /// Contact point, world frame, m.
+    pub point: [f64; 2],
+}
+
 /// The first contact of a pair of bodies neither of which is a follower (the lead touching a
 /// parked car, a guard rail, a post): listed per run, not a follower's collision.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

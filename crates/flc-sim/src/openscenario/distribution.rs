@@ -28,13 +28,33 @@ pub const MAX_EXPANDED_BYTES: u128 = 128 * 1024 * 1024;
 /// gives 4 values despite rounding).
 pub const RANGE_SLACK: f64 = 1e-9;
 
-/// A distribution file read: the scenario it varies and one parameter assignment per run.
+/// A distribution file read: the scenario it varies and its runs, each a parameter assignment
+/// computed on demand ([`Distribution::run`]): nothing is expanded, so a file of 100,000 runs
+/// costs the size of its value lists.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Distribution {
     /// `ScenarioFile@filepath`, resolved relative to the distribution file's folder.
     pub scenario_file: PathBuf,
-    /// One entry per run: parameter name -> value text, in the order the distributions (and,
-    /// within a `ParameterValueSet`, the assignments) appear in the file.
+    /// Each distribution's choices, in file order.
+    choices: Vec<Choices>,
+    /// The number of runs ([`MAX_RUNS`] at most).
+    len: usize,
+}
+
+impl Distribution {
+    /// The number of runs (the product of the distributions' value counts).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `true` for no run (never: every distribution has at least one value).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Run `i` (0-based): parameter name -> value text, in the order the distributions (and,
+    /// within a `ParameterValueSet`, the assignments) appear in the file; `None` for `i >=
+    /// len()`. Computed from `i` alone (no other run is built).
     ///
     /// Runs are in the order of esmini 3.6.0's `--param_permutation i` (run `i` here is
     /// esmini's permutation `i`): the combinations are counted like the digits of a number
@@ -43,7 +63,24 @@ pub struct Distribution {
     /// slowest (esmini's `OSCParameterDistribution`, which decomposes the permutation index
     /// from the last distribution backwards). Single- and multi-parameter distributions count
     /// alike, in file order.
-    pub runs: Vec<Vec<(String, String)>>,
+    pub fn run(&self, i: usize) -> Option<Vec<(String, String)>> {
+        if i >= self.len {
+            return None;
+        }
+        let mut picks = vec![0usize; self.choices.len()];
+        let mut rest = i;
+        for (pick, c) in picks.iter_mut().zip(&self.choices).rev() {
+            let n = c.len().max(1);
+            *pick = rest % n;
+            rest /= n;
+        }
+        Some(self.choices.iter().zip(&picks).filter_map(|(c, &k)| c.get(k)).flatten().cloned().collect())
+    }
+
+    /// Every run in order ([`Distribution::run`]), built one at a time.
+    pub fn runs(&self) -> impl Iterator<Item = Vec<(String, String)>> + '_ {
+        (0..self.len).filter_map(|i| self.run(i))
+    }
 }
 
 /// Whether `doc` is a distribution file: an `OpenSCENARIO` root holding a
@@ -143,20 +180,9 @@ pub fn read(doc: &roxmltree::Document<'_>, file: &Path) -> Result<Distribution, 
         ));
     }
 
-    // Pass 3: the runs, the last distribution varying fastest.
-    let mut runs = Vec::with_capacity(usize::try_from(total).unwrap_or(0));
-    for r in 0..total {
-        let mut picks = vec![0usize; all.len()];
-        let mut rest = r;
-        for (pick, n) in picks.iter_mut().zip(&counts).rev() {
-            let n = (*n).max(1);
-            *pick = usize::try_from(rest % n).unwrap_or(0);
-            rest /= n;
-        }
-        let run: Vec<(String, String)> = all.iter().zip(&picks).filter_map(|(c, &i)| c.get(i)).flatten().cloned().collect();
-        runs.push(run);
-    }
-    Ok(Distribution { scenario_file, runs })
+    // The runs are computed on demand (`Distribution::run`), the last distribution varying
+    // fastest.
+    Ok(Distribution { scenario_file, choices: all, len: usize::try_from(total).unwrap_or(usize::MAX) })
 }
 
 /// Name of the parameter a single distribution varies (written without `$`).
@@ -309,9 +335,34 @@ mod tests {
         )
     }
 
-    fn read_str(text: &str) -> Result<Distribution, ImportError> {
+    /// A distribution with its runs expanded (the tests compare them whole).
+    #[derive(Debug)]
+    struct Expanded {
+        scenario_file: PathBuf,
+        runs: Vec<Vec<(String, String)>>,
+    }
+
+    fn read_str(text: &str) -> Result<Expanded, ImportError> {
         let doc = xml::parse(text, "dist/d.xosc")?;
-        read(&doc, Path::new("dist/d.xosc"))
+        let d = read(&doc, Path::new("dist/d.xosc"))?;
+        assert_eq!(d.run(d.len()), None);
+        Ok(Expanded { runs: d.runs().collect(), scenario_file: d.scenario_file })
+    }
+
+    /// Run `i` is computed alone: the last run of a 100,000-run file, at once.
+    #[test]
+    fn one_run_without_the_others() {
+        let r = range_xml("a", "1", "1000", "1") + &range_xml("b", "1", "100", "1");
+        let text = file(&r);
+        let doc = xml::parse(&text, "d").expect("xml");
+        let t = std::time::Instant::now();
+        let d = read(&doc, Path::new("d.xosc")).expect("read");
+        let last = d.run(99_999).expect("last");
+        assert!(t.elapsed().as_secs_f64() < 0.5);
+        assert_eq!(d.len(), 100_000);
+        assert_eq!(pairs(&last), vec![("a", "1000"), ("b", "100")]);
+        assert_eq!(pairs(&d.run(101).expect("101")), vec![("a", "2"), ("b", "2")]);
+        assert_eq!(d.run(100_000), None);
     }
 
     fn pairs(run: &[(String, String)]) -> Vec<(&str, &str)> {

@@ -83,6 +83,9 @@ pub struct ImportOptions {
     /// such as `pi` and `sin`, a negative dynamics value, a value its declaration's
     /// `ValueConstraint`s forbid) is an error instead of a warning.
     pub strict: bool,
+    /// The guard on a run's length, s (`--max-duration`; `None`: [`DEFAULT_MAX_DURATION`]):
+    /// the scenario's `duration`. The file's `StopTrigger` ends a run before it.
+    pub max_duration: Option<f64>,
 }
 
 /// How an OpenSCENARIO entity appears in the scenario.
@@ -256,29 +259,71 @@ impl<'a, 't> Ctx<'a, 't> {
     }
 }
 
-/// Road files read so far (a distribution's runs share them).
+/// Road files read so far (a distribution's runs share them; runs imported in parallel share
+/// the cache).
 #[derive(Default)]
-struct Roads(BTreeMap<PathBuf, road::Network>);
+struct Roads(std::sync::Mutex<BTreeMap<PathBuf, std::sync::Arc<road::Network>>>);
 
 impl Roads {
-    fn load(&mut self, path: &Path) -> Result<&road::Network, ImportError> {
-        if !self.0.contains_key(path) {
-            let net = road::load(path)?;
-            self.0.insert(path.to_path_buf(), net);
+    fn load(&self, path: &Path) -> Result<std::sync::Arc<road::Network>, ImportError> {
+        let cached = self.0.lock().ok().and_then(|m| m.get(path).cloned());
+        if let Some(net) = cached {
+            return Ok(net);
         }
-        self.0.get(path).ok_or_else(|| ImportError::file(&path.display().to_string(), "road file not loaded"))
+        let net = std::sync::Arc::new(road::load(path)?);
+        if let Ok(mut m) = self.0.lock() {
+            m.insert(path.to_path_buf(), net.clone());
+        }
+        Ok(net)
     }
 }
 
-/// Imports the OpenSCENARIO file `path`: a scenario, or a `ParameterValueDistribution` (one run
-/// per combination). Every problem is an [`ImportError`] naming the file, line and element.
-pub fn import(path: &Path, opts: &ImportOptions) -> Result<Import, ImportError> {
-    let origin = path.display().to_string();
-    let text = xml::read(path)?;
-    let doc = xml::parse(&text, &origin)?;
-    let mut warn = Warnings::default();
-    let mut roads = Roads::default();
-    if distribution::is_distribution(&doc) {
+/// The default of [`ImportOptions::max_duration`], s: the guard that ends a run whose
+/// `StopTrigger` has not fired (`--max-duration`).
+pub const DEFAULT_MAX_DURATION: f64 = 3600.0;
+
+/// An OpenSCENARIO file opened for import: a scenario (one run) or a `ParameterValueDistribution`
+/// (one run per combination), each run imported on demand ([`Source::run`]) so that a file of
+/// any number of runs costs one run's memory at a time. Runs may be imported in parallel
+/// (`Source` is `Sync`).
+pub struct Source {
+    /// The scenario file (the distribution's `ScenarioFile`) and its text.
+    scenario_file: PathBuf,
+    text: String,
+    /// The distribution, if the file is one.
+    dist: Option<distribution::Distribution>,
+    opts: ImportOptions,
+    roads: Roads,
+    /// Warnings of reading the distribution file itself.
+    opening: Warnings,
+}
+
+impl Source {
+    /// Opens `path`: reads it (and a distribution's scenario file) and checks the distribution,
+    /// expanding nothing. Errors name the file, line and element.
+    pub fn open(path: &Path, opts: &ImportOptions) -> Result<Self, ImportError> {
+        if let Some(d) = opts.max_duration {
+            if !(d.is_finite() && (0.01..=crate::scenario::MAX_DURATION).contains(&d)) {
+                return Err(ImportError::file(
+                    &path.display().to_string(),
+                    format!("max_duration must be in [0.01, {}] s, got {d}", crate::scenario::MAX_DURATION),
+                ));
+            }
+        }
+        let origin = path.display().to_string();
+        let text = xml::read(path)?;
+        let doc = xml::parse(&text, &origin)?;
+        if !distribution::is_distribution(&doc) {
+            return Ok(Self {
+                scenario_file: path.to_path_buf(),
+                text,
+                dist: None,
+                opts: opts.clone(),
+                roads: Roads::default(),
+                opening: Warnings::default(),
+            });
+        }
+        let mut warn = Warnings::default();
         for c in xml::elements(doc.root_element()) {
             if c.tag_name().name() == "FileHeader" {
                 warn.skip(&origin, c, "metadata");
@@ -291,26 +336,84 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<Import, ImportError> 
         if distribution::is_distribution(&sdoc) {
             return Err(ImportError::file(&sorigin, "the ScenarioFile of a distribution is itself a distribution"));
         }
-        let mut runs = Vec::with_capacity(dist.runs.len());
-        for (i, run) in dist.runs.iter().enumerate() {
-            let mut params = run.clone();
-            for (k, v) in &opts.params {
-                match params.iter_mut().find(|(n, _)| n == k) {
-                    Some(slot) => slot.1 = v.clone(),
-                    None => params.push((k.clone(), v.clone())),
-                }
-            }
-            let mut imp = import_doc(&sdoc, &dist.scenario_file, &params, opts, &mut warn, &mut roads)?;
-            // The run's name says its parameters (table, JSON `variant`, file names).
-            let values: Vec<String> = run.iter().map(|(k, v)| format!("{k}={v}")).collect();
-            imp.scenario.variant = Some(format!("p{i} {}", values.join(" ")));
-            imp.params = params;
-            runs.push(imp);
-        }
-        return Ok(Import { runs, warnings: warn.into_lines() });
+        drop(sdoc);
+        Ok(Self {
+            scenario_file: dist.scenario_file.clone(),
+            text: stext,
+            dist: Some(dist),
+            opts: opts.clone(),
+            roads: Roads::default(),
+            opening: warn,
+        })
     }
-    let imp = import_doc(&doc, path, &opts.params, opts, &mut warn, &mut roads)?;
-    Ok(Import { runs: vec![imp], warnings: warn.into_lines() })
+
+    /// The number of runs: 1, or the distribution's number of combinations.
+    pub fn len(&self) -> usize {
+        self.dist.as_ref().map_or(1, distribution::Distribution::len)
+    }
+
+    /// Never `true` (a file has at least one run).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Whether the file is a `ParameterValueDistribution`.
+    pub fn is_distribution(&self) -> bool {
+        self.dist.is_some()
+    }
+
+    /// The options the runs are imported with.
+    pub fn options(&self) -> &ImportOptions {
+        &self.opts
+    }
+
+    /// Run `i` (0-based; esmini's `--param_permutation i` for a distribution) with the warning
+    /// lines its import gave (those of reading the distribution file first). `i` out of range
+    /// is an error naming `permutation` and the number of runs.
+    pub fn run(&self, i: usize) -> Result<(Imported, Vec<String>), ImportError> {
+        let mut warn = self.opening.clone();
+        let imp = self.run_into(i, &mut warn)?;
+        Ok((imp, warn.into_lines()))
+    }
+
+    fn run_into(&self, i: usize, warn: &mut Warnings) -> Result<Imported, ImportError> {
+        let n = self.len();
+        if i >= n {
+            return Err(ImportError::file(
+                &self.scenario_file.display().to_string(),
+                format!("permutation {i} does not exist: the file has {n} run(s), permutations 0-{}", n.saturating_sub(1)),
+            ));
+        }
+        let origin = self.scenario_file.display().to_string();
+        let doc = xml::parse(&self.text, &origin)?;
+        let Some(dist) = &self.dist else {
+            return import_doc(&doc, &self.scenario_file, &self.opts.params, &self.opts, warn, &self.roads);
+        };
+        let run = dist.run(i).unwrap_or_default();
+        let mut params = run.clone();
+        for (k, v) in &self.opts.params {
+            match params.iter_mut().find(|(n, _)| n == k) {
+                Some(slot) => slot.1 = v.clone(),
+                None => params.push((k.clone(), v.clone())),
+            }
+        }
+        let mut imp = import_doc(&doc, &self.scenario_file, &params, &self.opts, warn, &self.roads)?;
+        // The run's name says its parameters (table, JSON `variant`, file names).
+        let values: Vec<String> = run.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        imp.scenario.variant = Some(format!("p{i} {}", values.join(" ")));
+        imp.params = params;
+        Ok(imp)
+    }
+}
+
+/// Imports the OpenSCENARIO file `path`: a scenario, or a `ParameterValueDistribution` (one run
+/// per combination, all of them built: for large files use [`Source`], which builds one at a
+/// time). Every problem is an [`ImportError`] naming the file, line and element.
+pub fn import(path: &Path, opts: &ImportOptions) -> Result<Import, ImportError> {
+    let src = Source::open(path, opts)?;
+    let mut warn = src.opening.clone();
+    let runs = (0..src.len()).map(|i| src.run_into(i, &mut warn)).collect::<Result<Vec<_>, _>>()?;
+    Ok(Import { runs, warnings: warn.into_lines() })
 }
 
 /// Limits checked before anything is built: entities, storyboard elements, conditions per
@@ -374,7 +477,7 @@ fn import_doc(
     values: &[(String, String)],
     opts: &ImportOptions,
     warn: &mut Warnings,
-    roads: &mut Roads,
+    roads: &Roads,
 ) -> Result<Imported, ImportError> {
     let file = path.display().to_string();
     let file = file.as_str();
@@ -442,7 +545,7 @@ fn translate(
     base: &Path,
     (vars, network, entities, board): Parts<'_, '_>,
     opts: &ImportOptions,
-    roads: &mut Roads,
+    roads: &Roads,
 ) -> Result<Imported, ImportError> {
     let root = doc.root_element();
     let stem = Path::new(file).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -480,7 +583,7 @@ fn translate(
             for tag in &net.skipped {
                 ctx.warn.line(&format!("xodr:{tag}"), format!("{}: <{tag}>: skipped (does not change 2-D motion)", canon.display()));
             }
-            Some(net.clone())
+            Some((*net).clone())
         }
     };
 
@@ -572,7 +675,13 @@ fn translate(
     let names = entities::flc_names(&defs, ego, lead);
 
     // The scenario's entities.
-    let mut s = Scenario { name: stem.clone(), duration: 300.0, ..Scenario::default() };
+    let mut s = Scenario { name: stem.clone(), duration: opts.max_duration.unwrap_or(DEFAULT_MAX_DURATION), ..Scenario::default() };
+    if opts.ego_mode == EgoMode::Scripted {
+        // The file ends the run (its StopTrigger, else the max-duration guard), as in esmini:
+        // contacts are reported and the run goes on.
+        s.stop.on_collision = false;
+        s.stop.on_standstill = false;
+    }
     let speed_of = |i: usize| init_states.get(i).and_then(|st| st.speed).unwrap_or(0.0);
     for (i, d) in defs.iter().enumerate() {
         if d.kind == Kind::Misc && speed_of(i) != 0.0 {
@@ -910,7 +1019,7 @@ mod tests {
         let run = &imp.runs[0];
         let s = &run.scenario;
         assert_eq!(s.name, "speed_linear_rate");
-        assert_eq!(s.duration, 300.0);
+        assert_eq!(s.duration, DEFAULT_MAX_DURATION);
         let st = story_of(&imp);
         match find_action(st, "BrakeAction") {
             Action::Speed { speed: Some(v), of: None, transition, .. } => {

@@ -38,7 +38,17 @@ impl ImportOptions {
                 return Err(ConfigError::new("params", "a parameter name is empty"));
             }
         }
-        Ok(Self { params, ego, ego_mode, controller, road, dynamics, strict: false })
+        Ok(Self { params, ego, ego_mode, controller, road, dynamics, strict: false, max_duration: None })
+    }
+
+    /// With the `--max-duration` guard `seconds` (in [0.01, 36000] s; the error names
+    /// `max_duration`).
+    pub fn with_max_duration(mut self, seconds: Option<f64>) -> Result<Self, ConfigError> {
+        if let Some(d) = seconds {
+            crate::error::check_range("max_duration", d, 0.01, crate::scenario::MAX_DURATION, "s")?;
+        }
+        self.max_duration = seconds;
+        Ok(self)
     }
 
     /// `NAME=VALUE` (`--param`) as a pair; the error names `param`.

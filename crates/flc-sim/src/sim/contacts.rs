@@ -1,7 +1,7 @@
 //! Contacts reported by the world, turned into records: each follower's first contact with
 //! anything ([`CollisionInfo`]) and the first contact of every other pair ([`ContactRecord`]).
 
-use crate::metrics::{CollisionInfo, ContactRecord, HitObject, ObjectKind};
+use crate::metrics::{CollisionInfo, ContactRecord, HitObject, ObjectKind, PairContact};
 use crate::track::{RoadsideObject, Track};
 use crate::vehicle::VehicleState;
 use crate::world::{Body, Contact, Party};
@@ -137,4 +137,25 @@ pub(super) fn record_other_contacts(contacts: &[Contact], bodies: &Bodies<'_>, t
             normal,
         });
     }
+}
+
+/// Every pair touching in `contacts` (followers included), as [`PairContact`]s from the first
+/// vehicle's side; a pair reported twice (several manifolds) is listed once by the caller.
+pub(super) fn pair_contacts(contacts: &[Contact], bodies: &Bodies<'_>, time: f64) -> Vec<PairContact> {
+    let mut out = Vec::with_capacity(contacts.len());
+    for c in contacts {
+        let Party::Vehicle(first) = c.a else { continue };
+        let Some((other, normal)) = c.seen_from(first) else { continue };
+        let (sa, sb) = (bodies.state(Party::Vehicle(first)), bodies.state(other));
+        let (va, vb) = (velocity(sa), velocity(sb));
+        out.push(PairContact {
+            time,
+            a: bodies.object(Party::Vehicle(first)),
+            b: bodies.object(other),
+            relative_speed: (va[0] - vb[0]).hypot(va[1] - vb[1]),
+            impact_speed_normal: normal_speed(sa, sb, normal),
+            point: c.point,
+        });
+    }
+    out
 }

@@ -37,7 +37,7 @@ use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, human_front, n
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
-use crate::metrics::{ContactRecord, Metrics};
+use crate::metrics::{ContactRecord, HitObject, Metrics, PairContact};
 use crate::platoon::V2vSource;
 use crate::scenario::Scenario;
 use crate::series::Series;
@@ -62,7 +62,46 @@ pub struct RunResult {
     /// The first contact of every pair of bodies that involves no follower (the lead touching a
     /// parked car, a guard rail, a post), in time order.
     pub other_contacts: Vec<ContactRecord>,
+    /// `[story]` runs: every contact of every pair of bodies (followers included), one entry per
+    /// episode (the step a pair starts touching), in time order; empty without a story.
+    pub contacts: Vec<PairContact>,
+    /// Why the run ended.
+    pub end: RunEnd,
 }
+
+/// Why a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunEnd {
+    /// It reached the scenario's `duration` (for an imported file: the `--max-duration` guard).
+    #[default]
+    Duration,
+    /// A follower collided and `stop.on_collision` is set.
+    Collision,
+    /// The stop trigger (OpenSCENARIO's `StopTrigger`) fired.
+    StopTrigger,
+    /// The scripts were done and every vehicle stood still for `stop.standstill_time`.
+    Standstill,
+    /// It was stopped from outside ([`crate::RunOptions::stop`]) before its end.
+    Interrupted,
+}
+
+impl RunEnd {
+    /// The JSON word (`duration`, `collision`, `stop_trigger`, `standstill`, `interrupted`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Duration => "duration",
+            Self::Collision => "collision",
+            Self::StopTrigger => "stop_trigger",
+            Self::Standstill => "standstill",
+            Self::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// Most entries of [`RunResult::contacts`] (a pair touching and parting on every step would
+/// otherwise grow it with the run's length).
+pub const MAX_CONTACTS: usize = 1000;
 
 /// What a platoon run produced besides follower 1's [`RunResult::series`] / [`RunResult::metrics`].
 #[derive(Debug, Clone)]
@@ -126,6 +165,11 @@ struct State {
     bodies: Vec<(Body, VehicleState)>,
     /// First contacts of the pairs without a follower.
     other_contacts: Vec<ContactRecord>,
+    /// `[story]`: every contact episode so far, and the pairs touching after the last step.
+    contacts: Vec<PairContact>,
+    touching: Vec<(HitObject, HitObject)>,
+    /// Why the run ended (set when it does).
+    end: RunEnd,
     t: f64,
     k: u64,
     standstill_since: Option<f64>,
@@ -249,6 +293,9 @@ impl Simulation {
             senders: Vec::with_capacity(n + 1),
             bodies: Vec::new(),
             other_contacts: Vec::new(),
+            contacts: Vec::new(),
+            touching: Vec::new(),
+            end: RunEnd::Duration,
             t: 0.0,
             k: 0,
             standstill_since: None,
@@ -660,6 +707,9 @@ impl<O: Observer> Simulation<O> {
         if !contacts.is_empty() {
             self.record_contacts(&contacts)?;
         }
+        if self.state.story.is_some() && !(contacts.is_empty() && self.state.touching.is_empty()) {
+            self.record_episodes(&contacts);
+        }
         let ls = *self.state.lead.state();
         self.fill_fronts();
         let (mut front, mut front_len) = (ls, self.state.scenario.lead.vehicle.length);
@@ -686,18 +736,21 @@ impl<O: Observer> Simulation<O> {
 
         // Stop conditions.
         if collided && self.state.scenario.stop.on_collision {
+            self.state.end = RunEnd::Collision;
             return Ok(false);
         }
         if self.state.triggers.any && self.stop_trigger_fired() {
+            self.state.end = RunEnd::StopTrigger;
             return Ok(false);
         }
         let scripts_done = match &self.state.story {
             Some(r) => r.state.complete(),
             None => self.state.lead_driver.finished(),
         };
-        if scripts_done && all_still {
+        if scripts_done && all_still && self.state.scenario.stop.on_standstill {
             let since = *self.state.standstill_since.get_or_insert(self.state.t);
             if self.state.t - since >= self.state.scenario.stop.standstill_time {
+                self.state.end = RunEnd::Standstill;
                 return Ok(false);
             }
         } else {
@@ -730,6 +783,32 @@ impl<O: Observer> Simulation<O> {
             self.observer.other_contact(c)?;
         }
         Ok(())
+    }
+
+    /// `[story]` runs: appends to `contacts` every pair of this step's `contacts` that was not
+    /// touching after the step before (a new contact episode), and remembers the pairs touching.
+    fn record_episodes(&mut self, contacts: &[crate::world::Contact]) {
+        let st = &mut self.state;
+        st.bodies.clear();
+        st.bodies.push((st.lead_body, *st.lead.state()));
+        st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
+        st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
+        let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
+        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
+        let now = contacts::pair_contacts(contacts, &bodies, st.t);
+        let mut touching = Vec::with_capacity(now.len());
+        for c in now {
+            let pair = (c.a.clone(), c.b.clone());
+            let seen = |p: &(HitObject, HitObject)| (p.0 == pair.0 && p.1 == pair.1) || (p.0 == pair.1 && p.1 == pair.0);
+            if touching.iter().any(seen) {
+                continue;
+            }
+            if !st.touching.iter().any(seen) && st.contacts.len() < MAX_CONTACTS {
+                st.contacts.push(c);
+            }
+            touching.push(pair);
+        }
+        st.touching = touching;
     }
 
     /// With `[[vehicles]]`: the vehicle in front of each follower and its length, into
@@ -864,7 +943,7 @@ impl<O: Observer> Simulation<O> {
     /// Ends the run and computes the metrics (follower 1's as [`RunResult::metrics`]; with
     /// `[platoon]` every follower's and the string-stability measures in [`RunResult::platoon`]).
     pub fn finish(self) -> RunResult {
-        let State { scenario, followers, lead_driver, other_contacts, .. } = self.state;
+        let State { scenario, followers, lead_driver, other_contacts, contacts, end, .. } = self.state;
         let mut laws = Vec::with_capacity(followers.len());
         let runs: Vec<FollowerRun> = followers
             .into_iter()
@@ -874,7 +953,7 @@ impl<O: Observer> Simulation<O> {
             })
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> = laws.iter().map(|l| &**l as &dyn flc_core::LongitudinalController).collect();
-        assemble(scenario, runs, &laws, &lead_driver, other_contacts)
+        assemble(scenario, runs, &laws, &lead_driver, (other_contacts, contacts, end))
     }
 
     /// The result of the run so far, as [`Simulation::finish`] gives it at the end (the run goes
@@ -892,7 +971,7 @@ impl<O: Observer> Simulation<O> {
             .collect();
         let laws: Vec<&dyn flc_core::LongitudinalController> =
             st.followers.iter().map(|f| &*f.longitudinal as &dyn flc_core::LongitudinalController).collect();
-        assemble(st.scenario.clone(), runs, &laws, &st.lead_driver, st.other_contacts.clone())
+        assemble(st.scenario.clone(), runs, &laws, &st.lead_driver, (st.other_contacts.clone(), st.contacts.clone(), st.end))
     }
 }
 
@@ -902,7 +981,7 @@ fn assemble(
     mut runs: Vec<FollowerRun>,
     laws: &[&dyn flc_core::LongitudinalController],
     lead_driver: &LeadDriver,
-    other_contacts: Vec<ContactRecord>,
+    (other_contacts, contacts, end): (Vec<ContactRecord>, Vec<PairContact>, RunEnd),
 ) -> RunResult {
     let platoon = scenario.platoon.as_ref().map(|p| {
         let signals = Signals::of(&runs, laws);
@@ -910,7 +989,7 @@ fn assemble(
         PlatoonResult { followers: runs.clone(), signals, string_stability }
     });
     let first = runs.swap_remove(0);
-    RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts }
+    RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts, contacts, end }
 }
 
 /// The true CAM / BSM kinematics of a V2V sender: its reference point is the centre of the front
