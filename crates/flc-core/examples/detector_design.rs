@@ -92,11 +92,11 @@ fn repr<const NX: usize>(name: &'static str, params: DetectorParams) -> Repr {
 
 fn representations() -> Vec<Repr> {
     let new = DetectorParams::defaults();
-    // The detector before issue 23: 350 x 0.2 m columns to 70.5 m, min_width 0.8 m, a fixed 3 x 3
+    // The first design of the detector: 350 x 0.2 m columns to 70.5 m, min_width 0.8 m, a fixed 3 x 3
     // dilation and a fixed 3-point threshold (a tiny beam spacing keeps min_points_at at 3).
     let old = DetectorParams { far_start: 70.5, min_width: 0.8, max_dilation_radius: 1, beam_spacing_deg: 1e-6, ..new };
     vec![
-        repr::<350>("before issue 23: 350 x 0.2 m to 70.5 m, fixed dilation and threshold", old),
+        repr::<350>("first design: 350 x 0.2 m to 70.5 m, fixed dilation and threshold", old),
         repr::<1000>("uniform: 1000 x 0.2 m to 200.5 m", DetectorParams { far_start: 200.5, ..new }),
         repr::<520>("no joining: the default without step 7b", DetectorParams { join_gap: 0.0, ..new }),
         repr::<520>("no joining, fixed 3 x 3 dilation", DetectorParams { join_gap: 0.0, max_dilation_radius: 1, ..new }),

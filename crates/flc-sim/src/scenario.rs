@@ -561,6 +561,18 @@ impl Scenario {
             Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(text.to_string())),
             Err(_) => toml::Value::String(text.to_string()),
         };
+        // TOML has `inf` and `nan`; no scenario key takes them (JSON would turn them into null).
+        fn finite(v: &toml::Value) -> bool {
+            match v {
+                toml::Value::Float(f) => f.is_finite(),
+                toml::Value::Array(a) => a.iter().all(finite),
+                toml::Value::Table(t) => t.values().all(finite),
+                _ => true,
+            }
+        }
+        if !finite(&value) {
+            return Err(ConfigError::new(key, format!("must be a finite number, got `{text}` (`--set`)")));
+        }
         let json = serde_json::to_value(&value).map_err(|e| ConfigError::new("--set", format!("`{key}`: {e}")))?;
         Ok((key.to_string(), json))
     }

@@ -326,6 +326,8 @@ fn bad_set_input_exits_2_with_one_line_naming_flag_key_and_problem() {
         ("lidar.rate_hz=fast", &["lidar.rate_hz", "fast"][..]),
         ("lidar.rate_hz=0", &["lidar.rate_hz", "[1, 100]"][..]),
         ("lead.phases[3].decel=2", &["lead.phases[3]", "no item 3"][..]),
+        ("lidar.rate_hz=inf", &["lidar.rate_hz", "finite", "inf"][..]),
+        ("lead_decel=nan", &["lead_decel", "finite", "nan"][..]),
     ];
     for (arg, words) in cases {
         let out_dir = d.join("out");
