@@ -23,6 +23,7 @@ def import_openscenario(
     traffic_dynamics: str,
     controller: Optional[str],
     strict: bool = False,
+    permutation: Optional[int] = None,
 ) -> list[tuple[str, str]]: ...
 def check_scenario(json: str) -> str: ...
 _RunTuple = tuple[str, dict[str, npt.NDArray[np.float64]], Optional[tuple[str, dict[str, npt.NDArray[np.float64]]]], str]
