@@ -1,7 +1,6 @@
 //! `flc.gym`'s environments: N episodes of `flc_sim::gym::Env` stepped in one call (GIL
 //! released, in parallel), observations and outcomes written into NumPy arrays the caller owns.
 
-use flc_core::LongitudinalController;
 use flc_sim::gym::{Env, EnvConfig, Outcome, step_envs};
 use numpy::{PyReadonlyArray1, PyReadwriteArray2};
 use pyo3::prelude::*;
@@ -10,7 +9,7 @@ use crate::sim::{RunTuple, parse_scenario, result_to_py, scenario_err};
 use crate::{ParameterError, from_json};
 
 /// `n` environments of one configuration (`flc_sim::gym::EnvConfig` as JSON).
-#[pyclass(module = "flc._flc")]
+#[pyclass(module = "flc._flc", unsendable)]
 pub(crate) struct GymEnvs {
     envs: Vec<Env>,
     cfg: EnvConfig,
@@ -58,7 +57,7 @@ impl GymEnvs {
         let n = self.envs.len();
         let d = self.cfg.observation_len();
         let nf = Outcome::FIELDS.len();
-        if resets.len() != n || obs.shape() != [n, d] || out.shape() != [n, nf] {
+        if resets.len() != n || obs.as_array().shape() != [n, d].as_slice() || out.as_array().shape() != [n, nf].as_slice() {
             return Err(ParameterError::new_err(format!("step: {n} resets, obs of shape ({n}, {d}) and out of ({n}, {nf}) expected")));
         }
         let actions = actions.as_slice().map_err(|e| ParameterError::new_err(format!("actions: {e}")))?.to_vec();
@@ -112,7 +111,7 @@ impl GymEnvs {
 /// the scenario's parameter sections) and its low-level speed controller, as a policy steps
 /// them: the law on each decision's frame, the speed controller to turn the law's speed command
 /// into an acceleration demand (`flc.gym.policies`).
-#[pyclass(module = "flc._flc")]
+#[pyclass(module = "flc._flc", unsendable)]
 pub(crate) struct ScenarioLaw {
     law: flc_sim::BoxedLaw,
     speed: flc_sim::SpeedController,
