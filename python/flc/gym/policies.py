@@ -121,7 +121,8 @@ def evaluate(policy: Callable[[Any], Any], env: Any, episodes: int = 10, seed: i
     terms: dict[str, list[float]] = {}
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
-        total, n, sums = 0.0, 0, {}
+        total, n = 0.0, 0
+        sums: dict[str, float] = {}
         while True:
             obs, r, term, trunc, info = env.step(policy(obs))
             total += r
