@@ -8,6 +8,11 @@ use pyo3::prelude::*;
 use crate::sim::{RunTuple, parse_scenario, result_to_py, scenario_err};
 use crate::{ParameterError, from_json};
 
+/// A scan as a law gets it: `(t, distance, own_speed, v2v = (lead_speed, seq))`.
+type LawFrame = (f64, Option<f64>, f64, Option<(f64, u32)>);
+/// A pose `(x, y, yaw)`, m and rad.
+type Pose = (f64, f64, f64);
+
 /// `n` environments of one configuration (`flc_sim::gym::EnvConfig` as JSON).
 #[pyclass(module = "flc._flc", unsendable)]
 pub(crate) struct GymEnvs {
@@ -78,7 +83,7 @@ impl GymEnvs {
 
     /// Environment `i`'s last scan as a law gets it: `(t, distance, own_speed, v2v)` with
     /// `v2v = (lead_speed, seq)` of the latest message received, or `None`.
-    fn frame(&self, i: usize) -> PyResult<(f64, Option<f64>, f64, Option<(f64, u32)>)> {
+    fn frame(&self, i: usize) -> PyResult<LawFrame> {
         let sim = self.env(i)?.simulation().ok_or_else(|| ParameterError::new_err("reset first"))?;
         let (m, _, v2v) = sim.measurement(1).ok_or_else(|| ParameterError::new_err("follower 1 is not driven"))?;
         Ok((m.t, m.distance, m.own_speed, v2v.map(|v| (v.message.lead_speed, v.message.seq))))
@@ -86,7 +91,7 @@ impl GymEnvs {
 
     /// Environment `i`'s last scan's points (sensor frame, m) and the ego's and the lead's poses
     /// `(x, y, yaw)` now.
-    fn scene(&self, i: usize) -> PyResult<(Vec<[f64; 2]>, (f64, f64, f64), (f64, f64, f64))> {
+    fn scene(&self, i: usize) -> PyResult<(Vec<[f64; 2]>, Pose, Pose)> {
         let sim = self.env(i)?.simulation().ok_or_else(|| ParameterError::new_err("reset first"))?;
         let (m, _, _) = sim.measurement(1).ok_or_else(|| ParameterError::new_err("follower 1 is not driven"))?;
         let e = sim.follower_state(0).ok_or_else(|| ParameterError::new_err("no follower"))?;
