@@ -527,3 +527,43 @@ pub fn step_envs(
         .collect::<Result<Vec<()>, SimError>>()
         .map(|_| ())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::series::StepRecord;
+
+    #[test]
+    fn rates_are_integrated_over_the_rows() {
+        // Two physics steps of 0.01 s at 10 m/s, 5 m gap (0.5 s headway), accel 0 then 1 m/s².
+        let mut s = Series::default();
+        for (t, a) in [(0.01, 0.0), (0.02, 1.0)] {
+            s.push(StepRecord { t, gap: 5.0, follower_speed: 10.0, follower_accel: a, ..StepRecord::default() });
+        }
+        let w = RewardWeights::default();
+        let t = w.integrate(&s, 0, 0.0, 0.01);
+        assert!((t.progress - 2.0 * 10.0 / 10.0 * 0.01).abs() < 1e-12, "{t:?}");
+        assert!((t.headway + 2.0 * 0.5 * 0.01).abs() < 1e-12, "{t:?}");
+        // One jerk of 100 m/s³ over 0.01 s.
+        assert!((t.comfort + 0.001 * 100.0 * 100.0 * 0.01).abs() < 1e-9, "{t:?}");
+        assert_eq!(t.collision, 0.0);
+    }
+
+    #[test]
+    fn bad_weights_and_configs_name_the_field() {
+        let w = RewardWeights { jerk: -1.0, ..RewardWeights::default() };
+        assert_eq!(w.validate().unwrap_err().key, "reward.jerk");
+        let cfg = EnvConfig {
+            observation: ObservationKind::Lidar,
+            action: ActionKind::Speed,
+            policy_frequency: 10.0,
+            beams: 0,
+            reward: RewardWeights::default(),
+            action_low: 0.0,
+            action_high: 40.0,
+            points: false,
+            record: None,
+        };
+        assert_eq!(Env::new(cfg).unwrap_err().key, "beams");
+    }
+}
