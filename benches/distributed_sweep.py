@@ -44,7 +44,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     args = ap.parse_args()
     chunks = [None if c == "auto" else int(c) for c in args.chunks.split(",")]
-    _, _, points = _flc.sweep_plan(args.sweep)
+    _, _, points, _ = _flc.sweep_plan(args.sweep)
     sample = [j for _, j in points[:20]]
     back = len(pickle.dumps(run_chunk(sample), protocol=pickle.HIGHEST_PROTOCOL)) / len(sample)
     sent = sum(len(j.encode()) for j in sample) / len(sample)

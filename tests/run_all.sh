@@ -45,6 +45,21 @@ cargo test --locked --release -p flc-sim --test mutation
 echo "== Rust: robust FLC v2 against missed detections (release; issue 24)"
 cargo test --locked --release -p flc-sim --test robust_flc2
 
+echo "== Rust: the main job's build, so that \`cargo run --release --bin scenario\` starts at once afterwards"
+# The release tests above build the dependencies with flc-sim's dev-dependencies' features unified in
+# (serde \`alloc\`, serde_json \`float_roundtrip\`, zerocopy \`derive\`: \`cargo tree -e features\`), so
+# the binary alone needs its own build of ~22 crates (serde and its dependents: rapier2d, parry2d,
+# foxglove, mcap, rand, flc-core, flc-sim), 2 min 48 s on the first \`cargo run\` otherwise.
+cargo build --locked --release --bin scenario
+
+echo "== ASAM's quality checker: every .xosc/.xodr the project ships or writes has 0 issues (tools/asam_qc.py)"
+# Its own venv: asam-qc-opendrive pins numpy < 2 and Python >= 3.10 (tools/asam_qc-requirements.txt).
+QC_VENV="${FLC_QC_VENV:-target/qc-venv}"
+python3 -m venv "$QC_VENV"
+"$QC_VENV/bin/python" -m pip install --quiet -r tools/asam_qc-requirements.txt
+"$QC_VENV/bin/python" tools/asam_qc.py --self-test
+"$QC_VENV/bin/python" tools/asam_qc.py
+
 echo "== Python: build the package from source and install it with its test dependencies"
 VENV="${FLC_VENV:-target/ci-venv}"
 python3 -m venv "$VENV"
@@ -72,6 +87,8 @@ SDIST_DIR="target/sdist"
 rm -rf "$SDIST_DIR" target/sdist-venv target/sdist-build
 "$VENV/bin/maturin" sdist -o "$SDIST_DIR"
 python3 -m venv target/sdist-venv
+# With the `plot` extra: the smoke test draws figures from a temporary folder.
+SDIST="$(ls "$PWD/$SDIST_DIR"/flc-*.tar.gz)"
 CARGO_TARGET_DIR="$PWD/target/sdist-build" CARGO_PROFILE_DIST_LTO=false CARGO_PROFILE_DIST_CODEGEN_UNITS=16 \
-  target/sdist-venv/bin/python -m pip install --quiet "$SDIST_DIR"/flc-*.tar.gz
+  target/sdist-venv/bin/python -m pip install --quiet "flc[plot] @ file://$SDIST"
 (cd target && sdist-venv/bin/python "$OLDPWD/tests/sdist_smoke.py")

@@ -5,6 +5,7 @@ target_brakes, with the project's XML
 writer `tools/osc_writer.py` (as `tools/suite_cases.py` writes the standard suites).
 
     python3 tools/fixture_cases.py      # rewrites the eight files (same bytes on every run)
+    python3 tools/fixture_cases.py --out DIR   # writes them into DIR (tools/asam_qc.py compares)
 
 After a change, regenerate esmini's reference trajectories of them (tests/data/esmini/README.md):
 
@@ -76,7 +77,7 @@ def from_catalogs():
     slow = event("EgoSlowsTo15", "EgoSlowsTo15Action", speed("15.0", "linear", "rate", "4.0"),
                  condition("CarAheadWithin20m", gap_below("Ego", "CarAhead", "20.0")))
     stories = [story("CatalogCarsStory", "CatalogCarsAct", "Ego", "EgoManeuver", [slow])]
-    return document(comment, 2, "from_catalogs: three catalog entities and a catalog controller, with ParameterAssignments",
+    return document(comment, 3, "from_catalogs: three catalog entities and a catalog controller, with ParameterAssignments",
                     catalog_locations(vehicle="catalogs", controller="catalogs"), STRAIGHT, entities,
                     storyboard(init, stories, [[condition("TimeOut10s", after("10.0"))]]))
 
@@ -95,7 +96,7 @@ def lane_leave_reveal():
         f"t = {gap_ahead - reveal:.2f} / {v:.3f} = {(gap_ahead - reveal) / v:.2f} s), CarAhead moves one lane left (sinusoidal,",
         "LaneChangeTime 2.5 s), and Box is in Ego's view about 3 s before Ego reaches it. the reference player's default",
         "controller does not brake: the run stops when Ego's freespace gap to Box is under 2 m",
-        f"(t = {gap_ego - 2.0:.2f} / {v:.3f} = {(gap_ego - 2.0) / v:.2f} s), or at 20 s. Header revision 1.3; the content is valid 1.2.",
+        f"(t = {gap_ego - 2.0:.2f} / {v:.3f} = {(gap_ego - 2.0) / v:.2f} s), or at 20 s. Revision 1.3: the Act has no StartTrigger (it starts at once).",
     )
     decls = [("EgoSpeed_kmh", "double", "50.0"), ("LeadDistance", "double", f"{ahead_ds}"), ("ObstacleS", "double", f"{box_s}"),
              ("RevealGap", "double", f"{reveal}"), ("LaneChangeTime", "double", "2.5")]
@@ -136,7 +137,7 @@ def merge_in():
     merge = event("MergesIntoEgoLane", "MergesIntoEgoLaneAction", lane_change("Ego", "0"),
                   condition("GapBelowTriggerGap", gap_below("Ego", "MergingCar", "$TriggerGap")))
     stories = [story("MergeInStory", "MergeInAct", "MergingCar", "MergingCarManeuver", [merge])]
-    return document(comment, 2, "merge_in: a slower car in the left lane moves in 30 m ahead of Ego", params(*decls), X("CatalogLocations"),
+    return document(comment, 3, "merge_in: a slower car in the left lane moves in 30 m ahead of Ego", params(*decls), X("CatalogLocations"),
                     STRAIGHT, X("Entities", car("Ego", "ego"), car("MergingCar", "mergingcar")),
                     storyboard(init, stories, [[condition("TimeOut12s", after("12.0"))]]))
 
@@ -148,10 +149,10 @@ def parameters():
         "parameters", "parameter types, ConstraintGroups and ${...} expressions, a parameterised catalog vehicle",
         "Straight 3-lane road. Declared: double, integer, string and boolean parameters; ConstraintGroups",
         "(the groups of one declaration ORed, the constraints of a group ANDed; the defaults satisfy",
-        "them); ${...} with + - * / %, unary minus, parentheses, min max abs round floor ceil sqrt pow",
-        "sign, comparisons (\"<\" is written \"&lt;\" in an attribute), and / or / not:",
-        "EgoStart      = max(20, min(30, 25)) + round(0.4) + floor(0.9) + ceil(0.1) - 1 + sqrt(0)",
-        "                + pow(2, 0) - 1 + sign(-2) + 1 = 25",
+        "them); ${...} with + - * / %, unary minus, parentheses, round floor ceil sqrt pow (the standard's",
+        "functions: min max abs sign are the reference player's extensions, which ASAM's checker flags),",
+        "comparisons (\"<\" is written \"&lt;\" in an attribute), and / or / not:",
+        "EgoStart      = round(24.6) + round(0.4) + floor(0.9) + ceil(0.1) - 1 + sqrt(0) + pow(2, 0) - 1 = 25",
         "TargetOffset  = (2 + 3 * 4 - 10 / 5 - 7 % 3) / 40 = (2 + 12 - 2 - 1) / 40 = 0.275",
         "                (the reference player's % is the IEEE remainder x - y round(x / y): 7 % 3 = 1 as with fmod,",
         "                but 2 % 3 = -1 there; the operands here are ones where both agree)",
@@ -161,7 +162,7 @@ def parameters():
         "                boolean expression as the number 1, so the ParameterCondition compares it with the",
         "                boolean literal \"1\", which is \"true\" as an XML boolean)",
         "Enabled       = true, a plain boolean, compared with \"true\"",
-        "Repeats       = abs(-1) = 1 (the event's maximumExecutionCount)",
+        "Repeats       = round(1.4) = 1 (the event's maximumExecutionCount)",
         "TargetCar: the catalog `car` with Length = TargetLength (4.8) and MaxSpeed assigned by an",
         "expression; lane $Lane (-2), s = EgoStart + Gap = 85, offset 0.275, at TargetSpeed_kmh / 3.6.",
         "Ego: RelativeLanePosition ds = BackOff (60 m behind TargetCar) in the same lane, offset -0.275",
@@ -177,12 +178,12 @@ def parameters():
         ("Decel", "double", f"{decel}"),
         ("Lane", "string", "-2"),
         ("TargetLength", "double", "4.8"),
-        ("EgoStart", "double", "${max(20, min(30, 25)) + round(0.4) + floor(0.9) + ceil(0.1) - 1 + sqrt(0) + pow(2, 0) - 1 + sign(-2) + 1}"),
+        ("EgoStart", "double", "${round(24.6) + round(0.4) + floor(0.9) + ceil(0.1) - 1 + sqrt(0) + pow(2, 0) - 1}"),
         ("TargetOffset", "double", "${(2 + 3 * 4 - 10 / 5 - 7 % 3) / 40}"),
         ("BackOff", "double", "${-$Gap + -(-0)}"),
         ("BrakeDistance", "double", "${pow($EgoSpeed_kmh / 3.6 - $TargetSpeed_kmh / 3.6, 2) / (2 * $Decel) + 5}"),
         ("Closing", "boolean", "${$EgoSpeed_kmh > $TargetSpeed_kmh and not ($Gap < 10) or $Decel == 0}"),
-        ("Repeats", "integer", "${abs(-1)}"),
+        ("Repeats", "integer", "${round(1.4)}"),
         ("Enabled", "boolean", "true"),
     ]
     entities = X("Entities",
@@ -201,7 +202,7 @@ def parameters():
     brake_event = event("EgoBrakesToTarget", "EgoBrakesToTargetAction", speed("${$TargetSpeed_kmh / 3.6}", "linear", "rate", "$Decel"),
                         holds, count="$Repeats")
     stories = [story("ParameterStory", "ParameterAct", "Ego", "EgoManeuver", [brake_event])]
-    return document(comment, 2, "parameters: constraints, expressions and a parameterised catalog vehicle", params(*decls),
+    return document(comment, 3, "parameters: constraints, expressions and a parameterised catalog vehicle", params(*decls),
                     catalog_locations(vehicle="catalogs"), STRAIGHT, entities,
                     storyboard(init, stories, [[condition("TimeOut15s", after("15.0"))]]))
 
@@ -272,7 +273,7 @@ def priority():
     groups = [maneuver_group("Ego", "EgoManeuver", ego_events), maneuver_group("Pulse", "PulseManeuver", [pulse])]
     init = [place("Ego", -2, "50.0", "20.0"), place("Pulse", -3, "300.0", "10.0")]
     stories = [story_of("PriorityStory", "PriorityAct", groups)]
-    return document(comment, 2, "Event priority override, skip, parallel; maximumExecutionCount", X("CatalogLocations"), STRAIGHT,
+    return document(comment, 3, "Event priority override, skip, parallel; maximumExecutionCount", X("CatalogLocations"), STRAIGHT,
                     X("Entities", car("Ego", "ego"), car("Pulse", "pulse")), storyboard(init, stories, [[condition("StopTime", after("10.0"))]]))
 
 
@@ -280,22 +281,22 @@ def standing_car():
     v, free = 50.0 / 3.6, 100.0 - 4.5
     comment = header(
         "standing_car", "a car stands in Ego's lane",
-        "Straight 3-lane road; both cars are the VehicleCatalog `car`. Ego drives at EgoSpeed_kmh (50) in",
-        "lane -2 from s 50; the standing car's reference point is Distance (100) m ahead of Ego's",
+        "Straight 3-lane road; both cars are the VehicleCatalog `car`. Ego drives at EgoSpeed (50 km/h) in",
+        "lane -2 from s 50; the standing car's reference point is at StandingS (150), 100 m ahead of Ego's",
         f"({free:g} m of free space). A player that does not control Ego keeps its speed: the run ends when",
         f"the free space is under 2 m ({free - 2.0:g} m at {v:.3f} m/s: {(free - 2.0) / v:.2f} s), or at 10 s.",
         "Revision 1.0: the Act has a StartTrigger, the priority is `overwrite`, the distance condition has",
-        "no coordinateSystem; Ego's speed is set in Init and again by an event at t > 0.",
+        "no coordinateSystem; Ego's speed is set in Init and again by an event at t > 0. 1.0 has no",
+        f"expressions (`${{...}}` came with 1.1): EgoSpeed is in m/s ({v!r}, what 50 / 3.6 gives in doubles).",
     )
-    kmh = "${$EgoSpeed_kmh / 3.6}"
-    init = [place("Ego", -2, "50.0", kmh), place("Standing", -2, "${50 + $Distance}", "0.0")]
-    drive = event("SetEgoSpeed", "EgoToSpeed", speed(kmh), condition("FromTheStart", after("0.0")), priority="overwrite")
+    init = [place("Ego", -2, "50.0", "$EgoSpeed"), place("Standing", -2, "$StandingS", "0.0")]
+    drive = event("SetEgoSpeed", "EgoToSpeed", speed("$EgoSpeed"), condition("FromTheStart", after("0.0")), priority="overwrite")
     stories = [story("DriveOn", "DriveOnAct", "Ego", "EgoSpeed", [drive], act_start=condition("ActFromTheStart", after("0.0")),
                      group_name="EgoDrives")]
     stops = [[condition("CloseToStanding", gap_below("Ego", "Standing", "2.0", coordinate_system=None))],
              [condition("TenSeconds", after("10.0"))]]
     return document(comment, 0, "standing_car: Ego at 50 km/h toward a car standing 100 m ahead",
-                    params(("EgoSpeed_kmh", "double", "50.0"), ("Distance", "double", "100.0")), catalog_locations(vehicle="catalogs"),
+                    params(("EgoSpeed", "double", repr(v)), ("StandingS", "double", "150.0")), catalog_locations(vehicle="catalogs"),
                     STRAIGHT, X("Entities", catalog_object("Ego", "car"), catalog_object("Standing", "car")), storyboard(init, stories, stops))
 
 
@@ -336,10 +337,11 @@ FIXTURES = {
 
 
 def main():
+    out = pathlib.Path(sys.argv[sys.argv.index("--out") + 1]) if "--out" in sys.argv else OUT
     for name, make in FIXTURES.items():
-        path = OUT / name
+        path = out / name
         path.write_text(make())
-        print(path.relative_to(ROOT))
+        print(path.resolve().relative_to(ROOT) if path.resolve().is_relative_to(ROOT) else path)
 
 
 if __name__ == "__main__":

@@ -31,9 +31,30 @@ class X:
         return out
 
 
+def walk(el):
+    """`el` and every element below it."""
+    yield el
+    for c in el.children:
+        yield from walk(c)
+
+
+def check_revision(minor, body):
+    """What the schema of revision 1.`minor` forbids and the writer could produce: an `Act` without a
+    `StartTrigger` (optional only from 1.3), an expression `${...}` (from 1.1). ASAM's checker
+    (tools/asam_qc.py) would flag both; the writer refuses them first, naming the element."""
+    for el in (e for b in body for e in walk(b)):
+        if minor < 3 and el.tag == "Act" and not any(c.tag == "StartTrigger" for c in el.children):
+            raise ValueError(f"Act {el.attrs.get('name')!r}: a StartTrigger is required before revision 1.3")
+        if minor < 1:
+            for k, v in el.attrs.items():
+                if "${" in str(v):
+                    raise ValueError(f"{el.tag}@{k.rstrip('_')} = {v!r}: expressions need revision 1.1 or later")
+
+
 def document(comment, minor, description, *body):
     if "--" in comment:
         raise ValueError("an XML comment cannot hold `--`")
+    check_revision(minor, body)
     head = X("FileHeader", revMajor="1", revMinor=str(minor), date=DATE, author="flc", description=description)
     text = "\n".join(X("OpenSCENARIO", head, *body).lines())
     return f'<?xml version="1.0" encoding="UTF-8"?>\n<!-- {comment.strip()}\n-->\n{text}\n'

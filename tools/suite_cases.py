@@ -13,7 +13,8 @@ The TOML twins (`<suite>/twins/*.toml`, one per run) are the importer's own conv
     for f in scenarios/suites/*/*-runs.xosc; do
       cargo run --release --bin scenario -- convert "$f" --out "$(dirname "$f")/twins"; done
 
-`python3 tools/suite_cases.py --twins` does both.
+`python3 tools/suite_cases.py --twins` does both; `--out DIR` writes the suites into DIR instead
+(tools/asam_qc.py compares that with the committed files).
 """
 
 import math
@@ -381,6 +382,11 @@ SUITES = {
 
 
 def main():
+    global OUT
+    if "--out" in sys.argv:
+        OUT = pathlib.Path(sys.argv[sys.argv.index("--out") + 1]).resolve()
+        if "--twins" in sys.argv:
+            sys.exit("error: --twins rewrites the committed twins; it does not go with --out")
     (OUT / "roads").mkdir(parents=True, exist_ok=True)
     (OUT / "roads" / "straight.xodr").write_text(road_file())
     written = []
@@ -401,7 +407,7 @@ def main():
                 old.unlink()
             subprocess.run(["cargo", "run", "--quiet", "--release", "--bin", "scenario", "--", "convert", str(f), "--out", str(twins)],
                            cwd=ROOT, check=True)
-    print("\n".join(str(p.relative_to(ROOT)) for p in sorted(OUT.rglob("*.xosc"))))
+    print("\n".join(str(p.relative_to(OUT.parent)) for p in sorted(OUT.rglob("*.xosc"))))
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
 from ._mcap import read_mcap
 from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
+from ._suite import SuiteReport, SuiteResults
 from ._sweep import SweepSummary, sweep_file
 from ._simulation import AccelCommand, GroundTruth, Observation, Simulation, SpeedCommand
 
@@ -48,6 +49,8 @@ __all__ = [
     "SpeedCommand",
     "SweepSummary",
     "Steering",
+    "SuiteReport",
+    "SuiteResults",
     "Supervisor",
     "frequency_response",
     "metrics_from_series",

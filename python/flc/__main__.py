@@ -1,18 +1,24 @@
 """``python -m flc figures --out DIR [--speeds 30,50,70,90] [--preset paper|realistic] [--no-envelope] [--platoon-frequencies HZ,...]``,
 ``python -m flc reproduction --out DIR``,
 ``python -m flc sumo-tables --out DIR`` (every SUMO result the documents state, ``DIR/sumo-tables.json``; :mod:`flc.sumo`),
-``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series]``,
-``python -m flc docs [--check] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
-(the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs).
+``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series] [--restart]``,
+``python -m flc docs [--check] [--root DIR] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
+(the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs; they need the
+source tree: the one this package runs from, a checkout around the working directory, or ``--root DIR``; exit 2
+when there is none).
 
-Exit status 0 on success, 2 on bad arguments (argparse) or a bad sweep file, 1 if an optional
+Exit status 0 on success, 2 on bad arguments (argparse), a bad sweep file or no source tree for a command
+that needs one, 1 if an optional
 dependency (matplotlib, pyarrow, distributed, SUMO) is missing.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Optional, Sequence
+
+from ._paths import SOURCE_TREE_ENV, SourceTreeError, require_source_tree
 
 
 def _speeds(text: str) -> list[float]:
@@ -20,8 +26,11 @@ def _speeds(text: str) -> list[float]:
         speeds = [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers (km/h), got {text!r}") from None
-    if not speeds or not all(0 < v <= 250 for v in speeds):
-        raise argparse.ArgumentTypeError(f"expected one or more speeds in (0, 250] km/h, got {text!r}")
+    from ._flc import paper_speed_range_kmh
+
+    lo, hi = paper_speed_range_kmh()  # the one limit of every entry point (flc_sim::paper::SPEED_RANGE_KMH)
+    if not speeds or not all(lo <= v <= hi for v in speeds):
+        raise argparse.ArgumentTypeError(f"expected one or more speeds in [{lo:g}, {hi:g}] km/h, got {text!r}")
     return speeds
 
 
@@ -48,10 +57,19 @@ def _freqs(text: str) -> list[float]:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["docs"] and argv[1:2] not in (["-h"], ["--help"]):
-        # Its own small grammar (`--check`, `show NAME ARG...`): flc.docs parses it.
+        # Its own small grammar (`--check`, `show NAME ARG...`): flc.docs parses it. `--root DIR`
+        # names the source tree whose documents it reads (before flc.docs looks for one).
+        rest = argv[1:]
+        if "--root" in rest:
+            i = rest.index("--root")
+            if i + 1 >= len(rest):
+                print("error: `--root` needs the source tree's folder", file=sys.stderr)
+                return 2
+            os.environ[SOURCE_TREE_ENV] = rest[i + 1]
+            rest = rest[:i] + rest[i + 2 :]
         from . import docs
 
-        return docs.main(argv[1:])
+        return docs.main(rest)
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser(
@@ -59,7 +77,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         help="the paper's outcome pattern over the constants it leaves open: sweeps/paper-reproduction-*.csv and two figures (docs/paper-reproduction.md)",
     )
     rep.add_argument("--out", required=True, help="figure directory (created if needed)")
-    rep.add_argument("--data", default=None, help="CSV directory (default: the repository's sweeps/)")
+    rep.add_argument("--data", default=None, help="CSV directory (default: the source tree's sweeps/; needed outside a checkout)")
     rep.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores); results do not depend on it")
     st = sub.add_parser(
         "sumo-tables",
@@ -76,6 +94,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sw.add_argument("--chunk-size", type=int, default=None, help="runs per task (default: automatic, flc.sweep_file)")
     sw.add_argument("--threads", type=int, default=None, help="local threads without --dask (default: all cores); results do not depend on it")
     sw.add_argument("--series", action="store_true", help="also write every run's series as <out stem>-series/<run_id>.parquet")
+    sw.add_argument(
+        "--restart",
+        action="store_true",
+        help="start the output over; without it an output whose rows ran other inputs (changed sweep file, scenario or flc version) is refused",
+    )
+    sw.add_argument("--quiet", action="store_true", help="no progress bar (drawn on stderr only when it is a terminal)")
     dc = sub.add_parser(
         "docs",
         help="rewrite (or with --check, compare) the generated blocks of README.md and docs/*.md; `docs show NAME [ARG ...]` prints one block (docs/README.md)",
@@ -85,7 +109,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     fig.add_argument("--out", required=True, help="output directory (created if needed)")
     fig.add_argument("--speeds", type=_speeds, default=[30.0, 50.0, 70.0, 90.0], help="max speeds of Fig. 4, km/h, comma separated (default 30,50,70,90)")
     fig.add_argument("--preset", choices=["paper", "realistic"], default="paper", help="vehicle preset of Fig. 4 (default paper)")
-    fig.add_argument("--no-envelope", action="store_true", help="skip the safety-envelope maps (about 1200 runs, ~30 s on 2 cores)")
+    fig.add_argument("--no-envelope", action="store_true", help="skip the safety-envelope maps (2 145 runs, ~75 s on 2 cores)")
+    fig.add_argument("--quiet", action="store_true", help="no progress on stderr (shown only when it is a terminal)")
     fig.add_argument(
         "--envelope-preset", choices=["paper", "realistic"], default="realistic", help="vehicle preset of the safety-envelope maps (default realistic)"
     )
@@ -128,29 +153,44 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         try:
             from .figures import make_reproduction
 
-            kw = {} if args.data is None else {"data_dir": args.data}
-            summary = make_reproduction(args.out, threads=args.threads, **kw)
+            data = args.data if args.data is not None else require_source_tree("`python -m flc reproduction` (it rewrites sweeps/paper-reproduction-*.csv; or give --data DIR)") / "sweeps"
+            summary = make_reproduction(args.out, data_dir=data, threads=args.threads)
         except ImportError as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
+        except SourceTreeError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
         print(summary)
         return 0
     try:
         from . import envelope
         from .figures import make_all
 
-        paths = make_all(args.out, args.speeds, args.preset, args.platoon_frequencies)
+        from ._progress import Bar, stderr_is_terminal
+
+        bar = None if args.quiet or not stderr_is_terminal() else Bar(0, "figures")
+        paths = make_all(args.out, args.speeds, args.preset, args.platoon_frequencies, progress=bar)
+        if bar is not None:
+            bar.close()
         if not args.no_envelope:
+            runs = None if bar is None else Bar(0, "envelope runs")
             paths += envelope.make_all(
                 args.out,
                 controllers=args.envelope_controllers or envelope.CONTROLLERS,
                 speeds_kmh=args.envelope_speeds or envelope.SPEEDS_KMH,
                 preset=args.envelope_preset,
                 threads=args.threads,
+                progress=None if runs is None else (lambda d, n, stem: runs(d, n, stem)),
             )
+            if runs is not None:
+                runs.close()
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
+    except FileNotFoundError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     for p in paths:
         print(p)
     return 0
@@ -168,7 +208,16 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             import distributed
 
             client = distributed.Client(args.dask)
-        s = sweep_file(args.file, executor=client, out=args.out, chunk_size=args.chunk_size, series=args.series, threads=args.threads)
+        s = sweep_file(
+            args.file,
+            executor=client,
+            out=args.out,
+            chunk_size=args.chunk_size,
+            series=args.series,
+            threads=args.threads,
+            progress=False if args.quiet else None,
+            restart=args.restart,
+        )
     except ImportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -613,3 +613,66 @@ def sumo_paper_baselines() -> str:
         rows.append([f"flc `{law}`, realistic vehicle + LiDAR", *(short(next(res)) for _ in speeds)])
         rows.append([f"flc `{law}`, ideal perception, no actuator dynamics or resistance", *(short(next(res)) for _ in speeds)])
     return table(["v (km/h)", *(str(v) for v in speeds)], rows)
+
+
+# ---------------------------------------------------------------------------------------------
+# Published OpenSCENARIO files against esmini (docs/openscenario/published.json, written by
+# `python3 tools/published_check.py --pub DIR`; CI has no published files, so the block renders
+# the committed file).
+
+
+def _published() -> dict[str, Any]:
+    path = ROOT / "docs" / "openscenario" / "published.json"
+    if not path.is_file():
+        raise FileNotFoundError("published: docs/openscenario/published.json is missing (tools/published_check.py writes it)")
+    data: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    return data
+
+
+def _ran(r: dict[str, Any]) -> bool:
+    return bool(r["flc"]["status"] == "ok")
+
+
+@generator("published-summary")
+def published_summary() -> str:
+    """docs/openscenario.md: the summary figures of the published files against esmini."""
+    d = _published()
+    files = d["files"]
+    runs = [r for f in files for r in f["runs"]]
+    imported = [f for f in files if f["runs"] and all(_ran(r) for r in f["runs"])]
+    cmp_ = [r["compare"] for r in runs if "compare" in r]
+    colls = ", ".join(f"{n} `{c['commit'][:12]}`" for n, c in sorted(d["collections"].items()))
+    tol = d["tolerance"]
+    rows = [
+        ["files imported and run (every run of the file)", f"{len(imported)} of {len(files)}"],
+        ["runs imported and run", f"{sum(_ran(r) for r in runs)} of {len(runs)}"],
+        ["runs compared (flc wrote its per-entity trajectory)", f"{len(cmp_)} of {len(runs)}"],
+        [f"runs with every entity within {tol['position_m']} m and {tol['speed_mps']} m/s", f"{sum(c['within'] for c in cmp_)} of {len(cmp_)}"],
+        ["runs whose collisions match (same pair, within one step)", f"{sum(c['collisions_match'] for c in cmp_)} of {len(cmp_)}"],
+        ["runs whose end times are equal (same step)", f"{sum(c['end_equal'] for c in cmp_)} of {len(cmp_)}"],
+    ]
+    head = (f"esmini {d['esmini']['version']} (commit {d['esmini']['commit']}), step {d['esmini']['step_s']} s; flc "
+            f"`{d['flc']['commit']}` (`--permutation`: {'yes' if d['flc'].get('permutation') else 'no'}); collections: {colls}; "
+            f"checked {d['generated']}.\n\n")
+    return head + table(["", "count"], rows, "lr")
+
+
+@generator("published-files")
+def published_files() -> str:
+    """docs/openscenario.md: one row per published file with the first reason of a difference."""
+    d = _published()
+    rows = []
+    for f in d["files"]:
+        runs = f["runs"]
+        cmp_ = [r["compare"] for r in runs if "compare" in r]
+        reasons = sorted({r["reason"] for r in runs if r.get("reason")})
+        qc = ", ".join(f"{k.split(':')[-1]} {v}" for k, v in sorted((f.get("asam_qc") or {}).items())) or "0"
+        rows.append([
+            f"{f['collection']}/{f['path'].split('/')[-1]}",
+            f"{f.get('permutations', 1)}",
+            f"{sum(_ran(r) for r in runs)}/{len(runs)}",
+            f"{sum(c['within'] for c in cmp_)}/{len(cmp_)}",
+            (reasons[0][:160] + (f" (+{len(reasons) - 1} more)" if len(reasons) > 1 else "")) if reasons else "equal",
+            qc,
+        ])
+    return table(["file", "runs in file", "run by flc", "within tolerance", "difference (first reason)", "ASAM checker issues"], rows, "lrrrll")

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _flc
 from ._scenario import Scenario
+from ._suite import SuiteResults, controller_list
 
 
 class PlatoonResult:
@@ -56,7 +57,11 @@ class PlatoonResult:
         series = self.__dict__.get("series", {})
         if name in series:
             return series[name]
-        raise AttributeError(name)
+        raise AttributeError(f"{type(self).__name__} has no attribute or series column {name!r}")
+
+    def __dir__(self) -> Iterable[str]:
+        # The series columns are attributes too (tab completion in IPython / Jupyter).
+        return sorted(set(super().__dir__()) | set(self.__dict__.get("series", {})))
 
     def __repr__(self) -> str:
         ss = self.string_stability
@@ -80,6 +85,32 @@ class RunResult:
     (the lead touching a road-side object): ``time``, ``a``, ``b`` (objects as above), ``speed``,
     ``impact_speed_normal``, ``point``, ``normal``.
     """
+
+    # The series columns, served from ``series`` by ``__getattr__`` and listed by ``__dir__``;
+    # declared here (annotations only, no class attributes) for IDEs and type checkers. The
+    # simulator's one column table is ``flc_sim::Series::COLUMNS``; tests/python/test_bindings.py
+    # keeps this list equal to it.
+    t: np.ndarray
+    lead_x: np.ndarray
+    lead_y: np.ndarray
+    lead_speed: np.ndarray
+    lead_accel: np.ndarray
+    follower_x: np.ndarray
+    follower_y: np.ndarray
+    follower_yaw: np.ndarray
+    follower_speed: np.ndarray
+    follower_accel: np.ndarray
+    gap: np.ndarray
+    desired_gap: np.ndarray
+    detected_distance: np.ndarray
+    speed_command: np.ndarray
+    accel_command: np.ndarray
+    steer_command: np.ndarray
+    active: np.ndarray
+    reason: np.ndarray
+    v2v_age: np.ndarray
+    lateral_offset: np.ndarray
+    heading_error: np.ndarray
 
     def __init__(
         self,
@@ -106,7 +137,11 @@ class RunResult:
         series = self.__dict__.get("series", {})
         if name in series:
             return series[name]
-        raise AttributeError(name)
+        raise AttributeError(f"{type(self).__name__} has no attribute or series column {name!r}")
+
+    def __dir__(self) -> Iterable[str]:
+        # The series columns are attributes too (tab completion in IPython / Jupyter).
+        return sorted(set(super().__dir__()) | set(self.__dict__.get("series", {})))
 
     def to_pandas(self) -> Any:
         """The time series as a ``pandas.DataFrame`` (needs pandas)."""
@@ -143,11 +178,25 @@ def _result(scenario: Scenario, raw: tuple[str, dict[str, Any], Optional[tuple[s
     return RunResult(scenario, json.loads(metrics_json), series, p, contacts.get("collision"), contacts.get("other_contacts"))
 
 
+def _as_scenario(scenario: Any, where: str) -> Scenario:
+    """``scenario`` as a :class:`Scenario` (a mapping is built with :meth:`Scenario.from_dict`);
+    anything else raises ``TypeError`` naming the parameter and what to pass."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, Mapping):
+        return Scenario.from_dict(scenario)
+    hint = ""
+    if isinstance(scenario, (str, os.PathLike)):
+        hint = " (a file: flc.Scenario.load(path); the paper's experiment: flc.Scenario.paper(speed_kmh=...))"
+    raise TypeError(f"{where}: expected a flc.Scenario or a dict shaped like a scenario file, got {type(scenario).__name__} {scenario!r:.60}{hint}")
+
+
 def run(scenario: Union[Scenario, Mapping[str, Any]], record: Optional[str] = None) -> RunResult:
     """Run one scenario in Rust (GIL released). With ``record`` (a directory), the run is also
     written there as an MCAP recording for Foxglove (``docs/foxglove.md``; read it back with
-    :func:`flc.read_mcap`)."""
-    sc = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
+    :func:`flc.read_mcap`). ``scenario`` of another type (a file name, a preset name) raises
+    ``TypeError``."""
+    sc = _as_scenario(scenario, "run(): `scenario`")
     return _result(sc, _flc.run(sc.to_json(), record))
 
 
@@ -164,7 +213,9 @@ def sweep(
     input order, each deterministic per its seed). With ``executor`` (any
     ``concurrent.futures.Executor``, e.g. a Dask ``distributed.Client.get_executor()``), each run is
     submitted there instead."""
-    scs: Sequence[Scenario] = [s if isinstance(s, Scenario) else Scenario.from_dict(s) for s in scenarios]
+    if isinstance(scenarios, (str, bytes, Mapping, Scenario)):
+        raise TypeError(f"sweep(): `scenarios` must be a list of scenarios, got {type(scenarios).__name__}")
+    scs: Sequence[Scenario] = [_as_scenario(s, f"sweep(): `scenarios[{i}]`") for i, s in enumerate(scenarios)]
     if executor is not None:
         futures = [executor.submit(_run_one, s) for s in scs]
         return [f.result() for f in futures]
@@ -178,7 +229,7 @@ def frequency_response(scenario: Union[Scenario, Mapping[str, Any]], freqs_hz: O
     vehicle's speed is fitted at ``w``. Runs in parallel in Rust (GIL released). Each point has
     ``freq_hz``, ``amplitude`` (per vehicle, lead first), ``gamma`` and ``phase_deg`` (per
     follower), ``counted``, ``max_gamma`` and ``collision`` (``docs/platoon.md``)."""
-    sc = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
+    sc = _as_scenario(scenario, "frequency_response(): `scenario`")
     freqs = None if freqs_hz is None else [float(f) for f in freqs_hz]
     points: list[dict[str, Any]] = json.loads(_flc.frequency_response(sc.to_json(), freqs))
     return points
@@ -199,16 +250,29 @@ def metrics_from_series(series: Mapping[str, Any], **params: float) -> dict[str,
     return metrics
 
 
-def run_suite(name: str, controllers: Optional[Sequence[str]] = None, root: Optional[Union[str, os.PathLike[str]]] = None) -> list[dict[str, Any]]:
+def run_suite(
+    name: str,
+    controllers: Optional[Union[str, Sequence[str]]] = None,
+    root: Optional[Union[str, os.PathLike[str]]] = None,
+) -> SuiteResults:
     """Runs a standard test suite (``docs/standard-suites.md``): ``"ncap-ccr"`` (Euro NCAP AEB
     Car-to-Car Rear), ``"r157"`` (UN R157 ALKS), ``"all"``, or a folder holding a ``suite.toml``;
-    every case for each of ``controllers`` (default: every controller) next to the R157 careful
-    driver, in parallel in Rust. Returns one report per suite, the JSON of
-    ``flc_sim::suite::SuiteReport`` as a dict: ``summary`` (one entry per controller: ``passed``,
-    ``runs``, ``collisions``, ``below_reference``, ``ncap_score``) and ``results`` (one per run:
-    ``case``, ``run``, ``controller``, ``outcome``, ``score``, ``below_reference``, ``metrics``).
-    ``pandas.json_normalize(report["results"])`` gives a table. ``root``: the folder of the named
-    suites (default: the source tree's ``scenarios/suites``). An unknown suite or controller
-    raises :class:`flc.ScenarioError`."""
-    texts = _flc.run_suite(name, None if controllers is None else list(controllers), None if root is None else str(root))
-    return [json.loads(t) for t in texts]
+    every case for each of ``controllers`` (a name, ``"flc"``, a comma-separated list as on the
+    command line, or a list of names; default: every controller) next to the R157 careful driver,
+    in parallel in Rust. Returns a :class:`flc.SuiteResults`: a list with one
+    :class:`flc.SuiteReport` per suite, the JSON of ``flc_sim::suite::SuiteReport`` as a dict
+    whose keys are also attributes: ``summary`` (one entry per controller: ``passed``, ``runs``,
+    ``collisions``, ``below_reference``, ``ncap_score``) and ``results`` (one per run: ``case``,
+    ``run``, ``controller``, ``outcome``, ``score``, ``below_reference``, ``metrics``).
+    ``.to_pandas()`` gives the runs as a table (one row per run, metrics as columns),
+    ``.summary_to_pandas()`` the summary. ``root``: the folder of the named suites (default: the suites that ship with the package,
+    ``flc/data/suites``, the same files as the source tree's ``scenarios/suites``; never the
+    working directory). An unknown suite or controller raises
+    :class:`flc.ScenarioError`; ``controllers`` of another type a ``TypeError``."""
+    if not isinstance(name, (str, os.PathLike)):
+        raise TypeError(f"run_suite(): `name` must be a suite name or a folder, got {type(name).__name__}")
+    from ._paths import SUITES
+
+    names = controller_list(controllers)
+    texts = _flc.run_suite(os.fspath(name), names, str(SUITES if root is None else root))
+    return SuiteResults(json.loads(t) for t in texts)

@@ -9,6 +9,9 @@ from typing import Any, Mapping, Optional, Union
 from . import _flc
 from ._flc import ScenarioError
 
+#: The type of an OpenSCENARIO parameter value in :attr:`Scenario.params`.
+ParamValue = Union[float, int, bool, str]
+
 #: Sections of a scenario (from the Rust ``Scenario``); a keyword ``<section>_<key>`` overrides
 #: ``[section] key``.
 SECTIONS: tuple[str, ...] = tuple(_flc.section_names())
@@ -52,17 +55,25 @@ class Scenario:
     """
 
     def __init__(self, data: Mapping[str, Any]) -> None:
+        if not isinstance(data, Mapping):
+            raise TypeError(f"Scenario: `data` must be a dict shaped like a scenario file, got {type(data).__name__} {data!r:.60}")
         # Validate through Rust: unknown keys / out-of-range values raise ScenarioError naming the key.
         self._json = _flc.check_scenario(json.dumps(dict(data), allow_nan=True))
         self._data: dict[str, Any] = json.loads(self._json)
-        self._params: dict[str, str] = {}
+        self._params: dict[str, ParamValue] = {}
 
     @classmethod
-    def _patched(cls, scenario_json: str, overrides: Mapping[str, Any]) -> "Scenario":
-        # The one key-patch mechanism (Rust `Scenario::with_overrides`): validated, errors name the key.
+    def _patched(cls, scenario_json: str, overrides: Mapping[str, Any], where: str = "Scenario.from_dict", params: tuple[str, ...] = ()) -> "Scenario":
+        # The one key-patch mechanism (Rust `Scenario::with_overrides`): validated, errors name the
+        # key; a keyword that is no scenario key at all is a TypeError, as for any function.
         s = cls.__new__(cls)
-        s._json = _flc.apply_overrides(scenario_json, _overrides_json(overrides))
+        try:
+            s._json = _flc.apply_overrides(scenario_json, _overrides_json(overrides))
+        except TypeError as e:
+            own = f"its parameters are {', '.join(params)}; " if params else ""
+            raise TypeError(f"{where}() got an {e} ({own}other keywords set scenario keys)") from None
         s._data = json.loads(s._json)
+        s._params = {}
         return s
 
     @classmethod
@@ -73,8 +84,13 @@ class Scenario:
         reference driver "careful-driver", which sees the ground truth) and ``preset`` in
         {"realistic", "paper"}."""
         if isinstance(speed_kmh, bool) or not isinstance(speed_kmh, (int, float)):
-            raise ScenarioError(f"`speed_kmh`: expected a number, got {type(speed_kmh).__name__}")
-        return cls._patched(_flc.paper_scenario(float(speed_kmh), controller, preset), overrides)
+            raise TypeError(f"Scenario.paper(): `speed_kmh` must be a number (km/h), got {type(speed_kmh).__name__} {speed_kmh!r:.40}")
+        for name, value in (("controller", controller), ("preset", preset)):
+            if not isinstance(value, str):
+                raise TypeError(f"Scenario.paper(): `{name}` must be a str, got {type(value).__name__} {value!r:.40}")
+        return cls._patched(
+            _flc.paper_scenario(float(speed_kmh), controller, preset), overrides, "Scenario.paper", ("speed_kmh", "controller", "preset")
+        )
 
     @classmethod
     def paper_tracking(cls, controller: str = "flc", preset: str = "paper", **overrides: Any) -> "Scenario":
@@ -82,7 +98,7 @@ class Scenario:
         ``cargo run --release --bin scenario`` prints them under its table: the lead accelerates to
         50 km/h through the curves, covers 1600 m and stops; ``controller`` follows from 7 m (the
         PID with working V2V). Its metrics ``rot_error_deg`` / ``trans_error_m`` are the errors."""
-        return cls._patched(_flc.paper_tracking_scenario(controller, preset), overrides)
+        return cls._patched(_flc.paper_tracking_scenario(controller, preset), overrides, "Scenario.paper_tracking", ("controller", "preset"))
 
     @classmethod
     def brakedemo(cls, **overrides: Any) -> "Scenario":
@@ -90,7 +106,7 @@ class Scenario:
         and 7 followers at 120 km/h, the lead brakes at -6 m/s² after 20 s; three variants
         (:meth:`variants`): ``pid-v2v``, ``flc``, ``pipeline-outage``. Keyword overrides as in
         :meth:`from_dict` (e.g. ``platoon_followers=15``)."""
-        return cls._patched(_flc.brakedemo_scenario(), overrides)
+        return cls._patched(_flc.brakedemo_scenario(), overrides, "Scenario.brakedemo")
 
     @classmethod
     def load(
@@ -103,6 +119,7 @@ class Scenario:
         road: str = "file",
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
+        strict: bool = False,
         **overrides: Any,
     ) -> "Scenario":
         """Read a scenario file: TOML, or ASAM OpenSCENARIO ``.xosc`` (``docs/openscenario.md``).
@@ -111,7 +128,10 @@ class Scenario:
         names the entity flc drives, ``ego_mode="scripted"`` makes it follow its storyboard (as
         esmini does), ``road="straight"`` replaces a missing road, ``traffic_dynamics="vehicle"``
         moves the scripted entities through their vehicle models, ``controller`` overrides the
-        file's controller. A distribution file has several runs: use :meth:`load_all`.
+        file's controller, ``strict=True`` refuses what only esmini accepts (its expression
+        extensions such as ``pi`` and ``sin``, a negative dynamics value, a value its
+        declaration's constraints forbid) instead of warning. A distribution file has several
+        runs: use :meth:`load_all`.
         Keyword ``overrides`` patch the result as in :meth:`from_dict`.
         """
         runs = cls.load_all(
@@ -122,6 +142,7 @@ class Scenario:
             road=road,
             traffic_dynamics=traffic_dynamics,
             controller=controller,
+            strict=strict,
             **overrides,
         )
         if len(runs) != 1:
@@ -139,6 +160,7 @@ class Scenario:
         road: str = "file",
         traffic_dynamics: str = "kinematic",
         controller: Optional[str] = None,
+        strict: bool = False,
         **overrides: Any,
     ) -> "list[Scenario]":
         """Every run of a scenario file: one for TOML and ``.xosc`` files, one per combination of
@@ -151,19 +173,21 @@ class Scenario:
             if controller is not None:
                 # For TOML files `controller` is the scenario key, overridden like any other.
                 overrides = {"controller": controller, **overrides}
-            return [cls._patched(_flc.load_scenario(p), overrides)]
+            return [cls._patched(_flc.load_scenario(p), overrides, "Scenario.load")]
         pairs = [(str(k), _param_text(v)) for k, v in (params or {}).items()]
         out = []
-        for scenario_json, values in _flc.import_openscenario(p, pairs, ego, ego_mode, road, traffic_dynamics, controller):
-            s = cls._patched(scenario_json, overrides)
-            s._params = dict(values)
+        for scenario_json, values in _flc.import_openscenario(p, pairs, ego, ego_mode, road, traffic_dynamics, controller, strict):
+            s = cls._patched(scenario_json, overrides, "Scenario.load")
+            s._params = {str(k): v for k, v in json.loads(values)}
             out.append(s)
         return out
 
     @property
-    def params(self) -> "dict[str, str]":
+    def params(self) -> "dict[str, ParamValue]":
         """The OpenSCENARIO parameter values this run was imported with (distributions; empty
-        otherwise)."""
+        otherwise), typed by their declarations: ``double`` a float, ``integer`` /
+        ``unsignedInt`` / ``unsignedShort`` an int, ``boolean`` a bool, ``string`` / ``dateTime``
+        a str."""
         return dict(self._params)
 
     @classmethod
@@ -171,13 +195,17 @@ class Scenario:
         """Build from a dict shaped like the TOML file (missing keys take their defaults), with
         keyword overrides (``lidar_rate_hz=10``, ``**{"follower.vehicle.max_brake": 7.0}``,
         ``lead_decel=6.0`` = the deceleration of every brake phase of the lead)."""
+        if not isinstance(data, Mapping):
+            raise TypeError(f"Scenario.from_dict: `data` must be a dict shaped like a scenario file, got {type(data).__name__} {data!r:.60}")
         if not overrides:
             return cls(data)
         return cls._patched(json.dumps(dict(data), allow_nan=True), overrides)
 
     def replace(self, **overrides: Any) -> "Scenario":
         """A copy with fields overridden by keyword (as in :meth:`from_dict`)."""
-        return Scenario._patched(self._json, overrides)
+        s = Scenario._patched(self._json, overrides, "Scenario.replace")
+        s._params = dict(self._params)
+        return s
 
     def variants(self) -> list["Scenario"]:
         """The scenarios to run for this one: each of its ``[[variants]]`` (with ``variant`` set to

@@ -14,11 +14,13 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Generator, Optional, Sequence, Union
+from typing import Any, Generator, Optional, Sequence, Union
 
 import numpy as np
 
 from . import _flc
+from ._progress import ProgressArg, stderr_is_terminal
+from ._progress import resolve as resolve_progress
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -107,7 +109,8 @@ def sweep_file(
     series: bool = False,
     threads: Optional[int] = None,
     partition_rows: int = 1000,
-    progress: Optional[Callable[[int, int], None]] = None,
+    progress: ProgressArg = None,
+    restart: bool = False,
 ) -> SweepSummary:
     """Runs a sweep file (TOML, ``docs/safety-envelope.md``) or an OpenSCENARIO distribution
     (``.xosc``) with the Rust sweep engine, locally or on a cluster; the rows are those of
@@ -115,7 +118,13 @@ def sweep_file(
 
     ``out``: ``*.csv`` (default: the sweep file with ``.csv``) or ``*.parquet`` (a directory of
     Parquet parts with units in the column metadata, :mod:`flc.parquet`, needs pyarrow). Runs
-    already in ``out`` are skipped (resume); a run that fails is a row with its ``error``.
+    already in ``out`` are skipped (resume) only if they ran exactly this sweep's inputs: the
+    digest of the inputs (``flc_sim::sweep::inputs_digest``: the flc version and every
+    run's scenario) is kept with the output (``<out>.digest`` next to a CSV, as ``scenario
+    sweep`` writes it; each Parquet part's metadata ``flc.inputs_digest``), and an output of
+    other inputs, or with rows but no digest, raises :class:`flc.ParameterError` naming ``out``.
+    ``restart=True`` starts ``out`` over (its rows, Parquet parts and series files are dropped).
+    A run that fails is a row with its ``error``.
 
     ``executor``: ``None`` runs here on ``threads`` (default all cores); a Dask
     ``distributed.Client`` (or its ``get_executor()``) or any ``concurrent.futures.Executor``
@@ -125,7 +134,11 @@ def sweep_file(
     ``series=True`` each task also sends the runs' series, written as
     ``<out stem>-series/<run_id>.parquet`` (:func:`flc.parquet.write_series`).
 
-    ``progress(done, todo)`` is called after each task. Bad files raise
+    Rows end in ``run_id`` order in a CSV (sorted when the sweep ends; a Parquet output is read
+    sorted by :func:`flc.parquet.read_sweep`). ``progress``: ``None`` (default) draws a progress
+    bar on stderr when stderr is a terminal, ``False`` none, ``True`` always; a callable
+    ``progress(done, todo)`` is called after each task instead (with ``True`` or a callable the
+    sweep runs in tasks even locally; the rows are the same). Bad files raise
     :class:`flc.ScenarioError` naming the file and key; a bad argument :class:`flc.ParameterError`.
     """
     t0 = time.perf_counter()
@@ -136,25 +149,32 @@ def sweep_file(
         raise _flc.ParameterError(f"chunk_size: expected a positive integer, got {chunk_size!r}")
     if threads is not None and (not isinstance(threads, int) or threads < 1):
         raise _flc.ParameterError(f"threads: expected a positive integer, got {threads!r}")
-    if executor is None and not parquet and not series:
-        done, total = _flc.sweep_local_csv(str(src), str(out_path), threads)
+    # A callable, or a bar forced on a stream that is no terminal, is drawn from here (tasks).
+    custom = progress is True or (callable(progress) and not isinstance(progress, bool))
+    if executor is None and not parquet and not series and not custom:
+        draw = progress is None and stderr_is_terminal()
+        done, total = _flc.sweep_local_csv(str(src), str(out_path), threads, bool(restart), draw)
         return SweepSummary(out_path, total, total - done, done, 0, 0, time.perf_counter() - t0)
 
-    keys, schema, points = _flc.sweep_plan(str(src))
+    keys, schema, points, digest = _flc.sweep_plan(str(src))
     if parquet:
         from .parquet import SweepWriter
 
         meta = {"flc.source": str(src), "flc.keys": json.dumps(keys)}
-        sink: Any = SweepWriter(out_path, schema, partition_rows=partition_rows, metadata=meta)
+        sink: Any = SweepWriter(out_path, schema, partition_rows=partition_rows, metadata=meta, digest=digest, restart=bool(restart))
         finished: set[int] = sink.finished
     else:
-        finished = set(_flc.sweep_open_csv(str(out_path), keys))
+        finished = set(_flc.sweep_open_csv(str(out_path), keys, digest, bool(restart)))
         sink = _CsvSink(out_path)
+    if restart and _series_dir(out_path).is_dir():
+        for old in _series_dir(out_path).glob("*.parquet"):
+            old.unlink()
     if series:
         from .parquet import write_series
 
         _series_dir(out_path).mkdir(parents=True, exist_ok=True)
     todo = [j for i, j in points if i not in finished]
+    report, bar = resolve_progress(progress, len(todo))
     own = None
     if executor is None:
         own = cf.ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1)
@@ -172,11 +192,13 @@ def sweep_file(
                     if cols is not None:
                         write_series(_series_dir(out_path) / f"{run_id}.parquet", cols)
             written += len(rows)
-            if progress is not None:
-                progress(written, len(todo))
+            if report is not None:
+                report(written, len(todo))
     finally:
         results.close()
         sink.close()
+        if bar is not None:
+            bar.close()
         if own is not None:
             own.shutdown(wait=True, cancel_futures=True)
     return SweepSummary(out_path, len(points), len(points) - len(todo), written, len(chunks), chunk, time.perf_counter() - t0)
@@ -186,6 +208,7 @@ class _CsvSink:
     """Appends rows to a CSV prepared by the engine (``_flc.sweep_open_csv``), flushed per task."""
 
     def __init__(self, out: Path) -> None:
+        self._path = out
         self._f = open(out, "a", encoding="utf-8", newline="")
 
     def write(self, rows: Sequence[str]) -> None:
@@ -194,3 +217,5 @@ class _CsvSink:
 
     def close(self) -> None:
         self._f.close()
+        # Rows were appended as tasks finished: put them in run_id order (resume reads ids).
+        _flc.sweep_sort_csv(str(self._path))

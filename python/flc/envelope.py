@@ -16,7 +16,7 @@ import csv
 import os
 from pathlib import Path
 from concurrent.futures import Executor
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
@@ -94,6 +94,10 @@ def _scenario_with(speed_kmh: float, controller: str, preset: str, seed: int, ke
     return sc.replace(**{key: int(value) if float(value).is_integer() else value})
 
 
+#: Runs per batch of :func:`run_grid` when it reports progress.
+PROGRESS_BATCH = 64
+
+
 def run_grid(
     y: str = "lead_decel",
     y_values: Sequence[float] = LEAD_DECELS,
@@ -103,20 +107,29 @@ def run_grid(
     seed: int = 1,
     threads: Optional[int] = None,
     executor: Optional[Executor] = None,
+    progress: Optional[Callable[[int, int], None]] = None,
 ) -> Columns:
     """Runs the paper scenario family (``flc.Scenario.paper``) for every controller x max speed x
     ``y`` value and returns the same columns as :func:`load_sweep` (``controller``, ``speed_kmh``,
     ``y`` and every metric of ``scenario --json``). ``y`` is ``"lead_decel"`` (the brake phase's
     deceleration, m/s²) or any dotted scenario key (e.g. ``"lidar.latency_frames"``). Run ``i``
     (controller-major, ``y`` fastest) gets the seed ``scenario sweep`` gives its run ``i`` for the
-    sweep seed ``seed``, so ``sweeps/envelope-decel.toml`` gives the same rows."""
+    sweep seed ``seed``, so ``sweeps/envelope-decel.toml`` gives the same rows. With
+    ``progress``, ``progress(done, total)`` is called as the runs finish (they then run in batches
+    of :data:`PROGRESS_BATCH`; the results do not change)."""
     from ._run import sweep
 
     keys = [(c, float(v), float(w)) for c in controllers for v in speeds_kmh for w in y_values]
     # Run i gets the seed `scenario sweep` gives run i, so a sweep file with the axes controller,
     # speed_kmh, y (in that order) and the same seed has exactly these rows.
     scs = [_scenario_with(v, c, preset, _flc.sweep_run_seed(seed, i), y, w) for i, (c, v, w) in enumerate(keys)]
-    results = sweep(scs, threads=threads, executor=executor)
+    if progress is None:
+        results = sweep(scs, threads=threads, executor=executor)
+    else:
+        results = []
+        for start in range(0, len(scs), PROGRESS_BATCH):
+            results += sweep(scs[start : start + PROGRESS_BATCH], threads=threads, executor=executor)
+            progress(len(results), len(scs))
     cols: Columns = {"controller": np.array([c for c, _, _ in keys], dtype=str)}
     cols["speed_kmh"] = np.array([v for _, v, _ in keys])
     cols[y] = np.array([w for _, _, w in keys])
@@ -303,15 +316,18 @@ def make_all(
     speeds_kmh: Sequence[float] = SPEEDS_KMH,
     preset: str = "realistic",
     threads: Optional[int] = None,
+    progress: Optional[Callable[[int, int, str], None]] = None,
 ) -> list[Path]:
     """Both default maps for ``controllers``: ``envelope-decel-*`` (speed x lead deceleration,
     :data:`LEAD_DECELS`) and ``envelope-latency-*`` (speed x LiDAR latency, lead at -6 m/s²,
     :data:`LATENCY_FRAMES`), with ``preset`` (``"realistic"`` or ``"paper"``; the paper preset's
-    files get a ``-paper`` suffix). Returns the written paths."""
+    files get a ``-paper`` suffix). ``progress(done, total, map)`` is called as runs finish.
+    Returns the written paths."""
     suffix = "" if preset == "realistic" else f"-{preset}"
     written: list[Path] = []
     for stem, y, values in (("envelope-decel", "lead_decel", LEAD_DECELS), ("envelope-latency", "lidar.latency_frames", LATENCY_FRAMES)):
-        cols = run_grid(y, values, controllers, speeds_kmh, preset, threads=threads)
+        report = None if progress is None else (lambda d, n, s=stem: progress(d, n, s))
+        cols = run_grid(y, values, controllers, speeds_kmh, preset, threads=threads, progress=report)
         written += make_maps(cols, out_dir, "speed_kmh", y, stem + suffix)
     return written
 
@@ -326,8 +342,10 @@ def robust_summaries(out_dir: PathLike, threads: Optional[int] = None) -> list[P
     ``<stem>-summary.md`` into ``out_dir`` (``docs/figures``; ``docs/robust-flc.md`` includes them)."""
     import tempfile
 
+    from ._paths import require_source_tree
     from ._sweep import sweep_file
-    from .reproduction import ROOT
+
+    sweeps = require_source_tree("flc.envelope.robust_summaries (it runs sweeps/envelope-robust*.toml)") / "sweeps"
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -335,7 +353,7 @@ def robust_summaries(out_dir: PathLike, threads: Optional[int] = None) -> list[P
     for stem in ROBUST_SWEEPS:
         with tempfile.TemporaryDirectory() as tmp:
             csv_path = Path(tmp) / f"{stem}.csv"
-            sweep_file(ROOT / "sweeps" / f"{stem}.toml", out=csv_path, threads=threads)
+            sweep_file(sweeps / f"{stem}.toml", out=csv_path, threads=threads)
             p = out / f"{stem}-summary.md"
             p.write_text(write_table(summary(load_sweep(csv_path), "lead_decel")))
         written.append(p)

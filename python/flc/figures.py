@@ -499,12 +499,14 @@ def make_all(
     speeds_kmh: Sequence[float] = (30, 50, 70, 90),
     preset: str = "paper",
     platoon_freqs_hz: Optional[Sequence[float]] = None,
+    progress: Optional[Callable[[int, int, str], None]] = None,
 ) -> list[Path]:
     """Writes ``following.png``, ``truncated_cosine.png``, ``lyapunov.png`` and the platoon
     figures ``platoon_space_time.png``, ``platoon_gap_errors.png``, ``platoon_gamma.png`` (the
     brake demo; ``|Gamma|`` at ``platoon_freqs_hz``, default its own frequencies) and the paper
     reproduction map from its committed data (``paper_reproduction*.png``) into ``out_dir``
-    (created if needed); returns their paths."""
+    (created if needed); returns their paths. ``progress(done, total, name)`` is called after each
+    figure."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs: dict[str, RunResult] = {}
@@ -522,16 +524,20 @@ def make_all(
         ("platoon_gap_errors.png", lambda p: fig_platoon_gap_errors(platoon(), p)),
         ("platoon_gamma.png", lambda p: fig_platoon_gamma(gamma_data(None, platoon_freqs_hz), p)),
     ]
-    # The paper reproduction map, drawn from its committed data (`python -m flc reproduction`
-    # recomputes the data).
-    data = rp.ROOT / "sweeps"
-    if (data / "paper-reproduction-map.csv").is_file():
-        jobs += [
-            ("paper_reproduction.png", lambda p: fig_reproduction(data, p)),
-            ("paper_reproduction_clearances.png", lambda p: fig_reproduction_clearances(data, p)),
-        ]
-    for name, make in jobs:
+    # The paper reproduction map, drawn from its committed data, which ships with the package
+    # (`python -m flc reproduction` recomputes the data; a missing file raises, never skips).
+    data = rp.DATA_DIR
+    missing = [n for n in ("paper-reproduction-map.csv", "paper-reproduction-lines.csv", "paper-reproduction-random.csv") if not (data / n).is_file()]
+    if missing:
+        raise FileNotFoundError(f"the paper reproduction data {data / missing[0]} is missing (it ships with the package; `python -m flc reproduction` recomputes it)")
+    jobs += [
+        ("paper_reproduction.png", lambda p: fig_reproduction(data, p)),
+        ("paper_reproduction_clearances.png", lambda p: fig_reproduction_clearances(data, p)),
+    ]
+    for k, (name, make) in enumerate(jobs):
         make(out / name)
+        if progress is not None:
+            progress(k + 1, len(jobs), name)
     return [out / name for name, _ in jobs]
 
 
@@ -627,7 +633,7 @@ def fig_reproduction_clearances(data_dir: PathLike, out: Optional[PathLike] = No
     return _save(fig, out)
 
 
-def make_reproduction(out_dir: PathLike, data_dir: PathLike = rp.ROOT / "sweeps", threads: Optional[int] = None) -> dict[str, Any]:
+def make_reproduction(out_dir: PathLike, data_dir: PathLike = rp.DATA_DIR, threads: Optional[int] = None) -> dict[str, Any]:
     """Computes the paper reproduction map (:func:`flc.reproduction.compute`: the CSVs into
     ``data_dir``) and draws ``paper_reproduction.png`` and ``paper_reproduction_clearances.png``
     into ``out_dir``. Returns the chosen point and the region sizes."""

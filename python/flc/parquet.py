@@ -24,6 +24,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 #: Field metadata key of a column's unit.
 UNIT_KEY = b"unit"
+#: File metadata key of a sweep part's inputs digest (``flc_sim::sweep::inputs_digest``).
+DIGEST_KEY = "flc.inputs_digest"
 
 
 def _pa() -> Any:
@@ -132,22 +134,48 @@ class SweepWriter:
     (each written to a temporary name and renamed, so a part is whole or absent), a part whenever
     ``partition_rows`` rows are buffered and at :meth:`close`. :attr:`finished` holds the run
     ids of the parts already there (for resuming). ``schema``: ``(column, type, unit)`` per CSV
-    column (``flc._flc.sweep_plan``)."""
+    column (``flc._flc.sweep_plan``).
 
-    def __init__(self, out: PathLike, schema: Sequence[tuple[str, str, str]], partition_rows: int = 1000, metadata: Optional[Mapping[str, str]] = None) -> None:
+    ``digest``: the digest of the sweep's inputs (``flc._flc.sweep_plan``), written into every
+    part's metadata (``flc.inputs_digest``); parts already there are resumed only if each carries
+    this digest, else :class:`flc.ParameterError` naming ``out`` (the words of ``scenario sweep``'s
+    refusal). ``restart=True`` deletes the parts first."""
+
+    def __init__(
+        self,
+        out: PathLike,
+        schema: Sequence[tuple[str, str, str]],
+        partition_rows: int = 1000,
+        metadata: Optional[Mapping[str, str]] = None,
+        digest: Optional[str] = None,
+        restart: bool = False,
+    ) -> None:
         pa = _pa()
         self.dir = Path(out)
         if self.dir.exists() and not self.dir.is_dir():
             raise _flc.ParameterError(f"out: {self.dir} exists and is not a directory (a Parquet sweep is a directory of parts)")
         self.dir.mkdir(parents=True, exist_ok=True)
+        if restart:
+            for old in [*self.dir.glob("part-*.parquet"), *self.dir.glob(".part-*.parquet.tmp")]:
+                old.unlink()
         self.columns = list(schema)
-        self.schema = _schema(self.columns, {"flc.kind": "sweep", **(metadata or {})})
+        digest_meta = {} if digest is None else {DIGEST_KEY: digest}
+        self.schema = _schema(self.columns, {"flc.kind": "sweep", **(metadata or {}), **digest_meta})
         self.partition_rows = max(1, int(partition_rows))
         self._buf: list[str] = []
         parts = sorted(self.dir.glob("part-*.parquet"))
         self.finished: set[int] = set()
+        stored: set[Optional[str]] = set()
         for p in parts:
             self.finished.update(int(i) for i in pa.parquet.read_table(p, columns=["run_id"]).column("run_id").to_pylist())
+            meta = pa.parquet.read_schema(p).metadata or {}
+            stored.add(meta[DIGEST_KEY.encode()].decode() if DIGEST_KEY.encode() in meta else None)
+        if digest is not None and parts:
+            # One digest for all the parts, and it is this sweep's; a part without one is old.
+            kept = None if None in stored else (next(iter(stored)) if len(stored) == 1 else ",".join(sorted(str(d) for d in stored)))
+            reason = _flc.sweep_stale_reason(len(self.finished), kept, digest)
+            if reason is not None:
+                raise _flc.ParameterError(f"out: {self.dir}: {reason}")
         self._next = 1 + max((int(p.stem.split("-")[1]) for p in parts), default=-1)
 
     def write(self, rows: Iterable[str]) -> None:

@@ -31,22 +31,19 @@ except ModuleNotFoundError:  # Python < 3.11
 
 from . import _flc
 from ._run import sweep
+from ._paths import REPRODUCTION, source_root
 from ._scenario import Scenario
 
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-def _root() -> Path:
-    """The repository holding ``sweeps/paper-reproduction.toml``: the working directory or one of
-    its parents (the package may be installed elsewhere), else the source tree of this file."""
-    for d in [Path.cwd(), *Path.cwd().parents, Path(__file__).resolve().parents[2]]:
-        if (d / "sweeps" / "paper-reproduction.toml").is_file():
-            return d
-    return Path.cwd()
-
-
-ROOT = _root()
-SPEC_PATH = ROOT / "sweeps" / "paper-reproduction.toml"
+#: The source tree (the documents; ``flc._paths.source_root``), else the working directory: only
+#: the developer commands that check for it first use it (``python -m flc docs``).
+ROOT = source_root() or Path.cwd()
+#: The reproduction data that ships with the package (``flc/data/reproduction``, linked from
+#: ``sweeps/``): the spec and the committed CSVs.
+DATA_DIR = REPRODUCTION
+SPEC_PATH = DATA_DIR / "paper-reproduction.toml"
 
 #: The paper's cells: (controller, km/h) -> clearance at standstill (m), ``None`` = collision.
 PAPER: dict[tuple[str, float], Optional[float]] = {
@@ -207,7 +204,7 @@ def region_share(rows: Sequence[Mapping[str, Any]]) -> float:
     return sum(1 for r in rows if int(r["matches"]) == 8) / max(1, len(rows))
 
 
-def compute(data_dir: PathLike = ROOT / "sweeps", threads: Optional[int] = None) -> dict[str, Any]:
+def compute(data_dir: PathLike = DATA_DIR, threads: Optional[int] = None) -> dict[str, Any]:
     """Computes the map, the lines through the chosen point and the random sample and writes the
     CSVs into ``data_dir``. Returns the chosen point and the region sizes. (This module computes;
     :func:`flc.figures.make_reproduction` computes and draws the figures.)"""

@@ -330,7 +330,7 @@ def cacc_platoon(
     ``controller="sumo-cacc"`` runs SUMO's own CACC model instead (perfect information, no flc):
     the reference. Returns flc's and SUMO's SSM measures per follower.
 
-    Mixed traffic (issue 25): with ``join_at`` the road has two lanes and a SUMO car without flc
+    Mixed traffic: with ``join_at`` the road has two lanes and a SUMO car without flc
     or V2V (``joiner``, SUMO's Krauss model) drives in the left lane beside the gap behind follower
     ``join_after``, and at ``join_at`` changes into the platoon's lane in 3 s. Each follower listens
     to its predecessor's V2V whatever it measures, so follower ``join_after + 1`` must find that

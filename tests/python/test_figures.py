@@ -168,3 +168,21 @@ def test_cli_bad_args_exit_2(args, tmp_path):
     assert r.returncode == 2, (r.returncode, r.stderr)
     assert "usage:" in r.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_the_reproduction_figures_come_from_the_package_data_or_fail(tmp_path, monkeypatch):
+    """Issue 48: ``figures`` draws the paper reproduction map from the data that ships with the
+    package, from any working directory; without the data it raises instead of leaving the
+    figures out."""
+    from pathlib import Path
+
+    import flc
+    from flc import reproduction as rp
+
+    assert rp.DATA_DIR == Path(flc.__file__).resolve().parent / "data" / "reproduction"
+    assert (rp.DATA_DIR / "paper-reproduction-map.csv").is_file() and rp.SPEC_PATH.is_file()
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(rp, "DATA_DIR", tmp_path / "missing")
+    with pytest.raises(FileNotFoundError, match="paper-reproduction-map.csv"):
+        figures.make_all(tmp_path / "figs", speeds_kmh=[30.0])
+    assert not (tmp_path / "figs" / "following.png").exists()  # refused before drawing anything

@@ -49,3 +49,18 @@ def test_a_missing_column_is_named(tmp_path, result):
     del s["gap"]
     with pytest.raises(flc.ParameterError, match="gap"):
         parquet.write_series(tmp_path / "x.parquet", s)
+
+
+def test_sweep_parts_of_other_inputs_are_refused_and_restart_drops_them(tmp_path):
+    """`SweepWriter` resumes only parts whose `flc.inputs_digest` is the new sweep's (issue 48)."""
+    schema = [("run_id", "u64", ""), ("x", "f64", "m"), ("error", "str", "")]
+    out = tmp_path / "s.parquet"
+    w = parquet.SweepWriter(out, schema, digest="fnv1a128:" + "a" * 32)
+    w.write(["0,1.5,", "1,2.5,"])
+    w.close()
+    assert parquet.SweepWriter(out, schema, digest="fnv1a128:" + "a" * 32).finished == {0, 1}
+    with pytest.raises(flc.ParameterError, match=r"^out: .*2 finished rows ran other inputs.*restart=True"):
+        parquet.SweepWriter(out, schema, digest="fnv1a128:" + "b" * 32)
+    assert parquet.read_sweep(out).column("x").to_pylist() == [1.5, 2.5]
+    w = parquet.SweepWriter(out, schema, digest="fnv1a128:" + "b" * 32, restart=True)
+    assert w.finished == set() and not list(out.glob("part-*.parquet"))

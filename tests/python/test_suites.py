@@ -31,3 +31,24 @@ def test_unknown_suite_and_controller_raise_naming_them():
         flc.run_suite("no-such-suite")
     with pytest.raises(flc.ScenarioError, match="frobnicate"):
         flc.run_suite("r157", controllers=["frobnicate"])
+
+
+def test_the_suites_ship_with_the_package_and_do_not_depend_on_the_working_directory(tmp_path, monkeypatch):
+    """Issue 48: the suites are package data (``flc/data/suites``), found from the package, not
+    from the working directory; ``scenarios/suites`` in the repository is a link to them."""
+    from pathlib import Path
+
+    from flc import _paths
+
+    package = Path(flc.__file__).resolve().parent
+    assert _paths.SUITES == package / "data" / "suites"
+    assert (_paths.SUITES / "r157" / "suite.toml").is_file() and (_paths.SUITES / "ncap-ccr" / "suite.toml").is_file()
+    here = flc.run_suite("r157", controllers=["flc"])
+    # Elsewhere, next to a folder that looks like a suite of the same name: the package's suite.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scenarios" / "suites" / "r157").mkdir(parents=True)
+    (tmp_path / "scenarios" / "suites" / "r157" / "suite.toml").write_text('title = "not this one"\n')
+    assert flc.run_suite("r157", controllers=["flc"]) == here
+    # `root=` names another folder.
+    with pytest.raises(flc.ScenarioError, match="suite.toml"):
+        flc.run_suite("r157", controllers=["flc"], root=tmp_path / "scenarios" / "suites")

@@ -96,7 +96,7 @@ def test_parquet_output_holds_the_local_rows_with_units(tmp_path, client, local_
 
     f = _sweep_file(tmp_path)
     header, rows = local_rows
-    keys, schema, _ = _flc.sweep_plan(str(f))
+    keys, schema, _, _ = _flc.sweep_plan(str(f))
     expected = parquet.parse_rows(rows, schema)
     for executor in (client, None):
         out = tmp_path / f"rows-{executor is None}.parquet"
@@ -188,7 +188,7 @@ def test_a_failing_run_is_a_row_with_its_error(tmp_path):
     from flc import parquet
 
     f = _sweep_file(tmp_path, n=3)
-    _, schema, points = _flc.sweep_plan(str(f))
+    _, schema, points, _ = _flc.sweep_plan(str(f))
     bad = json.loads(points[1][1])
     bad["scenario"]["lidar"]["rate_hz"] = 0.0
     rows = run_chunk([points[0][1], json.dumps(bad), points[2][1]])
@@ -206,7 +206,7 @@ def test_series_on_request(tmp_path, client):
     f = _sweep_file(tmp_path, n=3)
     out = tmp_path / "with-series.csv"
     flc.sweep_file(f, executor=client, out=out, series=True, chunk_size=2)
-    _, _, points = _flc.sweep_plan(str(f))
+    _, _, points, _ = _flc.sweep_plan(str(f))
     for run_id, point in points:
         series, units, _, _ = parquet.read_series(tmp_path / "with-series-series" / f"{run_id}.parquet")
         direct = flc.run(flc.Scenario.from_dict(json.loads(point)["scenario"]))
@@ -239,3 +239,117 @@ def test_an_openscenario_distribution_runs_the_same_way(tmp_path, client):
     dask = tmp_path / "dask.csv"
     flc.sweep_file(xosc, executor=client, out=dask, chunk_size=3)
     assert _lines(dask) == (header, rows)
+
+
+DECEL = """
+family = "paper"
+seed = 4
+[[axes]]
+key = "speed_kmh"
+values = [30.0]
+[[axes]]
+key = "lead_decel"
+values = [4.0, 8.0]
+"""
+
+
+def _decels(out):
+    """The `lead_decel` values of a CSV or Parquet sweep output, sorted."""
+    if out.suffix == ".parquet":
+        from flc import parquet
+
+        return sorted(parquet.read_sweep(out).column("lead_decel").to_pylist())
+    header, rows = _lines(out)
+    col = header.split(",").index("lead_decel")
+    return sorted(float(r.split(",")[col]) for r in rows)
+
+
+def _snapshot(out):
+    if out.suffix == ".parquet":
+        return sorted((p.name, p.read_bytes()) for p in out.glob("part-*.parquet"))
+    return out.read_bytes()
+
+
+@pytest.mark.parametrize("engine", ["local", "dask"])
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_changed_sweep_is_refused_never_served_and_restart_starts_over(tmp_path, client, engine, suffix):
+    executor = client if engine == "dask" else None
+    f = tmp_path / "s.toml"
+    f.write_text(DECEL)
+    out = tmp_path / f"out{suffix}"
+    s = flc.sweep_file(f, executor=executor, out=out)
+    assert (s.total, s.done, s.skipped) == (2, 2, 0)
+    before = _snapshot(out)
+    # The same sweep: resumed, nothing to do.
+    s = flc.sweep_file(f, executor=executor, out=out)
+    assert (s.done, s.skipped) == (0, 2)
+    # The issue's case: lead_decel [4, 8] -> [2, 9] (the same run ids). Refused, output untouched.
+    f.write_text(DECEL.replace("[4.0, 8.0]", "[2.0, 9.0]"))
+    with pytest.raises(flc.ParameterError, match=r"^out: .*other inputs.*restart=True"):
+        flc.sweep_file(f, executor=executor, out=out)
+    assert _snapshot(out) == before and _decels(out) == [4.0, 8.0]
+    # restart=True: the new sweep's rows only.
+    s = flc.sweep_file(f, executor=executor, out=out, restart=True)
+    assert (s.done, s.skipped) == (2, 0)
+    assert _decels(out) == [2.0, 9.0]
+    s = flc.sweep_file(f, executor=executor, out=out)
+    assert (s.done, s.skipped) == (0, 2)
+
+
+def test_the_csv_digest_is_the_same_for_the_rust_engine_and_the_python_path(tmp_path, client, local_rows):
+    f = _sweep_file(tmp_path)
+    out = tmp_path / "mixed.csv"
+
+    def stop_after_first(done, todo):
+        raise Stop
+
+    # Started on Dask (Python writes the rows, the digest from the plan)...
+    with pytest.raises(Stop):
+        flc.sweep_file(f, executor=client, out=out, chunk_size=4, progress=stop_after_first)
+    digest = json.loads((tmp_path / "mixed.csv.digest").read_text())["inputs_digest"]
+    assert digest == _flc.sweep_plan(str(f))[3]
+    # ...finished by the Rust engine (`scenario sweep`'s function), which accepts the digest.
+    s = flc.sweep_file(f, out=out)
+    assert (s.skipped, s.done) == (4, 12)
+    assert _lines(out) == local_rows
+
+
+def test_an_output_without_a_digest_is_refused(tmp_path):
+    from flc import parquet
+
+    f = tmp_path / "s.toml"
+    f.write_text(DECEL)
+    csv = tmp_path / "old.csv"
+    flc.sweep_file(f, out=csv)
+    (tmp_path / "old.csv.digest").unlink()  # as an flc from before the digests left it
+    with pytest.raises(flc.ParameterError, match="no digest"):
+        flc.sweep_file(f, out=csv)
+    assert flc.sweep_file(f, out=csv, restart=True).done == 2
+    # Parquet parts without `flc.inputs_digest` in their metadata (written before the digests).
+    pq = tmp_path / "old.parquet"
+    keys, schema, points, digest = _flc.sweep_plan(str(f))
+    old = parquet.SweepWriter(pq, schema)
+    old.write([r for _, r, _ in run_chunk([p for _, p in points])])
+    old.close()
+    before = sorted(p.read_bytes() for p in pq.glob("part-*.parquet"))
+    with pytest.raises(flc.ParameterError, match="no digest"):
+        flc.sweep_file(f, out=pq)
+    assert sorted(p.read_bytes() for p in pq.glob("part-*.parquet")) == before
+    s = flc.sweep_file(f, out=pq, restart=True)
+    assert (s.done, s.skipped) == (2, 0)
+    assert parquet.read_sweep(pq).schema.metadata[b"flc.inputs_digest"].decode() == digest
+
+
+def test_command_line_refuses_a_changed_sweep_and_restarts(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text(DECEL)
+    out = tmp_path / "cli.csv"
+    cmd = [sys.executable, "-m", "flc", "sweep", str(f), "--out", str(out)]
+    assert subprocess.run(cmd, capture_output=True, text=True).returncode == 0
+    f.write_text(DECEL.replace("[4.0, 8.0]", "[2.0, 9.0]"))
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "cli.csv" in p.stderr and "--restart" in p.stderr, p.stderr
+    p = subprocess.run(cmd + ["--restart"], capture_output=True, text=True)
+    assert p.returncode == 0 and "2 runs done" in p.stderr, p.stderr
+    assert _decels(out) == [2.0, 9.0]

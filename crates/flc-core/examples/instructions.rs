@@ -106,7 +106,8 @@ fn main() {
         total += robust2_steps(&mut RobustFallbackController2::new(RobustFlc2Params::default()).unwrap(), &inputs);
     }
     if run("odo") {
-        total += odo_steps(&mut OdometryFallbackController::new(RobustFlc2Params::default(), OdometryFlcParams::default()).unwrap(), &inputs);
+        total +=
+            odo_steps(&mut OdometryFallbackController::new(RobustFlc2Params::default(), OdometryFlcParams::default()).unwrap(), &inputs);
     }
     if run("pid") {
         total += pid_steps(&mut PidController::new(PidParams::default()).unwrap(), &inputs);

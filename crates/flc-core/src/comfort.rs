@@ -156,7 +156,11 @@ impl ComfortParams {
         let share = (v / self.fade_speed).clamp(0.0, 1.0);
         let a = a_law + share * share * (full - a_law);
         let braking = estimate.is_some_and(|(_, brake)| brake < 0.0);
-        if motion_clock && braking && a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel { (-self.clock_accel).max(floor) } else { a }
+        if motion_clock && braking && a_law >= self.clock_accel && libm::fabs(a) < self.clock_accel {
+            (-self.clock_accel).max(floor)
+        } else {
+            a
+        }
     }
 }
 

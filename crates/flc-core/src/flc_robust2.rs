@@ -461,8 +461,22 @@ impl RobustFallbackController2 {
 
 impl RobustFlc2Terms {
     /// The names of [`RobustFlc2Terms::to_terms`], in field order (flags as 0 / 1).
-    pub const NAMES: &'static [&'static str] =
-        &["distance", "gap_speed", "envelope_speed", "approach_speed", "target_speed", "held", "pending", "revealed", "latched", "a_law", "closing", "closing_brake", "comfort", "a"];
+    pub const NAMES: &'static [&'static str] = &[
+        "distance",
+        "gap_speed",
+        "envelope_speed",
+        "approach_speed",
+        "target_speed",
+        "held",
+        "pending",
+        "revealed",
+        "latched",
+        "a_law",
+        "closing",
+        "closing_brake",
+        "comfort",
+        "a",
+    ];
 
     /// The terms as a named list ([`Terms`]).
     pub fn to_terms(&self) -> Terms {

@@ -65,7 +65,12 @@ fn c_robust2_params() -> impl Strategy<Value = FlcRobust2Params> {
         (num(-0.5, 3.0), num(-0.5, 2.0), num(-0.5, 3.0)),
     )
         .prop_map(
-            |(law, (sight_distance, sight_decel, release_speed, release_closing), (approach_time_gap, firm_error, firm_gain), (memory, response_time, accel))| {
+            |(
+                law,
+                (sight_distance, sight_decel, release_speed, release_closing),
+                (approach_time_gap, firm_error, firm_gain),
+                (memory, response_time, accel),
+            )| {
                 let comfort = FlcComfortParams { memory, response_time, accel, ..flc_robust2_params_default().comfort };
                 FlcRobust2Params {
                     comfort,

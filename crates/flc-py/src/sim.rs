@@ -6,6 +6,7 @@ use flc_sim::Series;
 use flc_sim::report::PlatoonRecord;
 use flc_sim::{Calibration, ControllerKind, Scenario};
 use flc_sim::{RunResult, SimError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
@@ -28,9 +29,7 @@ pub(crate) fn parse_scenario(json: &str) -> PyResult<Scenario> {
 /// The paper experiment as scenario JSON.
 #[pyfunction]
 fn paper_scenario(speed_kmh: f64, controller: &str, preset: &str) -> PyResult<String> {
-    if !(speed_kmh.is_finite() && speed_kmh > 0.0 && speed_kmh <= 250.0) {
-        return Err(ScenarioError::new_err(format!("`speed_kmh`: must be in (0, 250] km/h, got {speed_kmh}")));
-    }
+    flc_sim::paper::check_speed_kmh("speed_kmh", speed_kmh).map_err(|e| ScenarioError::new_err(e.to_string()))?;
     let (c, p) = controller_and_preset(controller, preset)?;
     to_json(&Scenario::paper_experiment(speed_kmh, c, p))
 }
@@ -44,7 +43,8 @@ fn paper_tracking_scenario(controller: &str, preset: &str) -> PyResult<String> {
 }
 
 fn controller_and_preset(controller: &str, preset: &str) -> PyResult<(ControllerKind, Calibration)> {
-    let c = ControllerKind::parse(controller).map_err(|e| ScenarioError::new_err(format!("`controller`: {e}")))?;
+    // The registry's error names the key already (`controller`: ...).
+    let c = ControllerKind::parse(controller).map_err(|e| ScenarioError::new_err(e.to_string()))?;
     let p = match preset {
         "realistic" => Calibration::Realistic,
         "paper" => Calibration::Paper,
@@ -59,14 +59,17 @@ fn load_scenario(path: PathBuf) -> PyResult<String> {
     to_json(&Scenario::from_file(&path).map_err(scenario_err)?)
 }
 
-/// One imported run as Python gets it: the scenario's JSON and its parameter values.
-type ImportedRun = (String, Vec<(String, String)>);
+/// One imported run as Python gets it: the scenario's JSON and its parameter values as a JSON
+/// list of `[name, value]` pairs, each value typed by its declaration (number, integer, boolean,
+/// text; `flc_sim::openscenario::Imported::typed_params`).
+type ImportedRun = (String, String);
 
 /// Imports an OpenSCENARIO file (`flc_sim::openscenario::import`): one `(scenario JSON,
 /// parameter values)` per run (a `ParameterValueDistribution` has one per combination). Bad
 /// files and options raise `ScenarioError` naming the file, line and element, or the option.
 #[pyfunction]
-#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller))]
+#[pyo3(signature = (path, params, ego, ego_mode, road, traffic_dynamics, controller, strict=false))]
+#[allow(clippy::too_many_arguments)]
 fn import_openscenario(
     path: PathBuf,
     params: Vec<(String, String)>,
@@ -75,16 +78,18 @@ fn import_openscenario(
     road: &str,
     traffic_dynamics: &str,
     controller: Option<&str>,
+    strict: bool,
 ) -> PyResult<Vec<ImportedRun>> {
     let opts = flc_sim::openscenario::ImportOptions::from_words(params, ego, ego_mode, road, traffic_dynamics, controller)
         .map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let opts = flc_sim::openscenario::ImportOptions { strict, ..opts };
     let import = flc_sim::openscenario::import(&path, &opts).map_err(|e| ScenarioError::new_err(e.to_string()))?;
-    import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, r.params))).collect()
+    import.runs.into_iter().map(|r| Ok((to_json(&r.scenario)?, to_json(&r.typed_params)?))).collect()
 }
 
 /// Runs standard test suites (`flc_sim::suite`, GIL released): `name` is `ncap-ccr`, `r157`,
-/// `all` or a folder with a `suite.toml`; `root` the folder of the named suites (default: the
-/// source tree's `scenarios/suites`). Returns one report per suite as JSON
+/// `all` or a folder with a `suite.toml`; `root` the folder of the named suites (`flc.run_suite`
+/// passes the package's own; without it, `flc_sim::suite::default_root`). Returns one report per suite as JSON
 /// (`flc_sim::suite::SuiteReport`). An unknown suite or controller raises `ScenarioError`.
 #[pyfunction]
 #[pyo3(signature = (name, controllers=None, root=None))]
@@ -97,7 +102,10 @@ fn run_suite(py: Python<'_>, name: &str, controllers: Option<Vec<String>>, root:
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| ScenarioError::new_err(e.to_string()))?,
     };
-    let root = root.unwrap_or_else(flc_sim::suite::default_root);
+    let root = match root {
+        Some(r) => r,
+        None => flc_sim::suite::default_root().map_err(scenario_err)?,
+    };
     let suites = flc_sim::suite::Suite::find(&root, name).map_err(scenario_err)?;
     let reports = py.detach(|| suites.iter().map(|s| s.run(&kinds)).collect::<Result<Vec<_>, _>>()).map_err(scenario_err)?;
     Ok(reports.iter().map(flc_sim::suite::SuiteReport::to_json).collect())
@@ -107,6 +115,12 @@ fn run_suite(py: Python<'_>, name: &str, controllers: Option<Vec<String>>, root:
 #[pyfunction]
 fn check_scenario(json: &str) -> PyResult<String> {
     to_json(&parse_scenario(json)?)
+}
+
+/// The speeds (km/h) the paper experiment takes, inclusive (`flc_sim::paper::SPEED_RANGE_KMH`).
+#[pyfunction]
+fn paper_speed_range_kmh() -> (f64, f64) {
+    flc_sim::paper::SPEED_RANGE_KMH
 }
 
 /// The controller names a scenario accepts (`controller = "..."`), in the registry's order
@@ -133,13 +147,18 @@ fn resolve_key(name: &str) -> String {
 /// Scenario JSON with keyword overrides applied in order, validated, as normalised JSON.
 /// `overrides_json` is a JSON list of `[name, value]` pairs (names as `resolve_key` takes them,
 /// `lead_decel` = every brake phase's deceleration); errors are `ScenarioError`s naming the key
-/// (`flc_sim::Scenario::with_overrides`).
+/// (`flc_sim::Scenario::with_overrides`), except a name that is no scenario key at all: a
+/// `TypeError`, as Python raises for any unexpected keyword argument.
 #[pyfunction]
 fn apply_overrides(scenario_json: &str, overrides_json: &str) -> PyResult<String> {
     let bad = |e: PyErr| ScenarioError::new_err(e.to_string());
     let s: Scenario = from_json(scenario_json, "scenario").map_err(bad)?;
     let overrides: Vec<(String, serde_json::Value)> = from_json(overrides_json, "overrides").map_err(bad)?;
-    let out = s.with_overrides(&overrides).map_err(|e| ScenarioError::new_err(e.to_string()))?;
+    let out = s.with_overrides(&overrides).map_err(|e| match Scenario::unknown_top_level_key(&e) {
+        // A keyword that names nothing in a scenario is an unexpected keyword argument.
+        Some(name) => PyTypeError::new_err(format!("unexpected keyword argument `{name}`: not a scenario key ({})", e.problem)),
+        None => ScenarioError::new_err(e.to_string()),
+    })?;
     to_json(&out)
 }
 
@@ -346,6 +365,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(brakedemo_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(frequency_response, m)?)?;
     m.add_function(wrap_pyfunction!(controller_names, m)?)?;
+    m.add_function(wrap_pyfunction!(paper_speed_range_kmh, m)?)?;
     m.add_function(wrap_pyfunction!(section_names, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_key, m)?)?;
     m.add_function(wrap_pyfunction!(apply_overrides, m)?)?;

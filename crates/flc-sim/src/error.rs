@@ -56,6 +56,16 @@ pub enum SimError {
     /// import error).
     #[error("{0}")]
     Input(String),
+    /// A sweep output holds rows that may not be of the sweep being run (their inputs' digest
+    /// differs or is missing): resuming would serve them, so it is refused; the caller says how
+    /// to start over (`--restart`, `restart=True`).
+    #[error("{path}: {reason}")]
+    StaleOutput {
+        /// The output.
+        path: String,
+        /// Why its rows cannot be resumed.
+        reason: String,
+    },
     /// An I/O error while writing results.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),

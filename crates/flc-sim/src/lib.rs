@@ -17,7 +17,8 @@
 //!    the string-stability measures ([`string_stability`]);
 //! 4. **the loop**: [`Simulation`], talking to sinks only through [`Observer`]; the same follower
 //!    pipeline driven by another simulator ([`ExternalFollower`], `flc.sumo`);
-//! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]), the SVG
+//! 5. **sinks**: MCAP recordings ([`record`]), JSON records, tables and CSV ([`report`]), the
+//!    main job's verdict against the paper ([`paper_verdict`]), the SVG
 //!    writer of the generated figures (`svg`);
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
 //! 7. **experiments**: [`sweep`], the standard test suites ([`suite`]), the frequency response
@@ -37,6 +38,7 @@ mod metrics;
 mod noise;
 pub mod openscenario;
 pub mod paper;
+pub mod paper_verdict;
 mod patch;
 mod platoon;
 pub mod presets;

@@ -1,5 +1,6 @@
 //! The paper's experiment (Sec. IV) in one place: its speeds, the scenario, the `paper` preset
-//! (what the paper leaves open, `docs/sim-model.md`) and the paper's reported results.
+//! (what the paper leaves open, `docs/sim-model.md`), the paper's reported results and a run's
+//! verdict against them ([`CellVerdict`]; the summary of a whole run is `crate::paper_verdict`'s).
 //!
 //! Lead and follower start at standstill 7 m apart on a straight road; the lead accelerates to
 //! 30 / 50 / 70 / 90 km/h, covers about 650 m and brakes at -6 m/s² to a stop. The follower is
@@ -13,9 +14,13 @@ use crate::follower::FollowerSpec;
 use crate::lead::LeadSpec;
 use crate::lead::Phase;
 use crate::lidar::LidarParams;
+use crate::metrics::Metrics;
 use crate::scenario::{ControllerKind, KMH, Scenario, StopSpec, TrackSpec};
 use crate::v2v::V2vParams;
 use crate::vehicle::VehicleParams;
+
+/// The speed range of the paper experiment (owned by the scenario, whose `speed_kmh` it bounds).
+pub use crate::scenario::{SPEED_RANGE_KMH, check_speed_kmh};
 
 /// The paper's results (Sec. IV, Fig. 4), per speed of [`PAPER_SPEEDS_KMH`]: clearance at
 /// standstill in m, `None` for a collision.
@@ -31,6 +36,123 @@ pub fn paper_result(controller: &str, speed_kmh: f64) -> Option<Option<f64>> {
         "flc" => PAPER_FLC_RESULTS.get(i).copied(),
         "pid" => PAPER_PID_RESULTS.get(i).copied(),
         _ => None,
+    }
+}
+
+/// How far a simulated clearance may be from the paper's and still match, m. The paper states
+/// its clearances to 0.1 m ("over 3.8, 4 and 2.3 meters", read off the gap plots of Fig. 4)
+/// for a CARLA vehicle whose brakes and actuator it does not describe; half a metre is a
+/// bumper's length of slack for that, and still separates "stops about where the paper stops"
+/// from "stops somewhere" (the clearances span 1.2-7.9 m).
+pub const CLEARANCE_TOLERANCE_M: f64 = 0.5;
+
+/// How a run of the paper experiment ended, in the paper's terms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutcomeClass {
+    /// Both vehicles at standstill, no contact.
+    Stop,
+    /// The follower touched something.
+    Collision,
+    /// No contact, but the run ended before both stood still.
+    NoStop,
+}
+
+impl OutcomeClass {
+    /// The class of a run's metrics.
+    pub fn of(m: &Metrics) -> Self {
+        if m.collision {
+            Self::Collision
+        } else if m.final_clearance.is_some() {
+            Self::Stop
+        } else {
+            Self::NoStop
+        }
+    }
+
+    /// `stop`, `collision` or `no stop`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Stop => "stop",
+            Self::Collision => "collision",
+            Self::NoStop => "no stop",
+        }
+    }
+}
+
+/// The verdict of one cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Same outcome class; for a stop, the clearance within the tolerance.
+    Match,
+    /// Both stop, the clearance is off by more than the tolerance.
+    ClearanceOff,
+    /// Stop where the paper collides, or the other way round (or no stop at all).
+    OutcomeDiffers,
+}
+
+/// One run of the paper experiment against the paper's cell (the `paper_verdict` object of
+/// `scenario --json`, `docs/scenarios.md`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CellVerdict {
+    /// The paper's outcome: `stop` or `collision`.
+    pub paper_outcome: OutcomeClass,
+    /// The paper's clearance, m (`None` for a collision).
+    pub paper_clearance: Option<f64>,
+    /// This run's outcome: `stop`, `collision` or `no_stop`.
+    pub outcome: OutcomeClass,
+    /// The two outcome classes are equal.
+    pub outcome_match: bool,
+    /// This run's clearance minus the paper's, m (`None` unless both stop).
+    pub clearance_error: Option<f64>,
+    /// [`CLEARANCE_TOLERANCE_M`].
+    pub clearance_tolerance: f64,
+    /// `|clearance_error| <= clearance_tolerance` (`None` unless both stop).
+    pub clearance_within: Option<bool>,
+    /// The verdict.
+    pub verdict: Verdict,
+}
+
+impl CellVerdict {
+    /// The verdict of a run of `controller` at `speed_kmh` with `metrics`; `None` where the
+    /// paper reports nothing (the pipeline, the baselines, other speeds).
+    pub fn of(controller: &str, speed_kmh: f64, metrics: &Metrics) -> Option<Self> {
+        let paper = paper_result(controller, speed_kmh)?;
+        let paper_outcome = if paper.is_some() { OutcomeClass::Stop } else { OutcomeClass::Collision };
+        let outcome = OutcomeClass::of(metrics);
+        let outcome_match = outcome == paper_outcome;
+        let clearance_error = match (metrics.final_clearance, paper) {
+            (Some(c), Some(p)) if outcome == OutcomeClass::Stop => Some(c - p),
+            _ => None,
+        };
+        let clearance_within = clearance_error.map(|e| e.abs() <= CLEARANCE_TOLERANCE_M);
+        let verdict = match (outcome_match, clearance_within) {
+            (false, _) => Verdict::OutcomeDiffers,
+            (true, Some(false)) => Verdict::ClearanceOff,
+            (true, _) => Verdict::Match,
+        };
+        Some(Self {
+            paper_outcome,
+            paper_clearance: paper,
+            outcome,
+            outcome_match,
+            clearance_error,
+            clearance_tolerance: CLEARANCE_TOLERANCE_M,
+            clearance_within,
+            verdict,
+        })
+    }
+
+    /// The table's verdict column: `ok, +0.20 m`, `off by -1.48 m`, `ok` (both collide),
+    /// `OUTCOME DIFFERS`.
+    pub fn short(&self) -> String {
+        match (self.verdict, self.clearance_error) {
+            (Verdict::OutcomeDiffers, _) => "OUTCOME DIFFERS".to_string(),
+            (Verdict::ClearanceOff, Some(e)) => format!("off by {e:+.2} m"),
+            (_, Some(e)) => format!("ok, {e:+.2} m"),
+            (_, None) => "ok".to_string(),
+        }
     }
 }
 
@@ -119,55 +241,6 @@ impl Scenario {
     }
 }
 
-/// One tracking run of [`Scenario::paper_tracking`] for [`other_numbers`].
-pub struct TrackingRun<'a> {
-    /// `flc` or `pid`.
-    pub controller: &'a str,
-    /// Mean |heading error|, deg.
-    pub rot_error_deg: Option<f64>,
-    /// Mean |lateral offset|, m.
-    pub trans_error_m: Option<f64>,
-    /// How the run ended ([`crate::RunRecord::outcome`]): the errors are averages up to that end.
-    pub outcome: String,
-    /// Simulated time of the run, s.
-    pub duration: f64,
-}
-
-/// The paper's other numbers next to the simulated ones: the tracking errors of `tracking` (runs
-/// of [`Scenario::paper_tracking`], with how each run ended) and, from `impacts` (controller,
-/// impact speed at 90 km/h), whether the FLC's crash at 90 km/h is less severe than the PID's.
-pub fn other_numbers(tracking: &[TrackingRun<'_>], impacts: &[(&str, f64)]) -> String {
-    let mut out = String::from("the paper's other numbers:\n");
-    for TrackingRun { controller: c, rot_error_deg: rot, trans_error_m: trans, outcome, duration } in tracking {
-        let paper = PAPER_TRACKING.iter().find(|(n, _, _)| n == c);
-        let f = |x: &Option<f64>, d: usize| x.map_or("-".to_string(), |v| format!("{v:.d$}"));
-        out.push_str(&format!(
-            "  tracking on the curved route, {c}: rotational {} deg, translational {} m (paper {} deg, {} m); the run ends after {duration:.2} s: {}\n",
-            f(rot, 4),
-            f(trans, 4),
-            paper.map_or("-".into(), |p| p.1.to_string()),
-            paper.map_or("-".into(), |p| p.2.to_string()),
-            outcome.split_whitespace().collect::<Vec<_>>().join(" ")
-        ));
-    }
-    let get = |n: &str| impacts.iter().find(|(c, _)| *c == n).map(|(_, v)| *v);
-    if let (Some(f), Some(p)) = (get("flc"), get("pid")) {
-        let verdict = if f < p { "holds" } else { "does not hold" };
-        out.push_str(&format!(
-            "  at 90 km/h the FLC's crash is less severe than the PID's (paper): impact {f:.2} vs {p:.2} m/s, {verdict}\n"
-        ));
-    }
-    out
-}
-
-/// One line on how large the matching region is (printed under the results table).
-pub fn matching_region_line() -> String {
-    let (map, random) = PAPER_MATCHING_REGION;
-    format!(
-        "paper preset (brake authority {PAPER_MAX_DECEL} m/s², actuator response {PAPER_ACTUATOR_RESPONSE} s): all 8 cells match the paper on {map:.1} % of the brake x response map and {random:.1} % of a random sample over 7 constants, a narrow ridge (docs/paper-reproduction.md)\n"
-    )
-}
-
 impl Scenario {
     /// The paper's experiment (Sec. IV): both vehicles at standstill 7 m apart on the straight
     /// track; the lead accelerates to `speed_kmh`, covers about 650 m and brakes at -6 m/s² to a
@@ -224,5 +297,40 @@ impl Scenario {
             apply_paper(&mut s);
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn metrics(collision: bool, clearance: Option<f64>) -> Metrics {
+        // A real run's metrics, then the two fields the verdict reads.
+        let mut m = crate::run(&crate::Scenario { duration: 1.0, ..crate::Scenario::default() }).expect("run").metrics;
+        m.collision = collision;
+        m.final_clearance = clearance;
+        m.impact_speed = if collision { 3.0 } else { 0.0 };
+        m
+    }
+
+    #[test]
+    fn a_cell_matches_on_class_and_clearance_within_the_tolerance() {
+        // FLC 30 km/h: the paper stops 3.8 m short.
+        let ok = CellVerdict::of("flc", 30.0, &metrics(false, Some(4.2))).expect("cell");
+        assert_eq!((ok.verdict, ok.outcome_match, ok.clearance_within), (Verdict::Match, true, Some(true)));
+        assert!((ok.clearance_error.expect("both stop") - 0.4).abs() < 1e-12);
+        let off = CellVerdict::of("flc", 30.0, &metrics(false, Some(4.31))).expect("cell");
+        assert_eq!((off.verdict, off.clearance_within), (Verdict::ClearanceOff, Some(false)));
+        let crash = CellVerdict::of("flc", 30.0, &metrics(true, None)).expect("cell");
+        assert_eq!((crash.verdict, crash.outcome, crash.clearance_error), (Verdict::OutcomeDiffers, OutcomeClass::Collision, None));
+        let no_stop = CellVerdict::of("flc", 30.0, &metrics(false, None)).expect("cell");
+        assert_eq!((no_stop.verdict, no_stop.outcome), (Verdict::OutcomeDiffers, OutcomeClass::NoStop));
+        // PID 70 km/h: the paper collides.
+        let both = CellVerdict::of("pid", 70.0, &metrics(true, None)).expect("cell");
+        assert_eq!((both.verdict, both.clearance_within), (Verdict::Match, None));
+        assert_eq!(CellVerdict::of("pid", 70.0, &metrics(false, Some(7.0))).expect("cell").verdict, Verdict::OutcomeDiffers);
+        // No paper figure: the pipeline, other speeds.
+        assert!(CellVerdict::of("pipeline", 70.0, &metrics(false, Some(4.0))).is_none());
+        assert!(CellVerdict::of("flc", 60.0, &metrics(false, Some(4.0))).is_none());
     }
 }

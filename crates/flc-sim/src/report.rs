@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::metrics::{CollisionInfo, ContactRecord, Metrics, Series};
-use crate::paper::paper_result;
+use crate::paper::{CellVerdict, paper_result};
 use crate::scenario::Scenario;
 use crate::sim::RunResult;
 use crate::string_stability::StringStability;
@@ -45,6 +45,10 @@ pub struct RunRecord {
     /// Platoon results, absent without `[platoon]`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub platoon: Option<PlatoonRecord>,
+    /// The run against the paper's cell (the paper experiment's FLC and PID at the paper's
+    /// speeds: outcome class, clearance within a tolerance); absent elsewhere.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_verdict: Option<CellVerdict>,
     /// First contacts of the pairs without a follower (the lead touching a road-side object);
     /// absent if none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -134,6 +138,8 @@ impl RunRecord {
             },
             platoon: None,
             other_contacts: Vec::new(),
+            // Only the built-in experiment is the paper's (a file may carry a speed too).
+            paper_verdict: preset.and(scenario.speed_kmh).and_then(|v| CellVerdict::of(scenario.controller.as_str(), v, metrics)),
         }
     }
 
@@ -203,25 +209,27 @@ pub fn table(records: &[RunRecord]) -> String {
             };
             out.push_str(&format!("\n{title}\n"));
             out.push_str(&format!(
-                "{:<w$} {:<14} {:>6}  {:<24} {:<18} {:>8} {:>9} {:>9} {:>10}\n",
-                "scenario", "ctrl", "km/h", "outcome (clearance)", "paper", "min gap", "min TTC", "max dec", "max jerk"
+                "{:<w$} {:<14} {:>6}  {:<24} {:<15} {:<16} {:>8} {:>9} {:>9} {:>10}\n",
+                "scenario", "ctrl", "km/h", "outcome (clearance)", "paper", "verdict", "min gap", "min TTC", "max dec", "max jerk"
             ));
             last_preset = Some(r.preset.clone());
         }
         let m = &r.metrics;
         let paper = match r.speed_kmh.and_then(|s| paper_result(&r.controller, s)) {
-            Some(Some(c)) => format!("stop, {c} m"),
+            Some(Some(c)) => format!("stop, {c:.1} m"),
             Some(None) => "collision".to_string(),
             None => "-".to_string(),
         };
         let ttc = m.min_ttc.map_or("-".to_string(), |t| format!("{t:.2} s"));
+        let verdict = r.paper_verdict.as_ref().map_or("-".to_string(), CellVerdict::short);
         out.push_str(&format!(
-            "{:<w$} {:<14} {:>6} {:<24} {:<18} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
+            "{:<w$} {:<14} {:>6} {:<24} {:<15} {:<16} {:>6.2} m {:>9} {:>5.2} m/s² {:>6.1} m/s³\n",
             r.label(),
             r.controller,
             r.speed_kmh.map_or("-".to_string(), |s| format!("{s:.0}")),
             format!(" {}", outcome(m, r.collision_info.as_ref(), 1)),
             paper,
+            verdict,
             m.min_gap,
             ttc,
             m.max_decel,

@@ -184,7 +184,7 @@ impl Scenario {
         self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
-            check_range("speed_kmh", s, 0.0, 252.0, "km/h")?;
+            check_speed_kmh("speed_kmh", s)?;
         }
         if let Some(p) = &self.platoon {
             p.validate().map_err(|e| e.within("platoon"))?;
@@ -458,11 +458,20 @@ impl Scenario {
                 resolved.set(key, value.clone());
             }
         }
-        let mut out = resolved.apply(&base)?;
+        let mut out = resolved.apply(&base).map_err(with_family_key)?;
         if !sets_seed {
             out.seed = self.seed;
         }
         Ok(out)
+    }
+
+    /// The unknown top-level key an error of [`Scenario::patched`] / [`Scenario::with_overrides`]
+    /// reports (a key that names nothing in a scenario, `speed`), or `None` for any other error
+    /// (an unknown key inside a section, a bad value). Python raises `TypeError` for such a
+    /// keyword, as for any unexpected keyword argument.
+    pub fn unknown_top_level_key(e: &ConfigError) -> Option<&str> {
+        let name = e.problem.strip_prefix("unknown field `")?.split('`').next()?;
+        (e.key.is_empty() || e.key == name).then_some(name)
     }
 
     /// The scenario's sections (top-level tables: `follower`, `lidar`, `flc`, `platoon`, ...),
@@ -512,6 +521,31 @@ impl Scenario {
         }
         s.validate()?;
         Ok(s)
+    }
+
+    /// One `KEY=VALUE` of `scenario --set`, as [`Scenario::with_overrides`] takes it: the key as
+    /// Python's keyword overrides name it (`lidar_rate_hz`, `lidar.rate_hz`, `lead_decel`,
+    /// `seed`), the value read as a TOML value (`10`, `6.5`, `true`, `"x"`, `[1, 2]`,
+    /// `{ loss_prob = 0.5 }`), else taken as a bare string (`controller=pid`). Errors are keyed
+    /// `--set`.
+    pub fn override_pair(arg: &str) -> Result<(String, serde_json::Value), ConfigError> {
+        let Some((key, text)) = arg.split_once('=') else {
+            return Err(ConfigError::new("--set", format!("expected KEY=VALUE, got `{arg}`")));
+        };
+        let key = key.trim();
+        if key.is_empty() {
+            return Err(ConfigError::new("--set", format!("empty key in `{arg}`")));
+        }
+        let text = text.trim();
+        if text.is_empty() {
+            return Err(ConfigError::new("--set", format!("`{key}`: empty value")));
+        }
+        let value = match toml::from_str::<toml::Table>(&format!("v = {text}")) {
+            Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(text.to_string())),
+            Err(_) => toml::Value::String(text.to_string()),
+        };
+        let json = serde_json::to_value(&value).map_err(|e| ConfigError::new("--set", format!("`{key}`: {e}")))?;
+        Ok((key.to_string(), json))
     }
 
     /// The scenarios to run for this one: each variant if it has `[[variants]]`, else itself.
@@ -611,9 +645,52 @@ fn table_paths() -> &'static [(String, String)] {
     })
 }
 
+/// An unknown top-level key of a patch: serde's list of the scenario's keys, plus the family key
+/// [`LEAD_DECEL_KEY`] that a patch also takes (a sweep axis, a Python keyword), so that the list
+/// holds every valid key.
+fn with_family_key(mut e: ConfigError) -> ConfigError {
+    if let Some(name) = Scenario::unknown_top_level_key(&e) {
+        let name = name.to_string();
+        e.problem = format!("{}, or `{LEAD_DECEL_KEY}` (every brake phase's deceleration, m/s²)", e.problem);
+        e.key = name;
+    }
+    e
+}
+
+/// The speeds (km/h) the paper experiment takes, inclusive: the one limit of every entry point
+/// (`scenario --speeds`, a scenario's `speed_kmh`, `flc.Scenario.paper`, `python -m flc figures
+/// --speeds`; checked by [`check_speed_kmh`]). The lead must move (1 km/h) and stay below the
+/// lead's speed limit of 70 m/s (252 km/h).
+pub const SPEED_RANGE_KMH: (f64, f64) = (1.0, 250.0);
+
+/// Checks a paper-experiment speed against [`SPEED_RANGE_KMH`]; the error names `key`.
+pub fn check_speed_kmh(key: &str, speed_kmh: f64) -> Result<(), crate::ConfigError> {
+    crate::check_range(key, speed_kmh, SPEED_RANGE_KMH.0, SPEED_RANGE_KMH.1, "km/h")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unknown_top_level_key_lists_every_valid_key_with_the_family_key() {
+        // A sweep axis is a dotted key as written (no keyword resolution).
+        let mut patch = Patch::new();
+        patch.set("lead_decl", toml::Value::Float(4.0));
+        let e = Scenario::default().patched(&patch).expect_err("typo");
+        assert_eq!(Scenario::unknown_top_level_key(&e), Some("lead_decl"));
+        let text = e.to_string();
+        assert!(text.starts_with("`lead_decl`: unknown field `lead_decl`"), "{text}");
+        for key in ["`lead_decel`", "`speed_kmh`", "`controller`", "`lidar`", "`seed`"] {
+            assert!(text.contains(key), "{key} in {text}");
+        }
+        let e = Scenario::default().with_overrides(&[("speed".into(), serde_json::json!(70.0))]).expect_err("not a key");
+        assert_eq!(Scenario::unknown_top_level_key(&e), Some("speed"));
+        // Inside a section the list is the section's keys, and it is not a top-level key.
+        let e = Scenario::default().with_overrides(&[("lidar.rate_hzz".into(), serde_json::json!(4.0))]).expect_err("typo");
+        assert_eq!(Scenario::unknown_top_level_key(&e), None);
+        assert!(!e.to_string().contains("lead_decel"), "{e}");
+    }
 
     #[test]
     fn sections_keys_and_overrides() {

@@ -7,6 +7,13 @@
 //! row (a run that fails becomes a row with its `error`), [`open_output`] prepares a CSV for
 //! appending and says which ids it already holds.
 //!
+//! Resuming never serves rows of other inputs: [`inputs_digest`] is a digest of everything the
+//! rows ran (the flc version, the columns, every point's id, values and whole scenario, seed
+//! included), kept next to the CSV in `<out>.digest` ([`digest_path`]; the Parquet output of
+//! `flc.sweep_file` keeps it in every part's metadata). An output whose digest differs from the
+//! new sweep's, or that has finished rows but no digest, is refused ([`SimError::StaleOutput`]);
+//! `restart` starts it over.
+//!
 //! A sweep file (TOML, `docs/safety-envelope.md`):
 //!
 //! ```toml
@@ -405,6 +412,75 @@ pub fn distribution_points(runs: Vec<crate::openscenario::Imported>) -> (Vec<Str
     (keys, points)
 }
 
+/// The version of flc whose engine writes the rows: part of [`inputs_digest`].
+pub const FLC_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The format tag of [`inputs_digest`] (changes if what it covers changes).
+const DIGEST_FORMAT: &str = "flc-sweep-inputs/1";
+
+/// FNV-1a with 128 bits, over bytes written into it: a digest that is the same on every
+/// platform and Rust version (std's hashers promise neither). For detecting changed inputs,
+/// not against an adversary.
+struct Fnv1a128(u128);
+
+impl Write for Fnv1a128 {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        const PRIME: u128 = 0x0000_0000_0100_0000_0000_0000_0000_013B;
+        for &b in buf {
+            self.0 ^= u128::from(b);
+            self.0 = self.0.wrapping_mul(PRIME);
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The digest of what a sweep's rows run: the flc version ([`FLC_VERSION`]), the value keys
+/// (the columns) and every point in order, id, axis values and whole scenario (seed included) as
+/// their JSON. Two sweeps with the same digest write the same rows; any change to the sweep
+/// file, a base scenario it reads, an import option or the flc version changes it. The same
+/// function serves `scenario sweep` and `flc.sweep_file`: `fnv1a128:` and 32 hex digits.
+pub fn inputs_digest(keys: &[String], points: &[SweepPoint]) -> String {
+    let mut h = Fnv1a128(0x6c62_272e_07bb_0142_62b8_2175_6295_c58d);
+    // Serializing plain data into a writer that never fails cannot fail; were it to, the
+    // digest would still be deterministic (the error is the same every time).
+    let _ = serde_json::to_writer(&mut h, &(DIGEST_FORMAT, FLC_VERSION, keys, points));
+    format!("fnv1a128:{:032x}", h.0)
+}
+
+/// Where a sweep CSV keeps the digest of its rows' inputs: `<out>.digest` (a small JSON file:
+/// `format`, `flc_version`, `inputs_digest`).
+pub fn digest_path(out: &Path) -> PathBuf {
+    let mut name = out.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
+    name.push(".digest");
+    out.with_file_name(name)
+}
+
+/// The record of [`digest_path`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct DigestRecord {
+    format: String,
+    flc_version: String,
+    inputs_digest: String,
+}
+
+/// The refusal of an output whose `rows` finished rows may not be this sweep's: `stored` is the
+/// digest kept with them (`None`: none), `digest` the new sweep's. `None` if they match. The
+/// same words for the CSV and (`flc.sweep_file`) the Parquet output.
+pub fn stale_reason(rows: usize, stored: Option<&str>, digest: &str) -> Option<String> {
+    match stored {
+        Some(s) if s == digest => None,
+        Some(s) => Some(format!(
+            "its {rows} finished rows ran other inputs than this sweep (the sweep file, a base scenario, an option or the flc version changed: digest {s}, now {digest})"
+        )),
+        None => Some(format!(
+            "it holds {rows} finished rows but no digest of their inputs (written by an older flc, or the digest was removed), so they may not be this sweep's"
+        )),
+    }
+}
+
 /// Ids already present in an existing output file (for resuming): the rows that end with a line
 /// break and hold every field (a row cut by an interrupted write is redone).
 pub fn finished_ids(out: &Path) -> HashSet<usize> {
@@ -417,16 +493,29 @@ pub fn finished_ids(out: &Path) -> HashSet<usize> {
         .collect()
 }
 
-/// Prepares `out` for appending the rows of points named `keys` and returns the ids it already
-/// holds ([`finished_ids`]): a missing file, or one without finished rows, is written anew with
-/// the header; a cut last line (an interrupted write) is dropped. The file is not locked: one
-/// writer per output.
-pub fn open_output(out: &Path, keys: &[String]) -> Result<(std::fs::File, HashSet<usize>), SimError> {
-    let done = finished_ids(out);
+/// Prepares `out` for appending the rows of points named `keys`, whose inputs have the digest
+/// `digest` ([`inputs_digest`]), and returns the ids it already holds ([`finished_ids`]).
+///
+/// A missing file, one without finished rows, or any file with `restart`, is written anew with
+/// the header, and its digest into [`digest_path`]. A file with finished rows resumes only if
+/// its digest is `digest`: otherwise, or without a digest, it is refused
+/// ([`SimError::StaleOutput`], nothing written). A cut last line (an interrupted write) is
+/// dropped. The file is not locked: one writer per output.
+pub fn open_output(out: &Path, keys: &[String], digest: &str, restart: bool) -> Result<(std::fs::File, HashSet<usize>), SimError> {
+    let done = if restart { HashSet::new() } else { finished_ids(out) };
+    let record_path = digest_path(out);
     if done.is_empty() {
         let mut file = std::fs::File::create(out)?;
         writeln!(file, "{}", header_of(keys))?;
+        let record = DigestRecord { format: DIGEST_FORMAT.into(), flc_version: FLC_VERSION.into(), inputs_digest: digest.into() };
+        let text = serde_json::to_string(&record)
+            .map_err(|e| SimError::File { path: record_path.display().to_string(), message: e.to_string() })?;
+        std::fs::write(&record_path, text + "\n")?;
         return Ok((file, done));
+    }
+    let stored = std::fs::read_to_string(&record_path).ok().and_then(|t| serde_json::from_str::<DigestRecord>(&t).ok());
+    if let Some(reason) = stale_reason(done.len(), stored.as_ref().map(|r| r.inputs_digest.as_str()), digest) {
+        return Err(SimError::StaleOutput { path: out.display().to_string(), reason });
     }
     let text = std::fs::read(out)?;
     let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
@@ -438,20 +527,22 @@ pub fn open_output(out: &Path, keys: &[String]) -> Result<(std::fs::File, HashSe
 }
 
 /// Runs the points not yet in `out`, appending one CSV row per finished run (flushed as it
-/// finishes). Returns the number of runs done now.
-pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
+/// finishes). Resumes only an output of the same inputs ([`open_output`]); `restart` starts it
+/// over. Returns the number of runs done now.
+pub fn run_sweep(spec: &SweepSpec, points: &[SweepPoint], out: &Path, progress: bool, restart: bool) -> Result<usize, SimError> {
     let keys: Vec<String> = spec.axes.iter().map(|a| a.key.clone()).collect();
-    run_points(&keys, points, out, progress)
+    run_points(&keys, points, out, progress, restart)
 }
 
 /// Runs `points` (their values named `keys`, the CSV's columns after `run_id`) in parallel,
 /// streaming one row per finished run into `out` and skipping the ids already there, as
 /// [`run_sweep`] does; also the engine of OpenSCENARIO `ParameterValueDistribution` files
-/// (the keys are their parameters). A run that fails is a row with its `error`. Returns the
-/// number of runs done.
-pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool) -> Result<usize, SimError> {
+/// (the keys are their parameters). A run that fails is a row with its `error`. An output of
+/// other inputs is refused unless `restart` ([`open_output`]). Returns the number of runs done.
+pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: bool, restart: bool) -> Result<usize, SimError> {
     use rayon::prelude::*;
-    let (file, done) = open_output(out, keys)?;
+    let digest = inputs_digest(keys, points);
+    let (file, done) = open_output(out, keys, &digest, restart)?;
     let todo: Vec<&SweepPoint> = points.iter().filter(|p| !done.contains(&p.id)).collect();
     let writer = Mutex::new(std::io::BufWriter::new(file));
     let bar = progress.then(|| crate::runner::progress_bar(todo.len(), "runs"));
@@ -472,5 +563,34 @@ pub fn run_points(keys: &[String], points: &[SweepPoint], out: &Path, progress: 
         b.finish_and_clear();
     }
     results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    sort_output(out)?;
     Ok(todo.len())
+}
+
+/// Puts the rows of a finished sweep CSV in `run_id` order (rows are appended as runs finish, in
+/// any order): the header and any lines before the first row stay first, the rows follow sorted
+/// by id (stable), lines without an id after them. Written to a temporary file beside `out` and
+/// renamed over it; a file already in order is not touched. Resuming reads ids, not positions,
+/// so a sorted file resumes as before.
+pub fn sort_output(out: &Path) -> Result<(), SimError> {
+    let text = std::fs::read_to_string(out)?;
+    let id = |l: &str| l.split(',').next().and_then(|f| f.parse::<usize>().ok());
+    let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    let first = lines.iter().skip(1).position(|l| id(l).is_some()).map_or(lines.len(), |i| i + 1);
+    let (head, body) = lines.split_at(first);
+    let mut rows: Vec<(usize, &str)> = body.iter().filter_map(|l| id(l).map(|i| (i, *l))).collect();
+    if rows.windows(2).all(|w| w[0].0 <= w[1].0) {
+        return Ok(());
+    }
+    rows.sort_by_key(|(i, _)| *i);
+    let tmp = out.with_extension("sorting.tmp");
+    {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        for l in head.iter().copied().chain(rows.iter().map(|(_, l)| *l)).chain(body.iter().copied().filter(|l| id(l).is_none())) {
+            w.write_all(l.as_bytes())?;
+        }
+        w.flush()?;
+    }
+    std::fs::rename(&tmp, out)?;
+    Ok(())
 }

@@ -64,6 +64,17 @@ pub struct Projection {
 /// `openscenario::road::MAX_TRACK_POINTS` is this constant).
 pub const MAX_CENTERLINE_POINTS: usize = 4_000_000;
 
+/// Narrowest lane width a track accepts, m. OpenDRIVE allows any positive width; below 1 cm a
+/// lane cannot be driven and the value is taken for an error.
+pub const MIN_LANE_WIDTH: f64 = 0.01;
+
+/// Widest lane width a track accepts, m (a test-track lane, as Euro NCAP's 28 m, is well inside).
+pub const MAX_LANE_WIDTH: f64 = 100.0;
+
+/// The usual range of road lane widths, m: a width outside it is accepted, and the OpenSCENARIO
+/// importer says so in a warning.
+pub const USUAL_LANE_WIDTH: (f64, f64) = (2.0, 6.0);
+
 /// Most road-side objects of a track.
 pub const MAX_OBJECTS: usize = 10_000;
 
@@ -232,7 +243,7 @@ impl Track {
                 return Err(ConfigError::new(format!("centerline[{}]", i + 1), "repeats the previous point (zero-length segment)"));
             }
         }
-        check_range("lane_width", self.lane_width, 2.0, 6.0, "m")?;
+        check_range("lane_width", self.lane_width, MIN_LANE_WIDTH, MAX_LANE_WIDTH, "m")?;
         if !(1..=8).contains(&self.lanes) {
             return Err(ConfigError::new("lanes", format!("must be 1-8, got {}", self.lanes)));
         }
@@ -608,7 +619,13 @@ mod tests {
         assert_eq!(t.validate().unwrap_err().key, "centerline[1]");
         let t = Track::new("bad", vec![[f64::INFINITY, 0.0], [1.0, 0.0]], 3.5, vec![]);
         assert_eq!(t.validate().unwrap_err().key, "centerline[0]");
-        let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], 9.0, vec![]);
-        assert_eq!(t.validate().unwrap_err().key, "lane_width");
+        // Any positive width up to 100 m (a 28 m test-track lane); zero, negative, absurd: errors.
+        for ok in [0.5, 9.0, 28.0, 100.0] {
+            assert!(Track::new("w", vec![[0.0, 0.0], [10.0, 0.0]], ok, vec![]).validate().is_ok(), "{ok}");
+        }
+        for bad in [0.0, -3.5, 0.001, 100.5, f64::NAN, f64::INFINITY] {
+            let t = Track::new("bad", vec![[0.0, 0.0], [10.0, 0.0]], bad, vec![]);
+            assert_eq!(t.validate().unwrap_err().key, "lane_width", "{bad}");
+        }
     }
 }

@@ -175,7 +175,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["series", "metrics"],
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],
-    &["record", "report", "svg"],
+    &["record", "report", "paper_verdict", "svg"],
     &["runner"],
     &["sweep", "suite", "frequency_response", "detection_study"],
 ];

@@ -215,7 +215,8 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         ("noroad.xosc", target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
     ];
     for (name, text, needle) in &cases {
-        let (code, err) = cli(&dir, name, text, &[]);
+        // `--strict`: a negative dynamics value is an error (without it, a warning: below).
+        let (code, err) = cli(&dir, name, text, &["--strict"]);
         assert_eq!(code, 2, "{name}: exit {code}, stderr {err}");
         let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
         assert_eq!(lines.len(), 1, "{name}: one error line: {err}");
@@ -228,6 +229,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
             "{name}: no line number in `{line}`"
         );
     }
+    // Without `--strict`, a negative dynamics value plays with its magnitude, warned once (as esmini).
+    let neg = target_brakes_with(r#"dynamicsDimension="rate" value="$Decel""#, r#"dynamicsDimension="time" value="-2""#);
+    let (code, err) = cli(&dir, "negative.xosc", &neg, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(err.lines().filter(|l| l.contains("negative SpeedActionDynamics value")).count(), 1, "{err}");
     // A file over the size limit is refused before it is parsed.
     let huge = format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO>{}</OpenSCENARIO>", " ".repeat(33 * 1024 * 1024));
     let (code, err) = cli(&dir, "huge.xosc", &huge, &[]);
@@ -251,4 +257,28 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     let (code, err) = cli(&dir, "cycle.xosc", &cyclic, &[]);
     assert_eq!(code, 2, "{err}");
     assert!(err.lines().filter(|l| l.starts_with("error:")).count() == 1, "{err}");
+}
+
+#[test]
+fn a_test_track_lane_of_28_m_imports_with_one_warning_and_runs() {
+    // Euro NCAP's test-track roads have lanes of 28 m; OpenDRIVE allows any positive width.
+    let dir = tempdir("wide");
+    let road = std::fs::read_to_string(data().join("roads/straight.xodr")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(road.contains(r#"a="3.5""#), "fixture road changed");
+    let wide = dir.join("wide.xodr");
+    std::fs::write(&wide, road.replace(r#"a="3.5""#, r#"a="28""#)).unwrap_or_else(|e| panic!("{e}"));
+    let text = target_brakes_with("x", "x").replace(&data().join("roads/straight.xodr").display().to_string(), &wide.display().to_string());
+    let file = dir.join("wide.xosc");
+    std::fs::write(&file, &text).unwrap_or_else(|e| panic!("{e}"));
+    let imp = openscenario::import(&file, &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let s = &imp.runs[0].scenario;
+    let flc_sim::TrackSpec::Custom(track) = &s.track else { panic!("not a custom track") };
+    assert_eq!(track.lane_width, 28.0);
+    // Both in lane -2: the target straight ahead of the ego, on the lane's centre line.
+    assert!(s.lead.offset.abs() < 1e-9 && s.follower.start_offset.abs() < 1e-9, "{} {}", s.lead.offset, s.follower.start_offset);
+    let (code, err) = cli(&dir, "wide_cli.xosc", &text, &["--ego-mode", "scripted"]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("28 m wide")).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].starts_with("warning:") && lines[0].contains("usual 2-6 m"), "{err}");
 }

@@ -44,7 +44,8 @@ fn steady(controller: ControllerKind, kmh: f64, decel: f64) -> Scenario {
     let v = kmh * KMH;
     let mut s = Scenario { name: format!("steady-{kmh}-{decel}"), controller, duration: 90.0, ..Default::default() };
     s.v2v.enabled = false;
-    s.speed_kmh = Some(kmh);
+    // Informational, in [1, 250] km/h (`SPEED_RANGE_KMH`); a start from standstill has none.
+    s.speed_kmh = (kmh > 0.0).then_some(kmh);
     s.track = TrackSpec::Straight { length: 5000.0 };
     s.lead.initial_speed = v;
     s.lead.vehicle.max_brake = 10.0;
@@ -216,7 +217,10 @@ fn rate_invariance() {
     }
     table += &format!("\n|---|---|{}\n", "---|".repeat(VARIANTS.len()));
     for (i, &(v, b)) in cases.iter().enumerate() {
-        for (k, (label, runs)) in [("flc-robust-v1", &robust), ("flc-robust", &robust2), ("flc-robust-odo", &odo), ("paper's FLC", &paper)].into_iter().enumerate() {
+        for (k, (label, runs)) in [("flc-robust-v1", &robust), ("flc-robust", &robust2), ("flc-robust-odo", &odo), ("paper's FLC", &paper)]
+            .into_iter()
+            .enumerate()
+        {
             let scenario = if k == 0 { format!("{v} km/h, −{b}") } else { String::new() };
             table += &format!("| {scenario} | {label} |");
             for r in &runs[i * VARIANTS.len()..(i + 1) * VARIANTS.len()] {

@@ -57,7 +57,7 @@ fn brake_on_first_detection(s: &Scenario) -> Scenario {
 fn failures(kind: ControllerKind, patch: &Patch) -> (usize, Vec<String>, Vec<String>) {
     let reference = ControllerKind::parse("careful-driver").unwrap();
     let mut runs = Vec::new();
-    for suite in Suite::find(&default_root(), "all").unwrap() {
+    for suite in Suite::find(&default_root().expect("suites folder"), "all").unwrap() {
         for r in suite.runs(&[reference, kind]).unwrap() {
             let s = r.scenario.patched(patch).unwrap();
             runs.push((format!("{}/{}", suite.spec.name, r.run), s));
@@ -274,7 +274,10 @@ fn v2_a_dropout_at_the_brake_onset_causes_no_contact() {
     let mut bad = Vec::new();
     for ((law, kmh), r) in cases.iter().zip(&res) {
         let (m, law) = (&r.metrics, law.as_str());
-        println!("{law} {kmh} km/h: min gap {:.2} m, final clearance {:?}, max decel {:.2} m/s²", m.min_gap, m.final_clearance, m.max_decel);
+        println!(
+            "{law} {kmh} km/h: min gap {:.2} m, final clearance {:?}, max decel {:.2} m/s²",
+            m.min_gap, m.final_clearance, m.max_decel
+        );
         if m.collision {
             bad.push(format!("{law} {kmh} km/h: contact at {:.1} m/s", m.impact_speed));
         }
@@ -349,7 +352,7 @@ fn v2_impairments_at_30_to_130_kmh() {
 /// `"<law> <case> <run>"`.
 fn comfort_cases(laws: &[ControllerKind], patch: &Patch) -> Vec<(String, Scenario)> {
     let mut runs = Vec::new();
-    for suite in Suite::find(&default_root(), "all").unwrap() {
+    for suite in Suite::find(&default_root().expect("suites folder"), "all").unwrap() {
         for r in suite.runs(laws).unwrap() {
             let case = &suite.spec.cases[r.case].id;
             if case == "4.3_1" || (case == "CCRb" && r.run.contains("Headway=40 Decel=2")) {
@@ -382,9 +385,21 @@ fn comfort_band() {
     /// A constant's key, how to set it, and its values with whether each is inside the stated band.
     type Axis = (&'static str, fn(&mut flc_core::ComfortParams, f64), &'static [(f64, bool)]);
     let axes: [Axis; 3] = [
-        ("comfort.memory", |c, x| c.memory = x, &[(0.3, true), (0.5, true), (0.75, true), (1.0, true), (1.5, true), (2.0, false), (3.0, false)]),
-        ("comfort.response_time", |c, x| c.response_time = x, &[(0.1, false), (0.2, true), (0.3, true), (0.45, true), (0.6, true), (1.0, false), (2.0, false)]),
-        ("comfort.accel", |c, x| c.accel = x, &[(0.5, false), (0.6, false), (0.75, true), (0.85, true), (1.0, true), (1.25, true), (1.5, false), (2.0, false)]),
+        (
+            "comfort.memory",
+            |c, x| c.memory = x,
+            &[(0.3, true), (0.5, true), (0.75, true), (1.0, true), (1.5, true), (2.0, false), (3.0, false)],
+        ),
+        (
+            "comfort.response_time",
+            |c, x| c.response_time = x,
+            &[(0.1, false), (0.2, true), (0.3, true), (0.45, true), (0.6, true), (1.0, false), (2.0, false)],
+        ),
+        (
+            "comfort.accel",
+            |c, x| c.accel = x,
+            &[(0.5, false), (0.6, false), (0.75, true), (0.85, true), (1.0, true), (1.25, true), (1.5, false), (2.0, false)],
+        ),
     ];
     let mut bad = Vec::new();
     for law in LAWS {
@@ -448,7 +463,11 @@ fn under_the_four_impairments_at_once() {
     let mut bad = Vec::new();
     for law in LAWS {
         let (n, contacts, bound) = failures(law, &all);
-        println!("{}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}", law.as_str(), contacts.len());
+        println!(
+            "{}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}",
+            law.as_str(),
+            contacts.len()
+        );
         bad.extend(contacts);
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
@@ -475,7 +494,11 @@ fn under_each_pair_of_impairments_and_4_m_s2_brakes() {
     for (name, patch) in &combos {
         for law in LAWS {
             let (n, contacts, bound) = failures(law, patch);
-            println!("{name}, {}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}", law.as_str(), contacts.len());
+            println!(
+                "{name}, {}: {} of {n} runs with contact where the careful driver avoids; perception bound: {bound:?}",
+                law.as_str(),
+                contacts.len()
+            );
             bad.extend(contacts.into_iter().map(|c| format!("{name}, {}: {c}", law.as_str())));
         }
     }

@@ -8,7 +8,7 @@ use flc_sim::suite::{Suite, default_root};
 use flc_sim::{ControllerKind, RunResult, Scenario, run};
 
 fn suite(name: &str) -> Suite {
-    Suite::find(&default_root(), name).expect("suite").remove(0)
+    Suite::find(&default_root().expect("suites folder"), name).expect("suite").remove(0)
 }
 
 /// The run of `case` whose label contains `label`, driven by `kind`.
@@ -193,7 +193,7 @@ fn cli_suite_errors_exit_2_with_one_line() {
     for (args, want) in [
         (&["suite", "no-such-suite"][..], "suite `no-such-suite`: not found"),
         (&["suite", "r157", "--controllers", "frobnicate"][..], "`--controllers`"),
-        (&["suite", "r157", "--param", "EgoSpeed_kmh=50"][..], "`--param` does not apply to `suite`"),
+        (&["--param", "EgoSpeed_kmh=50", "suite", "r157"][..], "`--param` does not apply to `suite`"),
     ] {
         let out = cli(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
@@ -201,6 +201,10 @@ fn cli_suite_errors_exit_2_with_one_line() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(want), "{err}");
     }
+    // After the subcommand, `--param` is not one of its flags: clap refuses it (exit 2, naming it).
+    let out = cli(&["suite", "r157", "--param", "EgoSpeed_kmh=50"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--param"));
     // A broken suite.toml names the file and the key.
     let dir = std::env::temp_dir().join(format!("flc-suite-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");

@@ -366,7 +366,7 @@ class FollowingEnv(_EpisodeSpec, gymnasium.Env):  # type: ignore[misc]
     LiDAR's ``max_range`` (1: none), as highway-env's ``LidarObservation``; then own speed m/s) or
     ``"detector"`` (Box(9): :data:`DETECTOR`: the detector's lead in the sensor frame).
     ``action``: ``"acceleration"`` (Box(1) in ``[-max_brake, max_accel]`` of the ego's vehicle, m/s²;
-    default ``[-8, 3]``) or ``"speed"`` (Box(1) in ``[0, max_speed]``, m/s; default ``[0, 40]``).
+    default ``[-8, 3.5]``) or ``"speed"`` (Box(1) in ``[0, max_speed]``, m/s; default ``[0, 40]``).
     ``policy_frequency`` (Hz, default 10): decisions per simulated second, at most the LiDAR's
     rate (a decision is held over the scans until the next); ``simulation_frequency`` (Hz, default
     100): the physics rate. ``time_limit``: episode length, s (default 60; ``truncated``).
@@ -415,10 +415,31 @@ class FollowingEnv(_EpisodeSpec, gymnasium.Env):  # type: ignore[misc]
         self._started = True
         return self._obs_buf[0].copy(), _info(self._out[0], self._scenario_name)
 
+    def _action_value(self, action: Any) -> float:
+        """The one number of an action (a number or anything array-like holding exactly one);
+        anything else raises ``TypeError`` / ``ValueError`` saying what an action must be."""
+        unit = "m/s²" if self.action_type == "acceleration" else "m/s"
+        what = (
+            f"FollowingEnv.step: `action` must be one number or an array of shape (1,): the {self.action_type} "
+            f"in [{float(self._act_box.low[0]):g}, {float(self._act_box.high[0]):g}] {unit} (values outside are clipped)"
+        )
+        if action is None or isinstance(action, (str, bytes, dict)):
+            raise TypeError(f"{what}, got {type(action).__name__} {action!r:.60}")
+        try:
+            arr = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{what}, got {type(action).__name__} {action!r:.60}") from None
+        if arr.size != 1:
+            raise ValueError(f"{what}, got shape {arr.shape}")
+        x = float(arr.reshape(-1)[0])
+        if not np.isfinite(x):
+            raise ValueError(f"{what}, got {x}")
+        return x
+
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._started:
             raise RuntimeError("FollowingEnv.step: call reset() first")
-        a = np.asarray(action, dtype=np.float32).reshape(-1)[:1]
+        a = np.array([self._action_value(action)], dtype=np.float32)
         self._core.step(a, [None], self._obs_buf, self._out)
         row = self._out[0]
         return (
@@ -564,7 +585,7 @@ class FollowingVectorEnv(gymnasium.vector.VectorEnv):  # type: ignore[misc]
         if not self._rngs:
             raise RuntimeError("FollowingVectorEnv.step: call reset() first")
         n = self.num_envs
-        a = np.ascontiguousarray(np.asarray(actions, dtype=np.float32).reshape(n, -1)[:, 0])
+        a = self._action_values(actions)
         resets: list[Optional[str]] = [None] * n
         for i in np.flatnonzero(self._needs_reset):
             resets[i], self._names[i] = self._spec._draw(self._rngs[i])
@@ -573,6 +594,28 @@ class FollowingVectorEnv(gymnasium.vector.VectorEnv):  # type: ignore[misc]
         truncated = self._out[:, _COL["truncated"]] != 0
         self._needs_reset = terminated | truncated
         return self._obs.copy(), self._out[:, _COL["reward"]].copy(), terminated, truncated, self._infos()
+
+    def _action_values(self, actions: Any) -> np.ndarray:
+        """The ``num_envs`` actions as one contiguous float32 array (shape ``(n,)`` or ``(n, 1)``
+        accepted); anything else raises ``TypeError`` / ``ValueError`` saying what they must be."""
+        n = self.num_envs
+        box = self.single_action_space
+        what = (
+            f"FollowingVectorEnv.step: `actions` must be an array of shape ({n}, 1) or ({n},): one {self._spec.action_type} "
+            f"per environment in [{float(box.low[0]):g}, {float(box.high[0]):g}] (values outside are clipped)"
+        )
+        if actions is None or isinstance(actions, (str, bytes, dict)):
+            raise TypeError(f"{what}, got {type(actions).__name__} {actions!r:.60}")
+        try:
+            arr = np.asarray(actions, dtype=np.float32)
+        except (TypeError, ValueError):
+            raise TypeError(f"{what}, got {type(actions).__name__} {actions!r:.60}") from None
+        if arr.shape not in ((n,), (n, 1)):
+            raise ValueError(f"{what}, got shape {arr.shape}")
+        a = np.ascontiguousarray(arr.reshape(n))
+        if not np.isfinite(a).all():
+            raise ValueError(f"{what}, got {a[~np.isfinite(a)][0]} for environment {int(np.flatnonzero(~np.isfinite(a))[0])}")
+        return a
 
     def _infos(self) -> dict[str, Any]:
         info: dict[str, Any] = {}

@@ -6,8 +6,8 @@ use core::ptr;
 
 use super::storage::{check_ptr, get_mut, get_ref, init, param_error, storage, tri, write_out};
 use super::{FlcLongitudinalCommand, FlcParamError, FlcResult};
-use crate::flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 use crate::comfort::ComfortParams;
+use crate::flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};
 use crate::flc_robust2::{RobustFallbackController2, RobustFlc2Params, RobustFlc2Terms};
 use crate::params::ParamError;
 
@@ -307,13 +307,29 @@ impl From<RobustFlc2Params> for FlcRobust2Params {
 
 impl From<ComfortParams> for FlcComfortParams {
     fn from(p: ComfortParams) -> Self {
-        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed, max_decel: p.max_decel }
+        Self {
+            memory: p.memory,
+            response_time: p.response_time,
+            clock_accel: p.clock_accel,
+            accel: p.accel,
+            decel: p.decel,
+            fade_speed: p.fade_speed,
+            max_decel: p.max_decel,
+        }
     }
 }
 
 impl From<FlcComfortParams> for ComfortParams {
     fn from(p: FlcComfortParams) -> Self {
-        Self { memory: p.memory, response_time: p.response_time, clock_accel: p.clock_accel, accel: p.accel, decel: p.decel, fade_speed: p.fade_speed, max_decel: p.max_decel }
+        Self {
+            memory: p.memory,
+            response_time: p.response_time,
+            clock_accel: p.clock_accel,
+            accel: p.accel,
+            decel: p.decel,
+            fade_speed: p.fade_speed,
+            max_decel: p.max_decel,
+        }
     }
 }
 

@@ -5,12 +5,52 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use clap::Parser;
 use flc_sim::openscenario::{self, ImportOptions, Imported};
 use flc_sim::paper::{Calibration, PAPER_SPEEDS_KMH};
+use flc_sim::paper_verdict::{PaperSummary, TrackingVerdict};
 use flc_sim::report::{self, RunRecord};
 use flc_sim::{ControllerKind, Scenario};
 use flc_sim::{RunOptions, SimError};
+
+/// Set by the Ctrl-C handler (installed with --record only).
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// The options of OpenSCENARIO imports: the runs of `--config FILE.xosc`, `convert` and
+/// `sweep FILE.xosc`.
+#[derive(Debug, Clone, clap::Args)]
+struct XoscArgs {
+    /// `.xosc`: set a parameter, NAME=VALUE (repeatable; as esmini's --param).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    param: Vec<String>,
+    /// `.xosc`: the entity flc's controller drives (default: `Ego` / `ego`, else the first).
+    #[arg(long, value_name = "NAME")]
+    ego: Option<String>,
+    /// `.xosc`: `controller` (flc's controller drives the ego) or `scripted` (the ego follows its
+    /// storyboard, as esmini's default controller does: for comparing whole files with esmini).
+    #[arg(long, value_name = "MODE", default_value = "controller")]
+    ego_mode: String,
+    /// `.xosc`: the road: `file` (the referenced OpenDRIVE file) or `straight` (4 lanes of 3.5 m
+    /// along +x, for files whose road is missing).
+    #[arg(long, value_name = "ROAD", default_value = "file")]
+    road: String,
+    /// `.xosc`: how the scripted entities move: `kinematic` (exactly as their actions
+    /// prescribe, as in esmini) or `vehicle` (a driver tracks them through each entity's vehicle
+    /// model: actuator lag, dead time, limits).
+    #[arg(long, value_name = "MODEL", default_value = "kinematic")]
+    traffic_dynamics: String,
+    /// `.xosc`: refuse what esmini accepts but OpenSCENARIO does not (the expression extensions
+    /// `pi`, `sin`, ...; a negative dynamics value; a value its declaration's constraints forbid)
+    /// instead of warning.
+    #[arg(long)]
+    strict: bool,
+}
+
+/// What an OpenSCENARIO import needs from the command line.
+struct ImportFlags<'a> {
+    xosc: &'a XoscArgs,
+    controllers: Option<&'a [String]>,
+    quiet: bool,
+}
 
 /// Closed-loop simulation of the flc vehicle-following pipeline.
 ///
@@ -18,14 +58,13 @@ use flc_sim::{RunOptions, SimError};
 /// accelerates to each speed of --speeds, covers about 650 m and brakes at -6 m/s² to a stop; the
 /// follower is driven by the FLC only, the PID only (perfect V2V) and the switching pipeline (V2V
 /// lost at brake onset); once with the realistic vehicle and once with the paper-calibrated preset.
-/// Prints a table next to the paper's numbers.
+/// Prints a table next to the paper's numbers with each run's verdict (outcome class, clearance
+/// within 0.5 m), a summary over the runs made, and the paper's other numbers (tracking errors,
+/// 90 km/h impacts), each with its verdict.
 ///
 /// Exit status: 0 success, 1 a run collided and --fail-on-collision was given, 2 bad input,
 /// 130 interrupted by Ctrl-C while recording (--record).
-/// Set by the Ctrl-C handler (installed with --record only).
-static STOP: AtomicBool = AtomicBool::new(false);
-
-#[derive(Debug, Parser)]
+#[derive(Debug, clap::Parser)]
 #[command(name = "scenario", version, about, long_about)]
 struct Cli {
     #[command(subcommand)]
@@ -35,26 +74,17 @@ struct Cli {
     /// Repeat or list several.
     #[arg(long = "config", value_name = "FILE", num_args = 1..)]
     config: Vec<PathBuf>,
-    /// `.xosc`: set a parameter, NAME=VALUE (repeatable; as esmini's --param).
-    #[arg(long = "param", value_name = "NAME=VALUE", global = true)]
-    param: Vec<String>,
-    /// `.xosc`: the entity flc's controller drives (default: `Ego` / `ego`, else the first).
-    #[arg(long, value_name = "NAME", global = true)]
-    ego: Option<String>,
-    /// `.xosc`: `controller` (flc's controller drives the ego) or `scripted` (the ego follows its
-    /// storyboard, as esmini's default controller does: for comparing whole files with esmini).
-    #[arg(long, value_name = "MODE", default_value = "controller", global = true)]
-    ego_mode: String,
-    /// `.xosc`: the road: `file` (the referenced OpenDRIVE file) or `straight` (4 lanes of 3.5 m
-    /// along +x, for files whose road is missing).
-    #[arg(long, value_name = "ROAD", default_value = "file", global = true)]
-    road: String,
-    /// `.xosc`: how the scripted entities move: `kinematic` (exactly as their actions
-    /// prescribe, as in esmini) or `vehicle` (a driver tracks them through each entity's vehicle
-    /// model: actuator lag, dead time, limits).
-    #[arg(long, value_name = "MODEL", default_value = "kinematic", global = true)]
-    traffic_dynamics: String,
-    /// Print one JSON record per run on stdout (fields documented in docs/scenarios.md) instead of the table.
+    #[command(flatten)]
+    xosc: XoscArgs,
+    /// Override a scenario key of every run, KEY=VALUE (repeatable, applied in order after the
+    /// file's `[[variants]]`): a dotted key (`lidar.rate_hz=10`, `lead.phases[2].decel=4`), a
+    /// section name then `_` (`lidar_rate_hz=10`), `lead_decel` (every brake phase of the
+    /// lead) or `seed`, as Python's keyword overrides; VALUE is a TOML value, else a string
+    /// (`controller=pid`). Applies to TOML files, imported `.xosc` runs and the paper experiment.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Print one JSON record per run on stdout (fields documented in docs/scenarios.md) instead
+    /// of the table; the paper experiment adds a last line, `{"paper_summary": ...}`.
     #[arg(long)]
     json: bool,
     /// Write each run's per-step time series as CSV into DIR (one file per run).
@@ -64,27 +94,32 @@ struct Cli {
     /// docs/foxglove.md). Ctrl-C stops the runs and finishes the files (exit status 130).
     #[arg(long, value_name = "DIR")]
     record: Option<PathBuf>,
-    /// Maximum speeds of the paper experiment, km/h, comma separated (ignored with --config).
+    /// Maximum speeds of the paper experiment, km/h, comma separated (not with --config).
     #[arg(long, value_name = "KMH", value_delimiter = ',', default_values_t = PAPER_SPEEDS_KMH)]
     speeds: Vec<f64>,
     /// Controllers, comma separated, by their scenario-file names (flc, pid, pipeline, the
     /// baselines, ...; a wrong name lists them all): of the paper experiment (default
-    /// flc,pid,pipeline), or driving the ego of `.xosc` files (default: the file's
-    /// controller, else flc). Ignored for TOML files.
-    #[arg(long, value_name = "NAME", value_delimiter = ',', global = true)]
+    /// flc,pid,pipeline); with --config, each one runs every file (TOML: as `--set
+    /// controller=NAME`, the file's [v2v] as written; `.xosc`: the importer sets what the
+    /// controller implies; default: the file's controller).
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
     controllers: Option<Vec<String>>,
-    /// Which presets of the paper experiment to run: realistic, paper or both (ignored with --config).
+    /// Which presets of the paper experiment to run: realistic, paper or both (not with --config).
     #[arg(long, value_name = "PRESET", default_value = "both")]
     preset: String,
     /// Override the seed of every run.
     #[arg(long)]
     seed: Option<u64>,
     /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, global = true)]
+    #[arg(long)]
     threads: Option<usize>,
     /// Exit with status 1 when any run collided.
     #[arg(long)]
     fail_on_collision: bool,
+    /// No warnings (OpenSCENARIO import, flags that do not apply) and no progress bar on
+    /// stderr; errors still print.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Debug, clap::Subcommand)]
@@ -97,35 +132,96 @@ enum Command {
         /// Write the TOML file(s) into DIR instead of printing.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        xosc: XoscArgs,
+        /// The controller(s) driving the ego, comma separated (default: the file's, else flc);
+        /// several give one file per controller (with --out).
+        #[arg(long, value_name = "NAME", value_delimiter = ',')]
+        controllers: Option<Vec<String>>,
+        /// No import warnings and no list of the files written on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Run a sweep file (grid or random sample over scenario fields; docs/safety-envelope.md) in
-    /// parallel, streaming one CSV row per finished run; re-running skips finished rows.
+    /// parallel, streaming one CSV row per finished run; re-running the same sweep skips finished
+    /// rows (an output of other inputs is refused: see --restart).
     Sweep {
-        /// The sweep file (TOML).
+        /// The sweep file (TOML), or an OpenSCENARIO `.xosc` distribution (one row per
+        /// combination).
         file: PathBuf,
-        /// Output CSV (default: the sweep file's name with `.csv`). Parquet output and Dask
-        /// clusters: `python -m flc sweep FILE` (docs/distributed.md), same rows.
+        /// Output CSV (default: the sweep file's name with `.csv`); the digest of its rows'
+        /// inputs goes into `<CSV>.digest`. Parquet output and Dask clusters: `python -m flc
+        /// sweep FILE` (docs/distributed.md), same rows.
         #[arg(long, value_name = "CSV")]
         out: Option<PathBuf>,
+        /// Start the output over (its rows are dropped). Without it, an output whose rows ran
+        /// other inputs (the sweep file, a base scenario, an option or the flc version changed)
+        /// is refused, never resumed.
+        #[arg(long)]
+        restart: bool,
+        #[command(flatten)]
+        xosc: XoscArgs,
+        /// `.xosc`: the controller(s) driving the ego, comma separated (a TOML sweep file sets
+        /// its controllers with a `controller` axis).
+        #[arg(long, value_name = "NAME", value_delimiter = ',')]
+        controllers: Option<Vec<String>>,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No import warnings and no progress bar on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Run a standard test suite (docs/standard-suites.md): `ncap-ccr` (Euro NCAP AEB
     /// Car-to-Car Rear), `r157` (UN R157 ALKS), `all`, or a folder with a `suite.toml`. Every
     /// case runs for every controller (default: all; `--controllers` picks) next to the R157
-    /// careful driver; prints the summary.
+    /// careful driver; prints the summary. The cases fix their own parameters, ego and road.
     Suite {
         /// The suite.
         name: String,
         /// Write `<suite>.md`, `<suite>.json` and `<suite>.svg` (the overview figure) into DIR.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        /// The folder of the named suites (default: `scenarios/suites` of the source tree
+        /// holding this executable, else of the one it was built from).
+        #[arg(long, value_name = "DIR")]
+        root: Option<PathBuf>,
+        /// Controllers, comma separated (default: all), each next to the careful driver.
+        #[arg(long, value_name = "NAME", value_delimiter = ',')]
+        controllers: Option<Vec<String>>,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No list of the files written on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
 }
 
+impl Command {
+    fn name(&self) -> &'static str {
+        match self {
+            Command::Convert { .. } => "convert",
+            Command::Sweep { .. } => "sweep",
+            Command::Suite { .. } => "suite",
+        }
+    }
+
+    /// The subcommand's own `--threads`.
+    fn threads(&self) -> Option<usize> {
+        match self {
+            Command::Convert { .. } => None,
+            Command::Sweep { threads, .. } | Command::Suite { threads, .. } => *threads,
+        }
+    }
+}
+
 /// The import options the command line gives.
-fn import_options(cli: &Cli) -> Result<ImportOptions, String> {
+fn import_options(x: &XoscArgs) -> Result<ImportOptions, String> {
     let flag = |e: flc_sim::ConfigError| format!("`--{}`: {}", e.key.replace('_', "-"), e.problem);
-    let params = cli.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
-    ImportOptions::from_words(params, cli.ego.clone(), &cli.ego_mode, &cli.road, &cli.traffic_dynamics, None).map_err(flag)
+    let params = x.param.iter().map(|p| ImportOptions::param_pair(p)).collect::<Result<Vec<_>, _>>().map_err(flag)?;
+    let opts = ImportOptions::from_words(params, x.ego.clone(), &x.ego_mode, &x.road, &x.traffic_dynamics, None).map_err(flag)?;
+    Ok(ImportOptions { strict: x.strict, ..opts })
 }
 
 /// `true` for an OpenSCENARIO file name.
@@ -134,10 +230,10 @@ fn is_xosc(path: &std::path::Path) -> bool {
 }
 
 /// The runs of a `.xosc` file (one per distribution combination, times each controller of
-/// `--controllers`); warnings go to stderr.
-fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, String> {
-    let opts = import_options(cli)?;
-    let controllers = match &cli.controllers {
+/// `--controllers`); warnings go to stderr unless `--quiet`.
+fn import_xosc(path: &std::path::Path, flags: &ImportFlags<'_>) -> Result<Vec<Imported>, String> {
+    let opts = import_options(flags.xosc)?;
+    let controllers = match flags.controllers {
         None => vec![None],
         Some(list) => list
             .iter()
@@ -150,7 +246,7 @@ fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, Strin
         // One import per controller (the importer owns what a controller implies: V2V, set
         // speeds); its warnings are the same every time: printed once.
         let import = openscenario::import(path, &ImportOptions { controller: c, ..opts.clone() }).map_err(|e| e.to_string())?;
-        if k == 0 {
+        if k == 0 && !flags.quiet {
             for w in &import.warnings {
                 eprintln!("warning: {w}");
             }
@@ -160,8 +256,8 @@ fn import_xosc(path: &std::path::Path, cli: &Cli) -> Result<Vec<Imported>, Strin
     Ok(out)
 }
 
-fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
-    let runs = match import_xosc(file, cli) {
+fn convert(flags: &ImportFlags<'_>, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+    let runs = match import_xosc(file, flags) {
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
@@ -191,7 +287,9 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
                     eprintln!("error: writing {}: {e}", path.display());
                     return ExitCode::FAILURE;
                 }
-                eprintln!("{}", path.display());
+                if !flags.quiet {
+                    eprintln!("{}", path.display());
+                }
             }
             ExitCode::SUCCESS
         }
@@ -200,19 +298,20 @@ fn convert(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> 
 
 /// `scenario sweep FILE.xosc`: a distribution's runs through the sweep engine, one CSV row per
 /// combination with its parameter values.
-fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+fn sweep_xosc(flags: &ImportFlags<'_>, file: &std::path::Path, out: Option<&std::path::Path>, restart: bool) -> ExitCode {
     use flc_sim::sweep::{distribution_points, run_points};
-    let runs = match import_xosc(file, cli) {
+    let runs = match import_xosc(file, flags) {
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
     let (keys, points) = distribution_points(runs);
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_points(&keys, &points, &out, true) {
+    match run_points(&keys, &points, &out, !flags.quiet, restart) {
         Ok(n) => {
             eprintln!("{n} runs done ({} in the distribution), rows in {}", points.len(), out.display());
             ExitCode::SUCCESS
         }
+        Err(e @ SimError::StaleOutput { .. }) => stale(e),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -220,7 +319,7 @@ fn sweep_xosc(cli: &Cli, file: &std::path::Path, out: Option<&std::path::Path>) 
     }
 }
 
-fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
+fn sweep(file: &std::path::Path, out: Option<&std::path::Path>, quiet: bool, restart: bool) -> ExitCode {
     use flc_sim::sweep::{SweepSpec, run_sweep};
     let (spec, dir) = match SweepSpec::from_file(file) {
         Ok(s) => s,
@@ -231,11 +330,12 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
         Err(e) => return bad_input(format!("{}: {e}", file.display())),
     };
     let out = out.map_or_else(|| file.with_extension("csv"), std::path::Path::to_path_buf);
-    match run_sweep(&spec, &points, &out, true) {
+    match run_sweep(&spec, &points, &out, !quiet, restart) {
         Ok(n) => {
             eprintln!("{n} runs done ({} in the sweep), rows in {}", points.len(), out.display());
             ExitCode::SUCCESS
         }
+        Err(e @ SimError::StaleOutput { .. }) => stale(e),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -243,26 +343,33 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
     }
 }
 
+/// A sweep output that cannot be resumed (exit 2): what is wrong and how to start over.
+fn stale(e: SimError) -> ExitCode {
+    bad_input(format!("{e}; start over with `--restart` (or give another `--out`)"))
+}
+
 /// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
 /// reports into `--out`.
-fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
+fn suite(picked: Option<&[String]>, name: &str, out: Option<&std::path::Path>, root: Option<&std::path::Path>, quiet: bool) -> ExitCode {
     use flc_sim::suite::{Suite, default_root, markdown, summary_line, summary_table, svg};
-    // The cases fix their own parameters, ego and road: the per-file options do not apply.
-    for (given, flag) in
-        [(cli.record.is_some(), "--record"), (!cli.param.is_empty(), "--param"), (cli.ego.is_some(), "--ego"), (cli.json, "--json")]
-    {
-        if given {
-            return bad_input(format!("`{flag}` does not apply to `suite` (its cases fix their own; --out writes the reports)"));
-        }
-    }
-    let controllers = match &cli.controllers {
+    let controllers = match picked {
         None => ControllerKind::ALL.to_vec(),
         Some(list) => match list.iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>() {
             Ok(k) => k,
             Err(e) => return bad_input(format!("`--controllers`: {e}")),
         },
     };
-    let suites = match Suite::find(&default_root(), name) {
+    // A suite's own folder needs no root; a name needs the folder of the suites.
+    let own_folder = std::path::Path::new(name).join("suite.toml").is_file();
+    let root = match root {
+        Some(r) => r.to_path_buf(),
+        None if own_folder => std::path::PathBuf::new(),
+        None => match default_root() {
+            Ok(r) => r,
+            Err(e) => return bad_input(format!("suite `{name}`: {e}")),
+        },
+    };
+    let suites = match Suite::find(&root, name) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
@@ -285,7 +392,7 @@ fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
     print!("{}", summary_table(&reports));
     if let Some(dir) = out {
         let command = |n: &str| {
-            let picked = cli.controllers.as_ref().map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
+            let picked = picked.map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
             format!("cargo run --release --bin scenario -- suite {n}{picked} --out DIR")
         };
         let mut files: Vec<(String, String)> = Vec::new();
@@ -303,7 +410,9 @@ fn suite(cli: &Cli, name: &str, out: Option<&std::path::Path>) -> ExitCode {
                 eprintln!("error: writing {}: {e}", path.display());
                 return ExitCode::FAILURE;
             }
-            eprintln!("{}", path.display());
+            if !quiet {
+                eprintln!("{}", path.display());
+            }
         }
     }
     ExitCode::SUCCESS
@@ -314,19 +423,57 @@ fn bad_input(msg: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// The `--set KEY=VALUE` pairs, parsed (keys and values as Python's keyword overrides).
+fn overrides(cli: &Cli) -> Result<Vec<(String, serde_json::Value)>, SimError> {
+    cli.set.iter().map(|a| Scenario::override_pair(a).map_err(|e| SimError::Input(e.to_string()))).collect()
+}
+
+/// `s` with the `--set` overrides applied (the one patch mechanism, `Scenario::with_overrides`);
+/// an error names the flag, the run's `origin` (file or scenario), the key and the problem.
+fn apply_set(s: Scenario, set: &[(String, serde_json::Value)], origin: &str) -> Result<Scenario, SimError> {
+    if set.is_empty() {
+        return Ok(s);
+    }
+    s.with_overrides(set).map_err(|e| SimError::Input(format!("`--set` ({origin}): {e}")))
+}
+
 fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError> {
+    let set = overrides(cli)?;
     let mut out = Vec::new();
     if !cli.config.is_empty() {
+        let flags = ImportFlags { xosc: &cli.xosc, controllers: cli.controllers.as_deref(), quiet: cli.quiet };
+        // `--controllers` on a TOML file: `controller` is a scenario key, patched like any other
+        // (as Python's `Scenario.load(path, controller=...)`).
+        let toml_controllers: Vec<Option<(String, serde_json::Value)>> = match &cli.controllers {
+            None => vec![None],
+            Some(list) => list
+                .iter()
+                .map(|c| ControllerKind::parse(c).map(|k| Some(("controller".to_string(), serde_json::Value::from(k.as_str())))))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| SimError::Input(format!("`--controllers`: {e}")))?,
+        };
         for path in &cli.config {
             if is_xosc(path) {
-                let runs = import_xosc(path, cli).map_err(SimError::Input)?;
-                out.extend(runs.into_iter().map(|r| (r.scenario, None)));
+                let runs = import_xosc(path, &flags).map_err(SimError::Input)?;
+                for r in runs {
+                    out.push((apply_set(r.scenario, &set, &path.display().to_string())?, None));
+                }
                 continue;
             }
             let s = Scenario::from_file(path)?;
             // A file with `[[variants]]` runs each variant.
             let variants = s.expand_variants().map_err(|e| SimError::File { path: path.display().to_string(), message: e.to_string() })?;
-            out.extend(variants.into_iter().map(|v| (v, None)));
+            for c in &toml_controllers {
+                for v in &variants {
+                    let v = match c {
+                        None => v.clone(),
+                        Some(pair) => v
+                            .with_overrides(std::slice::from_ref(pair))
+                            .map_err(|e| SimError::File { path: path.display().to_string(), message: format!("`--controllers`: {e}") })?,
+                    };
+                    out.push((apply_set(v, &set, &path.display().to_string())?, None));
+                }
+            }
         }
     } else {
         let presets = match cli.preset.as_str() {
@@ -337,16 +484,15 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
                 return Err(flc_sim::ConfigError::new("--preset", format!("must be realistic, paper or both, got `{other}`")).into());
             }
         };
-        let default = ["flc", "pid", "pipeline"].map(String::from).to_vec();
-        let controllers =
-            cli.controllers.as_ref().unwrap_or(&default).iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?;
         for &speed in &cli.speeds {
-            flc_sim::check_range("--speeds", speed, 1.0, 250.0, "km/h")?;
+            flc_sim::paper::check_speed_kmh("--speeds", speed)?;
         }
         for &preset in &presets {
             for &speed in &cli.speeds {
-                for &c in &controllers {
-                    out.push((Scenario::paper_experiment(speed, c, preset), Some(preset)));
+                for &c in &paper_controllers(cli)? {
+                    let s = Scenario::paper_experiment(speed, c, preset);
+                    let origin = format!("{}, {}", s.name, c.as_str());
+                    out.push((apply_set(s, &set, &origin)?, Some(preset)));
                 }
             }
         }
@@ -362,35 +508,72 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
     Ok(out)
 }
 
-/// The paper's tracking errors (two curved-route runs, paper preset) and its 90 km/h comparison
-/// (from the paper-preset records), as text.
-fn paper_numbers(records: &[RunRecord]) -> Result<String, SimError> {
-    let kinds = [ControllerKind::Flc, ControllerKind::Pid];
-    let runs: Vec<Scenario> = kinds.iter().map(|&k| Scenario::paper_tracking(k, Calibration::Paper)).collect();
-    let results = RunOptions::default().run_batch(&runs);
-    let mut tracking = Vec::new();
-    for (k, r) in kinds.iter().zip(results) {
-        let r = r?;
-        let record = RunRecord::from_run(None, &r);
-        tracking.push(flc_sim::paper::TrackingRun {
-            controller: k.as_str(),
-            rot_error_deg: r.metrics.rot_error_deg,
-            trans_error_m: r.metrics.trans_error_m,
-            outcome: record.outcome(),
-            duration: r.metrics.duration,
-        });
+/// The controllers of the paper experiment (`--controllers`, default flc, pid, pipeline).
+fn paper_controllers(cli: &Cli) -> Result<Vec<ControllerKind>, SimError> {
+    let default = ["flc", "pid", "pipeline"].map(String::from).to_vec();
+    Ok(cli.controllers.as_ref().unwrap_or(&default).iter().map(|c| ControllerKind::parse(c)).collect::<Result<Vec<_>, _>>()?)
+}
+
+/// The verdict of the paper experiment's runs: each record's is in the record; this runs the
+/// curved-route tracking runs (paper preset, the FLC and the PID among `--controllers`, with
+/// `--set` and `--seed` as the table's runs) and sums up.
+fn paper_summary(cli: &Cli, records: &[RunRecord]) -> Result<PaperSummary, SimError> {
+    let set = overrides(cli)?;
+    let mut runs = Vec::new();
+    if records.iter().any(|r| r.preset.as_deref() == Some(Calibration::Paper.as_str())) {
+        for k in paper_controllers(cli)?.into_iter().filter(|k| matches!(k, ControllerKind::Flc | ControllerKind::Pid)) {
+            let s = Scenario::paper_tracking(k, Calibration::Paper);
+            let origin = format!("{}, {}", s.name, k.as_str());
+            let mut s = apply_set(s, &set, &origin)?;
+            if let Some(seed) = cli.seed {
+                s.seed = seed;
+            }
+            runs.push(s);
+        }
     }
-    let impacts: Vec<(&str, f64)> = records
-        .iter()
-        .filter(|r| r.preset.as_deref() == Some("paper") && r.speed_kmh == Some(90.0) && r.metrics.collision)
-        .map(|r| (r.controller.as_str(), r.metrics.impact_speed))
-        .collect();
-    Ok(flc_sim::paper::other_numbers(&tracking, &impacts))
+    let mut tracking = Vec::new();
+    for r in RunOptions::default().run_batch(&runs) {
+        tracking.extend(TrackingVerdict::of(&r?));
+    }
+    Ok(PaperSummary::new(records, tracking, cli.set.clone()))
+}
+
+/// Top-level flags given before a subcommand: only `--threads` and `--quiet` apply there (kept
+/// for `scenario --threads 1 sweep ...`); anything else is an error naming it.
+fn check_flags_before(matches: &clap::ArgMatches, command: &Command) -> Result<(), String> {
+    use clap::parser::ValueSource;
+    for arg in <Cli as clap::CommandFactory>::command().get_arguments() {
+        let id = arg.get_id().as_str();
+        if matches!(id, "threads" | "quiet") || matches.value_source(id) != Some(ValueSource::CommandLine) {
+            continue;
+        }
+        let flag = arg.get_long().map_or(id.to_string(), |l| format!("--{l}"));
+        return Err(format!("`{flag}` does not apply to `{}` (`scenario {} --help` lists its flags)", command.name(), command.name()));
+    }
+    Ok(())
+}
+
+/// Flags of the paper experiment given with `--config` (where they do nothing): a warning each.
+fn warn_ignored(matches: &clap::ArgMatches, cli: &Cli) {
+    use clap::parser::ValueSource;
+    if cli.quiet || cli.config.is_empty() {
+        return;
+    }
+    for (id, flag) in [("speeds", "--speeds"), ("preset", "--preset")] {
+        if matches.value_source(id) == Some(ValueSource::CommandLine) {
+            eprintln!("warning: `{flag}` is ignored with --config (it picks the paper experiment's runs)");
+        }
+    }
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    if let Some(n) = cli.threads {
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
+    let threads = cli.command.as_ref().and_then(Command::threads).or(cli.threads);
+    if let Some(n) = threads {
         if n == 0 {
             return bad_input("`--threads`: must be >= 1");
         }
@@ -398,11 +581,14 @@ fn main() -> ExitCode {
             return bad_input(format!("`--threads`: {e}"));
         }
     }
+    if let Some(command) = &cli.command {
+        if let Err(e) = check_flags_before(&matches, command) {
+            return bad_input(e);
+        }
+    }
     match &cli.command {
-        Some(Command::Sweep { file, out }) => {
-            if cli.record.is_some() {
-                return bad_input("`--record` does not apply to `sweep`");
-            }
+        Some(Command::Sweep { file, out, restart, xosc, controllers, quiet, .. }) => {
+            let quiet = *quiet || cli.quiet;
             if let Some(o) = out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet"))) {
                 return bad_input(format!(
                     "`--out` {}: `scenario sweep` writes CSV; Parquet (and Dask) is `python -m flc sweep FILE --out X.parquet` (docs/distributed.md)",
@@ -410,14 +596,32 @@ fn main() -> ExitCode {
                 ));
             }
             if is_xosc(file) {
-                return sweep_xosc(&cli, file, out.as_deref());
+                let flags = ImportFlags { xosc, controllers: controllers.as_deref(), quiet };
+                return sweep_xosc(&flags, file, out.as_deref(), *restart);
             }
-            return sweep(file, out.as_deref());
+            // The `.xosc` options do nothing for a sweep file: say so rather than ignore them.
+            let sub = matches.subcommand_matches("sweep");
+            for id in ["param", "ego", "ego_mode", "road", "traffic_dynamics", "controllers"] {
+                if sub.and_then(|m| m.value_source(id)) == Some(clap::parser::ValueSource::CommandLine) {
+                    return bad_input(format!(
+                        "`--{}` applies to `.xosc` sweeps; {} is a sweep file (its axes set the scenario keys, a `controller` axis the controllers)",
+                        id.replace('_', "-"),
+                        file.display()
+                    ));
+                }
+            }
+            return sweep(file, out.as_deref(), quiet, *restart);
         }
-        Some(Command::Convert { file, out }) => return convert(&cli, file, out.as_deref()),
-        Some(Command::Suite { name, out }) => return suite(&cli, name, out.as_deref()),
+        Some(Command::Convert { file, out, xosc, controllers, quiet }) => {
+            let flags = ImportFlags { xosc, controllers: controllers.as_deref(), quiet: *quiet || cli.quiet };
+            return convert(&flags, file, out.as_deref());
+        }
+        Some(Command::Suite { name, out, root, controllers, quiet, .. }) => {
+            return suite(controllers.as_deref(), name, out.as_deref(), root.as_deref(), *quiet || cli.quiet);
+        }
         None => {}
     }
+    warn_ignored(&matches, &cli);
     let list = match scenarios(&cli) {
         Ok(l) => l,
         Err(e) => return bad_input(e),
@@ -428,7 +632,7 @@ fn main() -> ExitCode {
         }
     }
     let scenarios: Vec<Scenario> = list.iter().map(|(s, _)| s.clone()).collect();
-    let progress = list.len() > 1;
+    let progress = list.len() > 1 && !cli.quiet;
     let results = match &cli.record {
         None => RunOptions { progress, ..RunOptions::default() }.run_batch(&scenarios),
         Some(dir) => {
@@ -468,13 +672,28 @@ fn main() -> ExitCode {
     }
     // Platoons with `string_stability.frequencies_hz`: |Gamma(jw)|, one sine run per frequency.
     if cli.record.is_none() {
-        if let Err(e) = flc_sim::frequency_response::add_to_records(&scenarios, &mut records, true) {
+        if let Err(e) = flc_sim::frequency_response::add_to_records(&scenarios, &mut records, !cli.quiet) {
             return bad_input(e);
         }
     }
+    // The paper experiment's verdict, computed from the runs above (and the tracking runs).
+    let summary = if cli.config.is_empty() {
+        match paper_summary(&cli, &records) {
+            Ok(s) => Some(s),
+            Err(e) => return bad_input(e),
+        }
+    } else {
+        None
+    };
     if cli.json {
-        for r in &records {
-            match serde_json::to_string(r) {
+        /// The last line of the paper experiment's `--json`.
+        #[derive(serde::Serialize)]
+        struct SummaryLine<'a> {
+            paper_summary: &'a PaperSummary,
+        }
+        let summary_line = summary.as_ref().map(|s| SummaryLine { paper_summary: s });
+        for line in records.iter().map(serde_json::to_string).chain(summary_line.iter().map(serde_json::to_string)) {
+            match line {
                 Ok(line) => println!("{line}"),
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -484,12 +703,8 @@ fn main() -> ExitCode {
         }
     } else {
         print!("{}", report::table(&records));
-        if cli.config.is_empty() && cli.preset != "realistic" {
-            print!("\n{}", flc_sim::paper::matching_region_line());
-            match paper_numbers(&records) {
-                Ok(text) => print!("{text}"),
-                Err(e) => return bad_input(e),
-            }
+        if let Some(s) = &summary {
+            print!("\n{}", s.text());
         }
         for r in &records {
             print!("{}", report::platoon_table(r));

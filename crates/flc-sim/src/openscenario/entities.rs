@@ -192,11 +192,30 @@ impl Ctx<'_, '_> {
                         }
                     }
                 }
-                "TrailerHitch" | "TrailerCoupler" | "Trailer" => return Err(ImportError::unsupported(file, c)),
+                "TrailerHitch" | "TrailerCoupler" => {
+                    // Where a trailer would attach: nothing to attach without a trailer.
+                    self.params.num_attr(c, "dx", file)?;
+                    self.warn.note(c.tag_name().name(), file, c, "ignored (flc has no trailers; no trailer is attached)".into());
+                }
+                "Trailer" => self.trailer(file, c)?,
                 _ => self.other(file, c)?,
             }
         }
         Ok((Kind::Vehicle, v, center))
+    }
+
+    /// `Trailer`: an empty `TrailerRef` (esmini's vehicle catalog: `$TrailerRef` = "") attaches
+    /// nothing and is ignored with a warning; an actual trailer is not supported.
+    fn trailer(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+        for c in xml::elements(node) {
+            let empty =
+                c.tag_name().name() == "TrailerRef" && self.params.str_attr(c, "entityRef", file)?.unwrap_or_default().trim().is_empty();
+            if !empty {
+                return Err(ImportError::at(file, c, "a trailer is not supported (only an empty TrailerRef)"));
+            }
+        }
+        self.warn.note("Trailer", file, node, "an empty trailer reference: no trailer (ignored)".into());
+        Ok(())
     }
 
     /// `Performance`: `maxDeceleration` -> `max_brake`, `maxAcceleration` -> `max_accel` when in

@@ -1,4 +1,5 @@
-//! The importer's one error type: file, line, element and reason.
+//! The importer's one error type: file, line, element and reason. It depends on no other
+//! importer module (`xml` reads files into documents and reports through it, not the reverse).
 
 use thiserror::Error;
 
@@ -25,11 +26,16 @@ impl ImportError {
 
     /// An error at `node` of a document parsed from `file`.
     pub fn at(file: &str, node: roxmltree::Node<'_, '_>, message: impl Into<String>) -> Self {
-        Self { file: file.to_string(), line: super::xml::line(node), element: node.tag_name().name().to_string(), message: message.into() }
+        Self { file: file.to_string(), line: line(node), element: node.tag_name().name().to_string(), message: message.into() }
     }
 
     /// The standard "not supported" error of an element that would change motion.
     pub fn unsupported(file: &str, node: roxmltree::Node<'_, '_>) -> Self {
         Self::at(file, node, "unsupported element (it would change motion or sensing; docs/openscenario.md lists what is supported)")
     }
+}
+
+/// 1-based line of `node` in its document.
+pub fn line(node: roxmltree::Node<'_, '_>) -> u32 {
+    node.document().text_pos_at(node.range().start).row
 }

@@ -16,10 +16,13 @@
 //! primary := number | "$"name | "true" | "false" | "(" or ")" | function "(" or ("," or)* ")"
 //! ```
 //!
-//! Numbers are `12`, `1.5`, `.5`, `2.`, `1e-3`, `1.5E+2`. Functions: `abs`, `sign`, `round`
-//! (half away from zero), `floor`, `ceil`, `sqrt`, `sin`, `cos`, `tan`, `asin`, `acos`, `atan`
-//! (one argument, radians) and `min`, `max`, `pow` (two). `sign(0)` is 0 (esmini 3.6.0 gives 1).
-//! There is no `^` (the standard has `pow(a, b)`), no unary `+`, no string operators.
+//! Numbers are `12`, `1.5`, `.5`, `2.`, `1e-3`, `1.5E+2`. Functions of the standard (1.1 on):
+//! `round` (half away from zero), `floor`, `ceil`, `sqrt` (one argument) and `pow` (two).
+//! esmini's extensions, not in the standard ([`EXTENSIONS`]; [`eval_ext`] says which an
+//! expression used, so the importer can warn, or refuse with `--strict`): the constant `pi`,
+//! `abs`, `sign`, `sin`, `cos`, `tan`, `asin`, `acos`, `atan` (one argument, radians) and
+//! `min`, `max` (two). `sign(0)` is 0 (esmini 3.6.0 gives 1). There is no `^` (the standard
+//! has `pow(a, b)`), no unary `+`, no string operators.
 //!
 //! Types: arithmetic takes and gives numbers, comparisons give booleans (`==`/`!=` also compare
 //! two booleans), `not`/`and`/`or` take and give booleans. Both sides of `and`/`or` are always
@@ -32,6 +35,10 @@
 use std::fmt;
 
 use thiserror::Error;
+
+/// esmini's extensions of the expression language (esmini 3.6.0, `simple_expr.c`): words and
+/// functions that are not OpenSCENARIO.
+pub const EXTENSIONS: [&str; 11] = ["pi", "abs", "sign", "sin", "cos", "tan", "asin", "acos", "atan", "min", "max"];
 
 /// Longest expression text accepted, bytes.
 pub const MAX_LEN: usize = 4096;
@@ -235,6 +242,19 @@ fn number(chars: &[char], start: usize) -> Result<(f64, usize), ExprError> {
 /// assert_eq!(eval("not $v > 5 or true", &lookup), Ok(Value::Bool(true)));
 /// ```
 pub fn eval(src: &str, lookup: &dyn Fn(&str) -> Option<Value>) -> Result<Value, ExprError> {
+    eval_ext(src, lookup).map(|(v, _)| v)
+}
+
+/// [`eval`], and the esmini extensions ([`EXTENSIONS`]) the expression used, each once, in
+/// the order of first use.
+///
+/// ```
+/// use flc_sim::openscenario::expr::{eval_ext, Value};
+/// let lookup = |name: &str| (name == "a").then_some(Value::Num(90.0));
+/// let (v, ext) = eval_ext("sin($a * pi / 180) + max(1, 2)", &lookup).expect("ok");
+/// assert_eq!((v, ext), (Value::Num(3.0), vec!["sin", "pi", "max"]));
+/// ```
+pub fn eval_ext(src: &str, lookup: &dyn Fn(&str) -> Option<Value>) -> Result<(Value, Vec<&'static str>), ExprError> {
     if src.len() > MAX_LEN {
         return Err(ExprError::new(0, format!("expression is {} bytes long, more than the limit of {MAX_LEN}", src.len())));
     }
@@ -243,12 +263,12 @@ pub fn eval(src: &str, lookup: &dyn Fn(&str) -> Option<Value>) -> Result<Value, 
         return Err(ExprError::new(0, "empty expression"));
     }
     let end_col = src.chars().count() + 1;
-    let mut p = Parser { toks: &toks, at: 0, end_col, lookup };
+    let mut p = Parser { toks: &toks, at: 0, end_col, lookup, used: Vec::new() };
     let v = p.or(0)?;
     if let Some((t, col)) = toks.get(p.at) {
         return Err(ExprError::new(*col, format!("unexpected {t} after a complete expression")));
     }
-    Ok(v)
+    Ok((v, p.used))
 }
 
 struct Parser<'a> {
@@ -256,6 +276,8 @@ struct Parser<'a> {
     at: usize,
     end_col: usize,
     lookup: &'a dyn Fn(&str) -> Option<Value>,
+    /// The esmini extensions used so far.
+    used: Vec<&'static str>,
 }
 
 fn num(v: Value, col: usize, what: &str) -> Result<f64, ExprError> {
@@ -452,6 +474,10 @@ impl Parser<'_> {
                 "true" => Ok(Value::Bool(true)),
                 "false" => Ok(Value::Bool(false)),
                 "and" | "or" | "not" => Err(ExprError::new(col, format!("`{name}` where a value is expected"))),
+                "pi" => {
+                    self.extension("pi");
+                    Ok(Value::Num(std::f64::consts::PI))
+                }
                 _ => self.call(&name, col, depth),
             },
             other => Err(ExprError::new(col, format!("unexpected {other} where a value is expected"))),
@@ -466,6 +492,15 @@ impl Parser<'_> {
         }
     }
 
+    /// Notes the use of the esmini extension `name` (one of [`EXTENSIONS`]).
+    fn extension(&mut self, name: &str) {
+        if let Some(e) = EXTENSIONS.iter().find(|e| **e == name) {
+            if !self.used.contains(e) {
+                self.used.push(e);
+            }
+        }
+    }
+
     fn call(&mut self, name: &str, col: usize, depth: usize) -> Result<Value, ExprError> {
         let arity = match name {
             "abs" | "sign" | "round" | "floor" | "ceil" | "sqrt" | "sin" | "cos" | "tan" | "asin" | "acos" | "atan" => 1,
@@ -476,6 +511,7 @@ impl Parser<'_> {
         if !self.eat(&Tok::LParen) {
             return Err(ExprError::new(open, format!("function `{name}` must be followed by `(`")));
         }
+        self.extension(name);
         let inner = self.enter(depth)?;
         let mut args = Vec::with_capacity(arity);
         if self.peek() != Some(&Tok::RParen) {
@@ -616,6 +652,18 @@ mod tests {
         assert_eq!(n("cos(0) + sin(0) + atan(0)"), 1.0);
         assert_eq!(n("max(min(1, 2), pow(1 + 1, 2))"), 4.0);
         assert_eq!(n("-abs(-1)"), -1.0);
+    }
+
+    #[test]
+    fn pi_and_the_extensions_used() {
+        assert_eq!(n("pi"), std::f64::consts::PI);
+        assert_eq!(n("$a * pi / 180"), 3.0 * std::f64::consts::PI / 180.0);
+        let lookup = |_: &str| None;
+        let used = |s: &str| eval_ext(s, &lookup).map(|(_, u)| u).unwrap_or_default();
+        assert_eq!(used("round(1.5) + floor(1) + ceil(1) + sqrt(4) + pow(2, 2)"), Vec::<&str>::new());
+        assert_eq!(used("atan(1) * 4 - pi + abs(-1) + atan(0)"), vec!["atan", "pi", "abs"]);
+        assert_eq!(used("min(1, 2) + max(1, sign(-1))"), vec!["min", "max", "sign"]);
+        assert!(err("pi(1)").contains("unexpected"), "{}", err("pi(1)"));
     }
 
     #[test]

@@ -79,6 +79,10 @@ pub struct ImportOptions {
     pub road: RoadChoice,
     /// How the scripted entities move (`--traffic-dynamics`).
     pub dynamics: Dynamics,
+    /// `--strict`: what esmini accepts but the standard does not (its expression extensions
+    /// such as `pi` and `sin`, a negative dynamics value, a value its declaration's
+    /// `ValueConstraint`s forbid) is an error instead of a warning.
+    pub strict: bool,
 }
 
 /// How an OpenSCENARIO entity appears in the scenario.
@@ -105,6 +109,9 @@ pub struct Imported {
     /// The parameter values of this run: a distribution's combination, else the given
     /// overrides.
     pub params: Vec<(String, String)>,
+    /// The same values typed by their declarations ([`params::Param::to_json`]: numbers,
+    /// integers, booleans, text), in the order of `params`.
+    pub typed_params: Vec<(String, serde_json::Value)>,
     /// The entities, in file order.
     pub entities: Vec<EntityInfo>,
 }
@@ -192,6 +199,16 @@ impl<'a, 't> Ctx<'a, 't> {
             }
             None => Err(ImportError::unsupported(file, node)),
         }
+    }
+
+    /// `node` uses what esmini accepts but OpenSCENARIO does not (`what`): with `--strict` an
+    /// error, else one warning line per `key` saying that flc plays it as esmini does (`how`).
+    pub(crate) fn esmini_extension(&mut self, key: &str, file: &str, node: Node<'_, '_>, what: &str, how: &str) -> Result<(), ImportError> {
+        if self.params.strict() {
+            return Err(ImportError::at(file, node, format!("{what}: not OpenSCENARIO, accepted by esmini only (refused with --strict)")));
+        }
+        self.warn.note(key, file, node, format!("{what}: not OpenSCENARIO; {how}, as esmini does (--strict refuses it)"));
+        Ok(())
     }
 
     /// Enters catalog entry `catalog`/`entry` referenced at `node`: a reference cycle or
@@ -389,14 +406,29 @@ fn import_doc(
 
     let overrides: BTreeMap<String, String> = values.iter().cloned().collect();
     let mut params = Params::new();
-    params.declare_in(root, file, &overrides)?;
+    params.set_strict(opts.strict);
+    let declared = params.declare_in(root, file, &overrides);
+    for (k, l) in params.take_notes() {
+        warn.line(&k, l);
+    }
+    declared?;
     let files = match locations {
         Some(l) => CatalogFiles::list(l, &base, &params, file)?,
         None => CatalogFiles::empty(),
     };
     let cats = Catalogs::new(&files);
     let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new() };
-    let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads);
+    let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads).map(|mut imp| {
+        // The given values typed by their declarations (an undeclared one stays text).
+        imp.typed_params = values
+            .iter()
+            .map(|(n, text)| (n.clone(), ctx.params.get(n).map_or_else(|| serde_json::Value::String(text.clone()), params::Param::to_json)))
+            .collect();
+        imp
+    });
+    for (k, l) in ctx.params.take_notes() {
+        ctx.warn.line(&k, l);
+    }
     *warn = std::mem::take(&mut ctx.warn);
     r
 }
@@ -505,6 +537,16 @@ fn translate(
     let (track, lanes) = road::to_track(&geo.road, ego_lane, &stem)?;
     if let Some(note) = &lanes.note {
         ctx.warn.line("lanes", format!("{file}: lanes of road `{}`: {note}", geo.road.id));
+    }
+    let (lo, hi) = crate::track::USUAL_LANE_WIDTH;
+    if track.lane_width < lo || track.lane_width > hi {
+        ctx.warn.line(
+            "lane_width",
+            format!(
+                "{file}: lane {ego_lane} of road `{}` is {} m wide, outside the usual {lo}-{hi} m of a road (a test track?): taken as it is",
+                geo.road.id, track.lane_width
+            ),
+        );
     }
     let placed: Vec<Placement> = defs
         .iter()
@@ -651,7 +693,8 @@ fn translate(
             width: d.vehicle.width,
         })
         .collect();
-    Ok(Imported { scenario: s, params: opts.params.clone(), entities: infos })
+    // `import_doc` fills `typed_params` from the values it was given.
+    Ok(Imported { scenario: s, params: opts.params.clone(), typed_params: Vec::new(), entities: infos })
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the

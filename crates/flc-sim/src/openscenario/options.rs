@@ -38,7 +38,7 @@ impl ImportOptions {
                 return Err(ConfigError::new("params", "a parameter name is empty"));
             }
         }
-        Ok(Self { params, ego, ego_mode, controller, road, dynamics })
+        Ok(Self { params, ego, ego_mode, controller, road, dynamics, strict: false })
     }
 
     /// `NAME=VALUE` (`--param`) as a pair; the error names `param`.

@@ -4,7 +4,7 @@
 //! (`$name`, `${expr}`, literal text) and typed attribute getters whose errors name the file,
 //! the line and `Element@attribute`. Also `VariableDeclarations` (OpenSCENARIO 1.2).
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::collections::BTreeMap;
 
 use super::error::ImportError;
@@ -148,6 +148,19 @@ pub struct Param {
     pub value: Value,
 }
 
+impl Param {
+    /// The value as JSON, typed by its declaration: whole-number types as integers, `double` as
+    /// a number, `boolean` as a boolean, `string` and `dateTime` as text.
+    pub fn to_json(&self) -> serde_json::Value {
+        match (&self.value, self.ty) {
+            (Value::Num(x), ParamType::Integer | ParamType::UnsignedInt | ParamType::UnsignedShort) => serde_json::Value::from(*x as i64),
+            (Value::Num(x), _) => serde_json::Value::from(*x),
+            (Value::Bool(b), _) => serde_json::Value::Bool(*b),
+            (Value::Str(s), _) => serde_json::Value::String(s.clone()),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Default)]
 struct Scope {
     params: Vec<Param>,
@@ -166,6 +179,11 @@ impl Scope {
 pub struct Params {
     file: Scope,
     inner: Vec<Scope>,
+    /// `--strict`: what esmini accepts but the standard does not (its expression extensions, a
+    /// value its declaration's constraints forbid) is an error instead of a warning.
+    strict: bool,
+    /// Warning lines about such uses, keyed (one per kind), for [`Params::take_notes`].
+    notes: RefCell<BTreeMap<String, String>>,
 }
 
 /// The (case-sensitive) rules of a `ValueConstraint`.
@@ -175,6 +193,45 @@ impl Params {
     /// No parameters; one (file) scope.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Sets `--strict` (see [`Params::strict`]).
+    pub fn set_strict(&mut self, strict: bool) {
+        self.strict = strict;
+    }
+
+    /// Whether esmini's extensions of the standard are refused (`--strict`) rather than
+    /// accepted with a warning.
+    pub fn strict(&self) -> bool {
+        self.strict
+    }
+
+    /// The warning lines gathered so far (key, line; one per key, the first kept), emptied.
+    pub fn take_notes(&self) -> Vec<(String, String)> {
+        std::mem::take(&mut *self.notes.borrow_mut()).into_iter().collect()
+    }
+
+    /// Attribute `attr` of `node` (text `raw`) used the esmini extensions `ext`: an error with
+    /// `--strict`, else one warning line per extension.
+    fn extensions(&self, node: roxmltree::Node<'_, '_>, attr: &str, file: &str, raw: &str, ext: &[&str]) -> Result<(), ImportError> {
+        for e in ext {
+            let what = if *e == "pi" { "the constant `pi`".to_string() } else { format!("the function `{e}`") };
+            if self.strict {
+                return Err(attr_error(
+                    node,
+                    attr,
+                    file,
+                    format!("`{raw}` uses {what}, an esmini extension, not OpenSCENARIO (refused with --strict)"),
+                ));
+            }
+            let line = format!(
+                "{file}:{}: <{}@{attr}>: `{raw}` uses {what}: an esmini extension, not OpenSCENARIO; evaluated as esmini does (--strict refuses it)",
+                xml::line(node),
+                node.tag_name().name()
+            );
+            self.notes.borrow_mut().entry(format!("expr:{e}")).or_insert(line);
+        }
+        Ok(())
     }
 
     /// Opens an inner scope (a catalog entry's parameters) on top of the current ones.
@@ -237,7 +294,8 @@ impl Params {
                 }
                 None => {
                     let raw = d.attribute("value").ok_or_else(|| fail("attribute `value` is missing".into()))?;
-                    let v = self.resolve_excluding(raw, Some(name)).map_err(fail)?;
+                    let (v, ext) = self.resolve_excluding(raw, Some(name)).map_err(fail)?;
+                    self.extensions(d, "value", file, raw, &ext)?;
                     ty.convert(v).map_err(|m| fail(format!("value `{raw}`: {m}")))?
                 }
             };
@@ -359,21 +417,33 @@ impl Params {
             described.push(format!("({})", terms.join(" and ")));
         }
         let kind = if ty.is_numeric() { "value" } else { "text" };
-        Err(ImportError::at(file, d, format!("parameter `{name}`: {kind} {value} violates its constraints: {}", described.join(" or "))))
+        let message = format!("parameter `{name}`: {kind} {value} violates its constraints: {}", described.join(" or "));
+        if self.strict {
+            return Err(ImportError::at(file, d, format!("{message} (refused with --strict)")));
+        }
+        // esmini does not check constraints and plays the value: so does flc, with one warning
+        // per declaration (a distribution's runs share it).
+        let line = format!(
+            "{file}:{}: <ParameterDeclaration>: {message}: played as esmini plays it (esmini does not check constraints; --strict refuses)",
+            xml::line(d)
+        );
+        self.notes.borrow_mut().entry(format!("constraint:{file}:{}", xml::line(d))).or_insert(line);
+        Ok(())
     }
 
     /// Resolves an attribute value: `$name` is the parameter's value, `${expr}` the
     /// expression's, anything else the literal text (as [`Value::Str`]). An undeclared
     /// parameter, a malformed reference or a failing expression is an error message.
     pub fn resolve(&self, raw: &str) -> Result<Value, String> {
-        self.resolve_excluding(raw, None)
+        self.resolve_excluding(raw, None).map(|(v, _)| v)
     }
 
-    /// [`Params::resolve`], where a reference to `own` (the parameter being declared) is an error.
-    fn resolve_excluding(&self, raw: &str, own: Option<&str>) -> Result<Value, String> {
+    /// [`Params::resolve`], where a reference to `own` (the parameter being declared) is an
+    /// error; also the esmini extensions an expression used.
+    fn resolve_excluding(&self, raw: &str, own: Option<&str>) -> Result<(Value, Vec<&'static str>), String> {
         let t = raw.trim();
         let Some(rest) = t.strip_prefix('$') else {
-            return Ok(Value::Str(raw.to_string()));
+            return Ok((Value::Str(raw.to_string()), Vec::new()));
         };
         if let Some(inner) = rest.strip_prefix('{') {
             let Some(src) = inner.strip_suffix('}') else {
@@ -388,7 +458,7 @@ impl Params {
                     self.value(n).cloned()
                 }
             };
-            return expr::eval(src, &lookup).map_err(|e| {
+            return expr::eval_ext(src, &lookup).map_err(|e| {
                 if selfref.get() { format!("`{t}` refers to the parameter itself") } else { format!("expression `{t}`: {e}") }
             });
         }
@@ -398,13 +468,14 @@ impl Params {
         if own == Some(rest) {
             return Err(format!("`{t}` refers to the parameter itself"));
         }
-        self.value(rest).cloned().ok_or_else(|| format!("parameter `{rest}` is not declared"))
+        self.value(rest).cloned().map(|v| (v, Vec::new())).ok_or_else(|| format!("parameter `{rest}` is not declared"))
     }
 
     /// The resolved value of attribute `attr` of `node` (`None` when absent).
     fn attr_value(&self, node: roxmltree::Node<'_, '_>, attr: &str, file: &str) -> Result<Option<(Value, String)>, ImportError> {
         let Some(raw) = node.attribute(attr) else { return Ok(None) };
-        let v = self.resolve(raw).map_err(|m| attr_error(node, attr, file, m))?;
+        let (v, ext) = self.resolve_excluding(raw, None).map_err(|m| attr_error(node, attr, file, m))?;
+        self.extensions(node, attr, file, raw, &ext)?;
         Ok(Some((v, raw.to_string())))
     }
 
@@ -508,7 +579,8 @@ impl Params {
             let ty_name = d.attribute("variableType").ok_or_else(|| fail("attribute `variableType` is missing".into()))?;
             let ty = ParamType::parse(ty_name).ok_or_else(|| fail(format!("unknown variableType `{ty_name}`")))?;
             let raw = d.attribute("value").ok_or_else(|| fail("attribute `value` is missing".into()))?;
-            let v = self.resolve(raw).map_err(fail)?;
+            let (v, ext) = self.resolve_excluding(raw, None).map_err(fail)?;
+            self.extensions(d, "value", file, raw, &ext)?;
             let v = ty.convert(v).map_err(|m| fail(format!("value `{raw}`: {m}")))?;
             if seen.insert(name.to_string(), ()).is_some() {
                 return Err(fail("declared twice".into()));
@@ -551,8 +623,17 @@ mod tests {
         format!("<ParameterDeclarations>\n{body}\n</ParameterDeclarations>")
     }
 
+    /// The error of declaring `xml_text` with `--strict` (which refuses what non-strict warns of).
     fn err(xml_text: &str, overrides: &[(&str, &str)]) -> String {
-        match declare(xml_text, overrides) {
+        let strict = || -> Result<Params, ImportError> {
+            let doc = xml::parse(xml_text, F)?;
+            let mut p = Params::new();
+            p.set_strict(true);
+            let o: BTreeMap<String, String> = overrides.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+            p.declare(doc.root_element(), F, &o)?;
+            Ok(p)
+        };
+        match strict() {
             Err(e) => e.to_string(),
             Ok(p) => panic!("expected an error, got {:?}", p.iter().collect::<Vec<_>>()),
         }
@@ -676,6 +757,14 @@ mod tests {
         }
         let e = err(&x("0"), &[]);
         assert!(e.starts_with("t.xosc:2: <ParameterDeclaration>: parameter `v`: value 0 violates"), "{e}");
+        assert!(e.ends_with("(refused with --strict)"), "{e}");
+        // Without --strict: played as esmini plays it, one warning line per declaration.
+        let p = declare(&x("0"), &[]).expect("warned, not refused");
+        assert_eq!(p.value("v"), Some(&Value::Num(0.0)));
+        let notes = p.take_notes();
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(notes[0].1.contains("value 0 violates") && notes[0].1.contains("as esmini plays it"), "{notes:?}");
+        assert!(p.take_notes().is_empty());
         assert!(e.contains("(greaterThan 0 and lessOrEqual 10) or (equalTo 100)"), "{e}");
         let e = err(&x("5"), &[("v", "11")]);
         assert!(e.contains("value 11 violates"), "{e}");
@@ -699,6 +788,31 @@ mod tests {
         );
         let e = err(&bad_rule, &[]);
         assert!(e.starts_with("t.xosc:3: <ValueConstraint@rule>:") && e.contains("`bigger` is not one of"), "{e}");
+    }
+
+    #[test]
+    fn esmini_extensions_warn_once_each_or_are_refused_with_strict() {
+        let text = decl(
+            r#"<ParameterDeclaration name="a" parameterType="double" value="90"/>
+<ParameterDeclaration name="r" parameterType="double" value="${$a*pi/180}"/>
+<ParameterDeclaration name="s" parameterType="double" value="${sin($r) + cos(0) + pi}"/>
+<ParameterDeclaration name="q" parameterType="double" value="${sqrt(pow(2, 2)) + round(0.4)}"/>"#,
+        );
+        let p = declare(&text, &[]).expect("accepted");
+        assert_eq!(p.value("r"), Some(&Value::Num(std::f64::consts::FRAC_PI_2)));
+        assert_eq!(p.value("s"), Some(&Value::Num(2.0 + std::f64::consts::PI)));
+        let notes = p.take_notes();
+        let keys: Vec<&str> = notes.iter().map(|(k, _)| k.as_str()).collect();
+        // One line per extension (pi used twice: one line, the first use); the standard's
+        // sqrt, pow and round give none.
+        assert_eq!(keys, vec!["expr:cos", "expr:pi", "expr:sin"], "{notes:?}");
+        let pi = &notes[1].1;
+        assert!(
+            pi.starts_with("t.xosc:3: <ParameterDeclaration@value>: `${$a*pi/180}` uses the constant `pi`: an esmini extension"),
+            "{pi}"
+        );
+        let e = err(&text, &[]);
+        assert!(e.starts_with("t.xosc:3: <ParameterDeclaration@value>:") && e.contains("`pi`") && e.contains("--strict"), "{e}");
     }
 
     #[test]

@@ -339,7 +339,13 @@ impl Sb<'_, '_, '_> {
         }
         for attr in ["activateLongitudinal", "activateLateral"] {
             if self.ctx.params.bool_attr(node, attr, file)? == Some(true) {
-                return Err(ImportError::at(file, node, format!("a controller activated on `{who}` (not the ego) is not supported")));
+                self.ctx.warn.note(
+                    "ActivateControllerAction@other",
+                    file,
+                    node,
+                    format!("a controller activated on `{who}` (not the ego): flc has no controller for it; it stays scripted (its story moves it)"),
+                );
+                return Ok(());
             }
         }
         self.ctx.warn.skip(file, node, "a controller assigned to an entity other than the ego (never activated)");
@@ -656,9 +662,20 @@ impl Sb<'_, '_, '_> {
 
     /// `ActivateControllerAction` on the ego: flc's controller on (`longitudinal`, default
     /// true) or off. With `--ego-mode scripted` it is kept as an element but hands nothing over.
+    /// On another entity (esmini's acc-test activates an ACC on a target) flc has no
+    /// controller to hand it to: the entity stays scripted (its storyboard moves it, as esmini
+    /// with `--disable_controllers`), with a warning.
     fn activate_controller(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
         if let Some(a) = actors.iter().find(|a| !self.facts(a).ego) {
-            return Err(ImportError::at(file, node, format!("a controller activated on `{a}` (not the ego) is not supported")));
+            self.ctx.warn.note(
+                "ActivateControllerAction@other",
+                file,
+                node,
+                format!(
+                    "a controller activated on `{a}` (not the ego): flc has no controller for it; it stays scripted (its story moves it)"
+                ),
+            );
+            return Ok(self.skipped());
         }
         let longitudinal = self.ctx.params.bool_attr(node, "longitudinal", file)?.unwrap_or(true);
         if self.ego_mode == EgoMode::Scripted {
@@ -676,13 +693,12 @@ impl Sb<'_, '_, '_> {
     /// The `(dynamics, target)` children of a speed or lane change action, the transition the
     /// dynamics give (`rate` only where `rate_ok`), and the target's one child.
     fn dynamics_and_target<'a, 'i>(
-        &self,
+        &mut self,
         file: &str,
         node: Node<'a, 'i>,
         (dyn_tag, target_tag): (&str, &str),
         rate_ok: bool,
     ) -> Result<(Transition, Node<'a, 'i>), ImportError> {
-        let p = &self.ctx.params;
         let mut dynamics = None;
         let mut target = None;
         for c in xml::elements(node) {
@@ -694,6 +710,7 @@ impl Sb<'_, '_, '_> {
         }
         let d = dynamics.ok_or_else(|| ImportError::at(file, node, format!("<{dyn_tag}> is missing")))?;
         let t = target.ok_or_else(|| ImportError::at(file, node, format!("<{target_tag}> is missing")))?;
+        let p = &self.ctx.params;
         let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
         let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
             "rate" if rate_ok => Dimension::Rate,
@@ -701,8 +718,19 @@ impl Sb<'_, '_, '_> {
             "distance" => Dimension::Distance,
             _ => Dimension::Time,
         };
-        let value = p.req_num(d, "value", file)?;
-        if value < 0.0 || (shape != Shape::Step && value <= 0.0) {
+        let mut value = p.req_num(d, "value", file)?;
+        if value < 0.0 {
+            // esmini uses the magnitude (cut-in_simple.xosc: `value="-5"`).
+            self.ctx.esmini_extension(
+                &format!("{dyn_tag}@value<0"),
+                file,
+                d,
+                &format!("a negative {dyn_tag} value ({value})"),
+                "its magnitude is used",
+            )?;
+            value = value.abs();
+        }
+        if shape != Shape::Step && value <= 0.0 {
             return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
         }
         let mut it = xml::elements(t);

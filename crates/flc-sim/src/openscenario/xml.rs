@@ -55,10 +55,7 @@ pub fn parse<'a>(text: &'a str, origin: &str) -> Result<roxmltree::Document<'a>,
     Ok(doc)
 }
 
-/// 1-based line of `node` in its document.
-pub fn line(node: roxmltree::Node<'_, '_>) -> u32 {
-    node.document().text_pos_at(node.range().start).row
-}
+pub use super::error::line;
 
 /// The element children of `node` named `name`.
 pub fn children<'a, 'input>(node: roxmltree::Node<'a, 'input>, name: &'a str) -> impl Iterator<Item = roxmltree::Node<'a, 'input>> + 'a {

@@ -213,7 +213,18 @@ impl Follower {
         let (ex, ey) = self.gnss.sample(t);
         let half = self.cfg.follower.vehicle.length / 2.0;
         let own_fix = Some(OwnFix { x: fs.x + half * fs.yaw.cos() + ex, y: fs.y + half * fs.yaw.sin() + ey, heading: fs.yaw });
-        (Frame { distance, own_speed: fs.speed, v2v: msg, dt, lead_speed, own_fix, travelled: Some(fs.odometer * self.cfg.follower.odometry_scale) }, det)
+        (
+            Frame {
+                distance,
+                own_speed: fs.speed,
+                v2v: msg,
+                dt,
+                lead_speed,
+                own_fix,
+                travelled: Some(fs.odometer * self.cfg.follower.odometry_scale),
+            },
+            det,
+        )
     }
 
     /// A V2V message on its link at `t`: into the mailbox (the next scan's frame).

@@ -184,11 +184,23 @@ fn file_err(path: &Path, message: impl Into<String>) -> SimError {
     SimError::File { path: path.display().to_string(), message: message.into() }
 }
 
-/// The folder the suites live in: `scenarios/suites` under the working directory, else the one
-/// of this source tree.
-pub fn default_root() -> PathBuf {
-    let here = PathBuf::from("scenarios/suites");
-    if here.is_dir() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/suites") }
+/// The folder the named suites live in, the same from any working directory: `scenarios/suites`
+/// of the source tree holding the running executable (`target/<profile>/scenario`, the tests'
+/// `target/<profile>/deps/...`), else of the source tree this crate was built from. An error
+/// (one line: where it looked, how to name the folder) when neither exists, e.g. a copied
+/// binary whose source tree is gone. (The Python package ships the suites: `flc.run_suite`.)
+pub fn default_root() -> Result<PathBuf, SimError> {
+    const SUITES: &str = "scenarios/suites";
+    let exe = std::env::current_exe().ok();
+    let near_exe = exe.as_deref().and_then(|e| e.ancestors().skip(1).map(|d| d.join(SUITES)).find(|d| d.is_dir()));
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(SUITES);
+    near_exe.or_else(|| built.is_dir().then_some(built.clone())).ok_or_else(|| {
+        SimError::Input(format!(
+            "no suites folder found (no {SUITES} above the executable {} nor in the source tree it was built from, {}): give the folder, `--root DIR` or a suite's own folder",
+            exe.as_deref().map_or_else(|| "?".into(), |e| e.display().to_string()),
+            built.display()
+        ))
+    })
 }
 
 impl Suite {
