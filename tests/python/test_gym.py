@@ -103,14 +103,14 @@ def test_reward_terms_are_the_rates_integrated_over_the_physics_steps() -> None:
         expected = {
             "collision": -100.0 if collided and not any(c for _, _, c in rewards[:k]) else 0.0,
             "headway": -w.headway * float(np.sum(np.maximum(0.0, w.time_gap - gap / np.maximum(v, 1.0)))) * h,
-            "comfort": -w.jerk * float(np.sum(jerk**2)) * h,
+            "comfort": -w.jerk * float(np.sum(np.abs(jerk))) * h,
             "progress": w.progress * float(np.sum(v)) / 10.0 * h,
         }
         for name, value in expected.items():
             assert terms[name] == pytest.approx(value, rel=1e-9, abs=1e-12), (k, name)
         assert r == pytest.approx(sum(expected.values()), rel=1e-9, abs=1e-12)
         seen_headway |= expected["headway"] < 0
-        seen_jerk |= expected["comfort"] < -0.1
+        seen_jerk |= expected["comfort"] < -0.05
     # Braking from ~9.6 m/s at 11 m, the headway falls below 1 s (it costs); the hard braking is
     # a large jerk; the ego stops before the lead: terminated by the standstill end, no collision.
     assert seen_headway and seen_jerk
@@ -142,28 +142,39 @@ def test_the_return_does_not_depend_on_the_policy_frequency() -> None:
     results = {hz: sinusoid_return(hz) for hz in (1.0, 5.0, 10.0, 20.0)}
     ref_total, ref_terms = results[20.0]
     assert ref_terms["headway"] < -0.5 and ref_terms["progress"] > 5.0, ref_terms
+    # The run ends in a stop (a jump of the acceleration of about 2.5 m/s²): comfort pays it.
+    assert ref_terms["comfort"] < -0.03, ref_terms
     for hz, (total, terms) in results.items():
-        # Progress and headway are integrals of the state: the same within 1 % and 3 % at every
-        # frequency (holding a command for 1 s moves the trajectory a little). The comfort term
-        # is not invariant: it pays for the jerk of the stepped command and of the stop (measured
-        # -0.35 at 1 Hz, -0.69 at 20 Hz); the total absorbs it within 10 %.
+        # Every term is an integral of the state: the same at every frequency within what holding
+        # a command for up to 1 s changes (measured at 1 Hz against 20 Hz: progress +0.2 %,
+        # headway -2.7 %, comfort -1.8 %, total -0.9 %; with the squared jerk comfort was -0.35
+        # against -0.69: a step of the acceleration cost Δa²/h, depending on how many physics
+        # steps it spread over).
+        assert terms["collision"] == 0.0
         assert terms["progress"] == pytest.approx(ref_terms["progress"], rel=0.01), (hz, terms, ref_terms)
-        assert terms["headway"] == pytest.approx(ref_terms["headway"], rel=0.03), (hz, terms, ref_terms)
-        assert total == pytest.approx(ref_total, rel=0.10), (hz, total, ref_total)
+        assert terms["headway"] == pytest.approx(ref_terms["headway"], rel=0.04), (hz, terms, ref_terms)
+        assert terms["comfort"] == pytest.approx(ref_terms["comfort"], rel=0.04), (hz, terms, ref_terms)
+        assert total == pytest.approx(ref_total, rel=0.02), (hz, total, ref_total)
+    # Within the discretisation: from 5 Hz on, every term within 0.5 % of 20 Hz.
+    for hz in (5.0, 10.0):
+        for k in ("headway", "comfort", "progress"):
+            assert results[hz][1][k] == pytest.approx(ref_terms[k], rel=0.005), (hz, k, results[hz][1], ref_terms)
 
 
-def test_flc_robust_flc_and_idm_score_above_a_random_policy() -> None:
+@pytest.mark.parametrize("seed", [0, 10])
+def test_flc_robust_flc_pipeline_and_idm_score_above_a_random_policy(seed: int) -> None:
     from flc.gym import policies
 
     env = fg.FollowingEnv(time_limit=30.0)
-    rnd = policies.evaluate(policies.RandomPolicy(env, seed=0), env, episodes=3, seed=0)
-    for make in (policies.FLC, policies.RobustFLC, policies.IDM):
-        ev = policies.evaluate(make(env), env, episodes=3, seed=0)
+    rnd = policies.evaluate(policies.RandomPolicy(env, seed=0), env, episodes=3, seed=seed)
+    for make in (policies.FLC, policies.RobustFLC, policies.Pipeline, policies.IDM):
+        ev = policies.evaluate(make(env), env, episodes=3, seed=seed)
         assert not ev.collisions.any(), make.__name__
-        # On every seed, by a clear margin: at least twice the random return and 3 more (measured:
-        # FLC 7.9 / 6.5 / 7.2, robust FLC 11.3 / 8.2 / 8.7, IDM 11.3 / 7.9 / 8.6; random
-        # 0.9 / -92.9 (a collision) / 3.1).
-        assert np.all(ev.returns > np.maximum(2.0 * rnd.returns, rnd.returns + 3.0)), (make.__name__, ev.returns, rnd.returns)
+        # On every episode, by a clear margin: 1.5 times the random return and 2 more
+        # (measured, seed 0: FLC 9.5 / 7.1 / 7.9, robust FLC 11.2 / 8.1 / 8.6, pipeline
+        # 9.8 / 8.1 / 8.2, IDM 11.3 / 7.9 / 8.5; random 3.2 / -92.4 (a collision) / 4.5;
+        # seed 10: the experts 5.9 to 42.4, random 2.8 / -1.1 / -94.6).
+        assert np.all(ev.returns > np.maximum(1.5 * rnd.returns, rnd.returns + 2.0)), (make.__name__, ev.returns, rnd.returns)
 
 
 def test_the_first_observation_is_a_real_scan() -> None:

@@ -56,7 +56,13 @@ pub enum ActionKind {
 /// * `collision`: `-collision` once, on the policy step of the ego's first contact (an event, not a rate);
 /// * `headway`: `-headway * max(0, time_gap - s / max(v, 1 m/s))` per s (per second of
 ///   headway shortfall);
-/// * `comfort`: `-jerk * j^2` per s, with the jerk `j = (a_k - a_{k-1}) / h` (m/s³);
+/// * `comfort`: `-jerk * |j|` per s, with the jerk `j = (a_k - a_{k-1}) / h` (m/s³): integrated,
+///   `-jerk * Σ|a_k - a_{k-1}|`, the total variation of the acceleration. The magnitude, not the
+///   square: a held command changes the acceleration by a step `Δa` at each decision, and
+///   `∫ j² dt` over a step is `Δa² / h` (it depends on the physics step and on how many physics
+///   steps the change spreads over, and a finer policy pays it more or less often), while
+///   `∫ |j| dt` is `|Δa|` however the change is spread, and the sum over a sampled smooth policy
+///   tends to the total variation of the smooth one: the same at any policy frequency;
 /// * `progress`: `progress * v / (10 m/s)` per s (`progress` per 10 m driven).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -67,15 +73,18 @@ pub struct RewardWeights {
     pub headway: f64,
     /// The time gap below which the headway costs, s.
     pub time_gap: f64,
-    /// Per (m/s³)², per second.
+    /// Per m/s³ of jerk, per second (per m/s² of acceleration change).
     pub jerk: f64,
     /// Per 10 m driven.
     pub progress: f64,
 }
 
+/// The default comfort weight (per m/s² of acceleration change).
+pub const JERK_WEIGHT: f64 = 0.01;
+
 impl Default for RewardWeights {
     fn default() -> Self {
-        Self { collision: 100.0, headway: 1.0, time_gap: 1.0, jerk: 0.001, progress: 1.0 }
+        Self { collision: 100.0, headway: 1.0, time_gap: 1.0, jerk: JERK_WEIGHT, progress: 1.0 }
     }
 }
 
@@ -104,7 +113,7 @@ impl RewardWeights {
             let (gap, v, a) = (series.gap[i], series.follower_speed[i], series.follower_accel[i]);
             let jerk = (a - prev_accel) / h;
             t.headway -= self.headway * (self.time_gap - gap / v.max(1.0)).max(0.0) * h;
-            t.comfort -= self.jerk * jerk * jerk * h;
+            t.comfort -= self.jerk * jerk.abs() * h;
             t.progress += self.progress * v / 10.0 * h;
             prev_accel = a;
         }
@@ -544,8 +553,14 @@ mod tests {
         let t = w.integrate(&s, 0, 0.0, 0.01);
         assert!((t.progress - 2.0 * 10.0 / 10.0 * 0.01).abs() < 1e-12, "{t:?}");
         assert!((t.headway + 2.0 * 0.5 * 0.01).abs() < 1e-12, "{t:?}");
-        // One jerk of 100 m/s³ over 0.01 s.
-        assert!((t.comfort + 0.001 * 100.0 * 100.0 * 0.01).abs() < 1e-9, "{t:?}");
+        // One jerk of 100 m/s³ over 0.01 s: a change of 1 m/s².
+        assert!((t.comfort + JERK_WEIGHT * 1.0).abs() < 1e-12, "{t:?}");
+        // The same change spread over four physics steps costs the same.
+        let mut s4 = Series::default();
+        for (k, a) in [0.25, 0.5, 0.75, 1.0].into_iter().enumerate() {
+            s4.push(StepRecord { t: 0.01 * (k + 1) as f64, gap: 5.0, follower_speed: 10.0, follower_accel: a, ..StepRecord::default() });
+        }
+        assert!((w.integrate(&s4, 0, 0.0, 0.01).comfort + JERK_WEIGHT).abs() < 1e-12);
         assert_eq!(t.collision, 0.0);
     }
 

@@ -57,7 +57,9 @@ class RewardWeights:
     * ``collision``: ``-collision`` once, on the step of the ego's first contact (an event);
     * ``headway``: ``-headway * max(0, time_gap - gap / max(speed, 1 m/s))`` per s (per second of
       headway shortfall, per second);
-    * ``comfort``: ``-jerk * j²`` per s, ``j`` the ego's jerk, m/s³ (per (m/s³)², per second);
+    * ``comfort``: ``-jerk * |j|`` per s, ``j`` the ego's jerk, m/s³ (per m/s³, per second):
+      integrated, ``-jerk`` per m/s² of acceleration change (the magnitude, not the square, so a
+      change costs the same however many physics or policy steps it spreads over);
     * ``progress``: ``progress * speed / (10 m/s)`` per s (``progress`` per 10 m driven).
 
     The reward is their sum; ``info["reward_terms"]`` holds each term.
@@ -66,18 +68,19 @@ class RewardWeights:
     collision: float = 100.0
     headway: float = 1.0
     time_gap: float = 1.0
-    jerk: float = 0.001
+    jerk: float = 0.01
     progress: float = 1.0
 
 
 def reward_terms(w: RewardWeights, gap: float, speed: float, accel: float, prev_accel: float, dt: float, collided_now: bool) -> dict[str, float]:
-    """The terms of :class:`RewardWeights`' reward for one step (ground truth at its end)."""
+    """The terms of :class:`RewardWeights`' reward for one step of length ``dt`` (s), its rates
+    taken from the ground truth at its end (the rectangle rule over the step; :class:`FollowingEnv`
+    integrates over the physics steps in Rust)."""
     headway = gap / max(speed, 1.0)
-    jerk = (accel - prev_accel) / dt
     return {
         "collision": -w.collision if collided_now else 0.0,
-        "headway": -w.headway * max(0.0, w.time_gap - headway),
-        "comfort": -w.jerk * jerk * jerk,
+        "headway": -w.headway * max(0.0, w.time_gap - headway) * dt,
+        "comfort": -w.jerk * abs(accel - prev_accel),
         "progress": w.progress * speed * dt / 10.0,
     }
 
