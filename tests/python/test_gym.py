@@ -319,3 +319,57 @@ def test_simulation_record_writes_the_run_as_mcap(tmp_path) -> None:
     back = flc.read_mcap(files[0])
     assert np.array_equal(back.series["gap"], r.series["gap"])
     assert back.metrics["min_gap"] == r.metrics["min_gap"]
+
+
+def test_vector_env_meets_gymnasiums_vector_contract() -> None:
+    # Gymnasium ships no vector checker; these are the checks its env checker makes of a single
+    # env (spaces, seeding, step determinism, returned data not reused), stated for a VectorEnv,
+    # plus the batched spaces, the info masks and a Gymnasium vector wrapper on top.
+    from gymnasium.utils.env_checker import data_equivalence
+    from gymnasium.vector.utils import batch_space
+
+    n = 2
+    venv = gym.make_vec("flc/Following-v0", num_envs=n, vectorization_mode="vector_entry_point", observation="lidar", beams=8, time_limit=3.0)
+    env = venv.unwrapped
+    assert isinstance(env, gym.vector.VectorEnv) and env.num_envs == n
+    assert env.observation_space == batch_space(env.single_observation_space, n)
+    assert env.action_space == batch_space(env.single_action_space, n)
+    assert env.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    o1, i1 = venv.reset(seed=5)
+    o2, i2 = venv.reset(seed=5)
+    assert data_equivalence(o1, o2, exact=True) and data_equivalence(i1, i2, exact=True)
+    o3, _ = venv.reset(seed=6)
+    assert not np.array_equal(o1, o3)
+    venv.action_space.seed(0)
+    actions = [venv.action_space.sample() for _ in range(40)]
+    runs = []
+    for _ in range(2):
+        obs, _ = venv.reset(seed=5)
+        steps = []
+        for a in actions:
+            prev = obs
+            kept = prev.copy()
+            obs, rew, term, trunc, info = venv.step(a)
+            assert np.array_equal(prev, kept), "an observation returned earlier was overwritten"
+            assert venv.observation_space.contains(obs)
+            assert rew.shape == (n,) and np.issubdtype(rew.dtype, np.floating)
+            assert term.shape == trunc.shape == (n,) and term.dtype == trunc.dtype == np.bool_
+            for k, v in info.items():
+                if not k.startswith("_"):
+                    assert len(v) == n and info["_" + k].dtype == np.bool_ and info["_" + k].shape == (n,), k
+            steps.append((obs, rew, term, trunc, info))
+        runs.append(steps)
+    assert data_equivalence(runs[0], runs[1], exact=True)
+    assert any(s[3].any() for s in runs[0])  # the 3 s limit truncated within 40 steps at 10 Hz
+    # A Gymnasium vector wrapper works on it.
+    stats = gym.wrappers.vector.RecordEpisodeStatistics(venv)
+    stats.reset(seed=1)
+    for a in actions:
+        *_, info = stats.step(a)
+    with pytest.raises(ValueError, match=r"`actions` must be an array of shape \(2, 1\)"):
+        venv.step(np.zeros(3, dtype=np.float32))
+    with pytest.raises(TypeError, match="`actions`"):
+        venv.step(None)
+    with pytest.raises(ValueError, match="nan"):
+        venv.step(np.array([0.0, np.nan], dtype=np.float32))
+    venv.close()
