@@ -350,10 +350,35 @@ class _EpisodeSpec:
     def _draw(self, rng: np.random.Generator) -> tuple[str, str]:
         """The next episode's scenario JSON and name, drawn from ``rng`` (a fixed scenario gets a
         run seed, for the LiDAR noise and the V2V channel, from it)."""
-        scenario = self._episode_scenario(self._sample(rng))
         if self._fixed is not None:
-            scenario = scenario.replace(seed=int(rng.integers(2**63)))
+            seed = int(rng.integers(2**63))
+            if not hasattr(self, "_seed_template"):
+                self._seed_template = _seed_template(self._episode_scenario(self._fixed))
+            if self._seed_template is not None:
+                # The same text `replace(seed=...).to_json()` gives (checked by _seed_template),
+                # without two patches through the scenario's JSON per episode.
+                head, tail, name = self._seed_template
+                return f"{head}{seed}{tail}", name
+            scenario = self._episode_scenario(self._fixed).replace(seed=seed)
+            return scenario.to_json(), scenario.name
+        scenario = self._episode_scenario(self._sample(rng))
         return scenario.to_json(), scenario.name
+
+
+def _seed_template(scenario: Scenario) -> Optional[tuple[str, str, str]]:
+    """``(head, tail, name)`` such that ``head + str(seed) + tail`` is
+    ``scenario.replace(seed=seed).to_json()`` for every seed: the JSON with two seeds of different
+    lengths differs only in the one ``"seed"`` value (``None`` if not: then every draw patches)."""
+    probes = (7, 123456789012345, 2**63 - 1)
+    texts = [scenario.replace(seed=p).to_json() for p in probes]
+    key = f'"seed":{probes[0]}'
+    if texts[0].count(key) != 1:
+        return None
+    head, tail = texts[0].split(key)
+    head += '"seed":'
+    if any(t != f"{head}{p}{tail}" for p, t in zip(probes, texts)):
+        return None
+    return head, tail, scenario.name
 
 
 class FollowingEnv(_EpisodeSpec, gymnasium.Env):  # type: ignore[misc]
