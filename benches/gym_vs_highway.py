@@ -14,7 +14,7 @@ step is then the same simulated time in both), each reset when its episode ends,
 
 The vector env (issue 49): ``gym.make_vec("flc/Following-v0", num_envs=N,
 vectorization_mode="vector_entry_point")`` with the same observation, against the single env, both
-with a constant speed action (20 m/s; no Python policy in the timing): env-steps per second
+with a constant speed action (``--speed``, default 20 m/s; no Python policy in the timing): env-steps per second
 (``--vector-envs``, N steps of the vector env count N).
 
 Run: python benches/gym_vs_highway.py [--policy-hz 1 5] [--beams 180] [--steps 300] [--vector-envs 2 4 8] [--no-highway]
@@ -52,6 +52,9 @@ def main() -> None:
     ap.add_argument("--highway-vehicles", type=int, nargs="+", default=[50, 1],
                     help="highway-v0's vehicles_count (50: its default; 1: one other car, as flc's scenario)")
     ap.add_argument("--vector-envs", type=int, nargs="+", default=[2, 4, 8])
+    ap.add_argument("--speed", type=float, default=20.0,
+                    help="the vector comparison's constant speed action, m/s (20: the ego hits the accelerating lead at 4.6 s, "
+                         "an episode of 23 steps at 5 Hz; 5: no contact within the 150 s limit, resets rare)")
     ap.add_argument("--no-highway", action="store_true", help="skip highway-env (not installed)")
     args = ap.parse_args()
 
@@ -107,12 +110,12 @@ def vector_rates(args: argparse.Namespace) -> None:
     print(f"{'policy Hz':>9} {'single env steps/s':>19} {'num_envs':>9} {'vector env-steps/s':>19} {'ratio':>7}")
     for hz in args.policy_hz:
         single = gym.make("flc/Following-v0", policy_frequency=hz, **kw)
-        act = np.array([20.0], dtype=np.float32)
+        act = np.array([args.speed], dtype=np.float32)
         s = rate(single, lambda: act, args.steps, args.repeats)
         single.close()
         for n in args.vector_envs:
             venv = gym.make_vec("flc/Following-v0", num_envs=n, vectorization_mode="vector_entry_point", policy_frequency=hz, **kw)
-            acts = np.full((n, 1), 20.0, dtype=np.float32)
+            acts = np.full((n, 1), args.speed, dtype=np.float32)
             best = float("inf")
             steps = max(args.steps // n, 20)
             for r in range(args.repeats):

@@ -291,6 +291,8 @@ impl Outcome {
 /// One environment: an episode of the closed loop with follower 1 (the ego) driven by the policy.
 pub struct Env {
     cfg: EnvConfig,
+    /// [`EnvConfig::observation_bounds`], computed once.
+    bounds: (Vec<f32>, Vec<f32>),
     sim: Option<Simulation<Option<Recorder>>>,
     /// Series rows already rewarded.
     rows: usize,
@@ -315,7 +317,8 @@ impl Env {
     /// An environment (call [`Env::reset`] before stepping).
     pub fn new(cfg: EnvConfig) -> Result<Self, ConfigError> {
         cfg.validate()?;
-        Ok(Self { cfg, sim: None, rows: 0, prev_accel: 0.0, collided: false, scan_t: 0.0, done: true, episodes: 0 })
+        let bounds = cfg.observation_bounds();
+        Ok(Self { cfg, bounds, sim: None, rows: 0, prev_accel: 0.0, collided: false, scan_t: 0.0, done: true, episodes: 0 })
     }
 
     /// The configuration.
@@ -495,9 +498,9 @@ impl Env {
                 }
             }
         }
-        let (low, high) = self.cfg.observation_bounds();
+        let (low, high) = &self.bounds;
         for ((o, l), h) in obs.iter_mut().zip(low).zip(high) {
-            *o = o.max(l).min(h);
+            *o = o.max(*l).min(*h);
         }
         Ok(())
     }
@@ -520,6 +523,14 @@ pub fn step_envs(
     let d = envs.first().map_or(0, |e| e.cfg.observation_len());
     if actions.len() != n || resets.len() != n || out.len() != n || obs.len() != n * d {
         return Err(ConfigError::new("actions", format!("{n} environments: one action, reset and observation row each")).into());
+    }
+    if n == 1 {
+        // One environment: on the calling thread (no hand-over to the pool and back).
+        out[0] = match resets.into_iter().next().flatten() {
+            Some(s) => envs[0].reset(&s, obs)?,
+            None => envs[0].step(actions[0], obs)?,
+        };
+        return Ok(());
     }
     envs.par_iter_mut()
         .zip(obs.par_chunks_mut(d.max(1)))
