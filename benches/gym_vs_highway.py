@@ -12,7 +12,12 @@ Both at the same policy frequency (``--policy-hz``, default 1 Hz: highway-v0's d
 step is then the same simulated time in both), each reset when its episode ends, best of
 ``--repeats`` timings of ``--steps`` steps.
 
-Run: python benches/gym_vs_highway.py [--policy-hz 1 5] [--beams 180] [--steps 300]
+The vector env (issue 49): ``gym.make_vec("flc/Following-v0", num_envs=N,
+vectorization_mode="vector_entry_point")`` with the same observation, against the single env, both
+with a constant speed action (``--speed``, default 20 m/s; no Python policy in the timing): env-steps per second
+(``--vector-envs``, N steps of the vector env count N).
+
+Run: python benches/gym_vs_highway.py [--policy-hz 1 5] [--beams 180] [--steps 300] [--vector-envs 2 4 8] [--no-highway]
 """
 from __future__ import annotations
 
@@ -46,14 +51,27 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--highway-vehicles", type=int, nargs="+", default=[50, 1],
                     help="highway-v0's vehicles_count (50: its default; 1: one other car, as flc's scenario)")
+    ap.add_argument("--vector-envs", type=int, nargs="+", default=[2, 4, 8])
+    ap.add_argument("--speed", type=float, default=20.0,
+                    help="the vector comparison's constant speed action, m/s (20: the ego hits the accelerating lead at 4.6 s, "
+                         "an episode of 23 steps at 5 Hz; 5: no contact within the 150 s limit, resets rare)")
+    ap.add_argument("--no-highway", action="store_true", help="skip highway-env (not installed)")
     args = ap.parse_args()
 
     import flc
     import flc.gym  # noqa: F401  (registers flc/Following-v0)
+    import os
+
+    from flc.gym import policies
+
+    print(f"gymnasium {gym.__version__}; Python {platform.python_version()}; {platform.machine()} {platform.processor() or ''}; "
+          f"{os.cpu_count()} CPUs; load average {os.getloadavg()[0]:.2f}")
+    vector_rates(args)
+    if args.no_highway:
+        return
     import highway_env  # noqa: F401  (registers highway-v0)
 
-    print(f"flc {flc.__name__}; highway-env {getattr(highway_env, '__version__', '?')}; gymnasium {gym.__version__}; "
-          f"Python {platform.python_version()}; {platform.machine()} {platform.processor() or ''}")
+    print(f"highway-env {getattr(highway_env, '__version__', '?')}")
     print(f"{'policy Hz':>9} {'flc steps/s':>12} {'highway vehicles':>17} {'highway steps/s':>16} {'ratio':>7}")
     for hz in args.policy_hz:
         fenv = gym.make(
@@ -67,14 +85,8 @@ def main() -> None:
         )
         # The policy: the paper's FLC on the detected gap (the simulation's measurement), so that
         # the ego follows the lead as in the paper's run.
-        law = flc.FallbackController()
-        sim = fenv.unwrapped
-
-        def flc_policy() -> np.ndarray:
-            o = sim._obs
-            return np.array([law.step(o.distance, o.own_speed).speed], dtype=np.float32)
-
-        f = rate(fenv, flc_policy, args.steps, args.repeats)
+        flc_law = policies.FLC(fenv)
+        f = rate(fenv, lambda: flc_law(None), args.steps, args.repeats)
         for n in args.highway_vehicles:
             henv = gym.make(
                 "highway-v0",
@@ -89,6 +101,32 @@ def main() -> None:
             h = rate(henv, henv.action_space.sample, args.steps, args.repeats)
             henv.close()
             print(f"{hz:>9g} {f:>12.0f} {n:>17} {h:>16.1f} {f / h:>7.1f}")
+
+
+def vector_rates(args: argparse.Namespace) -> None:
+    import flc
+
+    kw = dict(scenario=flc.Scenario.paper(70, "flc"), observation="lidar", action="speed", beams=args.beams, time_limit=150.0)
+    print(f"{'policy Hz':>9} {'single env steps/s':>19} {'num_envs':>9} {'vector env-steps/s':>19} {'ratio':>7}")
+    for hz in args.policy_hz:
+        single = gym.make("flc/Following-v0", policy_frequency=hz, **kw)
+        act = np.array([args.speed], dtype=np.float32)
+        s = rate(single, lambda: act, args.steps, args.repeats)
+        single.close()
+        for n in args.vector_envs:
+            venv = gym.make_vec("flc/Following-v0", num_envs=n, vectorization_mode="vector_entry_point", policy_frequency=hz, **kw)
+            acts = np.full((n, 1), args.speed, dtype=np.float32)
+            best = float("inf")
+            steps = max(args.steps // n, 20)
+            for r in range(args.repeats):
+                venv.reset(seed=r)
+                t0 = time.perf_counter()
+                for _ in range(steps):
+                    venv.step(acts)  # next-step autoreset
+                best = min(best, time.perf_counter() - t0)
+            v = steps * n / best
+            venv.close()
+            print(f"{hz:>9g} {s:>19.0f} {n:>9} {v:>19.0f} {v / s:>7.2f}")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ V2V, sensors, actuators, contacts) stays in Rust.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from typing import Any, Mapping, Optional, Sequence, Union
 
@@ -152,7 +153,9 @@ class Simulation:
     default; a sequence, or ``"all"`` for every follower of a platoon). ``command``: how a plain
     number given to :meth:`step` is read, ``"speed"`` (m/s) or ``"accel"`` (m/s²).
     ``lidar_points``: put each scan's raw points into the observation; ``beams``: reduce each
-    scan to that many range beams (:attr:`Observation.ranges`).
+    scan to that many range beams (:attr:`Observation.ranges`). ``record``: a folder; each run
+    (each :meth:`reset`) is written there as MCAP, named as :func:`flc.run` names it (Foxglove;
+    ``flc.read_mcap`` reads it back; the metrics are written when the run reaches its end).
 
     With one driven follower :meth:`reset` and :meth:`step` return its :class:`Observation`;
     with several, a dict ``{k: Observation}`` and :meth:`step` takes a dict ``{k: command}``
@@ -168,6 +171,7 @@ class Simulation:
         command: str = "speed",
         lidar_points: bool = False,
         beams: int = 0,
+        record: Optional[Union[str, "os.PathLike[str]"]] = None,
     ) -> None:
         self._scenario = scenario if isinstance(scenario, Scenario) else Scenario.from_dict(scenario)
         if command not in ("speed", "accel"):
@@ -183,7 +187,7 @@ class Simulation:
             raise ParameterError("`drive`: at least one follower")
         if isinstance(beams, bool) or not isinstance(beams, int) or beams < 0:
             raise ParameterError(f"`beams`: a number of beams >= 0, got {beams!r}")
-        self._inner = _flc.Simulation(self._scenario.to_json(), self._drive, bool(lidar_points), beams)
+        self._inner = _flc.Simulation(self._scenario.to_json(), self._drive, bool(lidar_points), beams, None if record is None else os.fspath(record))
         self._done = True
         self._started = False
 

@@ -14,6 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde::de::DeserializeOwned;
 
+mod gym;
 mod laws;
 mod sim;
 mod step;
@@ -220,5 +221,7 @@ fn _flc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     sim::register(m)?;
     sweep::register(m)?;
     m.add_class::<step::Simulation>()?;
+    m.add_class::<gym::GymEnvs>()?;
+    m.add_class::<gym::ScenarioLaw>()?;
     Ok(())
 }

@@ -15,7 +15,9 @@ pub(crate) struct Simulation {
     scenario: Scenario,
     drive: Vec<usize>,
     opts: DriveOptions,
-    sim: Option<flc_sim::Simulation>,
+    /// Record each run as MCAP into this folder (`flc_sim::record`, as `flc.run(record=...)`).
+    record: Option<std::path::PathBuf>,
+    sim: Option<flc_sim::Simulation<Option<flc_sim::record::Recorder>>>,
 }
 
 fn parse_command(kind: &str, value: f64) -> PyResult<DriveCommand> {
@@ -28,11 +30,11 @@ fn parse_command(kind: &str, value: f64) -> PyResult<DriveCommand> {
 }
 
 impl Simulation {
-    fn sim(&self) -> PyResult<&flc_sim::Simulation> {
+    fn sim(&self) -> PyResult<&flc_sim::Simulation<Option<flc_sim::record::Recorder>>> {
         self.sim.as_ref().ok_or_else(|| SimulationError::new_err("Simulation: call reset() first"))
     }
 
-    fn sim_mut(&mut self) -> PyResult<&mut flc_sim::Simulation> {
+    fn sim_mut(&mut self) -> PyResult<&mut flc_sim::Simulation<Option<flc_sim::record::Recorder>>> {
         self.sim.as_mut().ok_or_else(|| SimulationError::new_err("Simulation: call reset() first"))
     }
 }
@@ -40,15 +42,15 @@ impl Simulation {
 #[pymethods]
 impl Simulation {
     /// `points`: copy each scan's raw points into the measurement; `beams`: reduce each scan to
-    /// that many range beams (0: none).
+    /// that many range beams (0: none); `record`: write each run as MCAP into this folder.
     #[new]
-    #[pyo3(signature = (scenario_json, drive, points=false, beams=0))]
-    fn new(scenario_json: &str, drive: Vec<usize>, points: bool, beams: usize) -> PyResult<Self> {
+    #[pyo3(signature = (scenario_json, drive, points=false, beams=0, record=None))]
+    fn new(scenario_json: &str, drive: Vec<usize>, points: bool, beams: usize, record: Option<std::path::PathBuf>) -> PyResult<Self> {
         let scenario = parse_scenario(scenario_json)?;
         if beams > 100_000 {
             return Err(ParameterError::new_err(format!("`beams`: at most 100000, got {beams}")));
         }
-        let s = Self { scenario, drive, opts: DriveOptions { points, beams }, sim: None };
+        let s = Self { scenario, drive, opts: DriveOptions { points, beams }, record, sim: None };
         // Check the driven followers now (the error names them).
         let mut probe = flc_sim::Simulation::new(&s.scenario).map_err(scenario_err)?;
         probe.drive(&s.drive, s.opts).map_err(|e| ParameterError::new_err(e.to_string()))?;
@@ -65,7 +67,14 @@ impl Simulation {
         if let Some(seed) = seed {
             self.scenario.seed = seed;
         }
-        let mut sim = flc_sim::Simulation::new(&self.scenario).map_err(scenario_err)?;
+        // Finish the previous run's recording first.
+        self.sim = None;
+        let base = flc_sim::Simulation::new(&self.scenario).map_err(scenario_err)?;
+        let rec = match &self.record {
+            Some(dir) => Some(flc_sim::record::Recorder::for_simulation(dir, &base).map_err(scenario_err)?),
+            None => None,
+        };
+        let mut sim = base.with_observer(rec);
         sim.drive(&self.drive, self.opts).map_err(|e| ParameterError::new_err(e.to_string()))?;
         self.sim = Some(sim);
         Ok(())
@@ -73,7 +82,12 @@ impl Simulation {
 
     /// Runs to the next scan of a driven follower (`True`) or the end of the run (`False`).
     fn advance(&mut self) -> PyResult<bool> {
-        self.sim_mut()?.advance().map_err(scenario_err)
+        let sim = self.sim_mut()?;
+        let paused = sim.advance().map_err(scenario_err)?;
+        if !paused {
+            sim.finish_observer(true).map_err(scenario_err)?;
+        }
+        Ok(paused)
     }
 
     /// Sets follower `k`'s command for the period paused at: `kind` is `"law"` (the scenario's
@@ -94,6 +108,9 @@ impl Simulation {
                 sim.command(k, c).map_err(|e| ParameterError::new_err(e.to_string()))?;
             }
             let paused = sim.advance().map_err(scenario_err)?;
+            if !paused {
+                sim.finish_observer(true).map_err(scenario_err)?;
+            }
             if !paused || sim.time() >= until - 1e-9 {
                 return Ok(paused);
             }

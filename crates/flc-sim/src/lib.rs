@@ -31,6 +31,7 @@ mod follower;
 pub mod frequency_response;
 mod gap_sensor;
 pub mod gnss;
+pub mod gym;
 mod lead;
 mod lidar;
 mod metrics;

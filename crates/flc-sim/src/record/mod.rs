@@ -171,7 +171,18 @@ impl Recorder {
         follower: &VehicleState,
     ) -> Result<Self, SimError> {
         std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
-        let path = dir.join(recording_file_name(scenario));
+        Self::create_file(dir.join(recording_file_name(scenario)), scenario, track, t, lead, follower)
+    }
+
+    /// [`Recorder::create`] into the file `path` (its folder must exist).
+    pub fn create_file(
+        path: PathBuf,
+        scenario: &Scenario,
+        track: &Track,
+        t: f64,
+        lead: &VehicleState,
+        follower: &VehicleState,
+    ) -> Result<Self, SimError> {
         let file = File::create(&path).map_err(|e| io_err(&path, e))?;
         // mcap's defaults (zstd, 1 MiB chunks, message and chunk indexes, statistics, summary
         // offsets, CRCs) but zstd level 2 instead of 3 (the same size on these files, faster),
@@ -240,6 +251,12 @@ impl Recorder {
     pub fn for_simulation<O: Observer>(dir: &Path, sim: &Simulation<O>) -> Result<Self, SimError> {
         let follower = sim.follower_state(0).ok_or_else(|| crate::error::ConfigError::new("platoon.followers", "at least one follower"))?;
         Self::create(dir, sim.scenario(), sim.track(), sim.time(), sim.lead_state(), follower)
+    }
+
+    /// [`Recorder::for_simulation`] into the file `path` (its folder must exist).
+    pub fn for_simulation_file<O: Observer>(path: PathBuf, sim: &Simulation<O>) -> Result<Self, SimError> {
+        let follower = sim.follower_state(0).ok_or_else(|| crate::error::ConfigError::new("platoon.followers", "at least one follower"))?;
+        Self::create_file(path, sim.scenario(), sim.track(), sim.time(), sim.lead_state(), follower)
     }
 
     /// The file being written.

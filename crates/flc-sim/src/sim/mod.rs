@@ -473,6 +473,11 @@ impl<O: Observer> Simulation<O> {
         Some(self.state.followers.get(k.wrapping_sub(1))?.drive.as_ref()?.beams())
     }
 
+    /// Follower `k`'s (1-based) series so far (one row per physics step, state after the step).
+    pub fn series(&self, k: usize) -> Option<&Series> {
+        Some(&self.state.followers.get(k.wrapping_sub(1))?.series)
+    }
+
     /// The ground truth about follower `k` (1-based) now: the vehicle in front of it as the run's
     /// records take it, its own state, its collision.
     pub fn ground_truth(&self, k: usize) -> Option<GroundTruth> {
