@@ -179,8 +179,7 @@ pub fn markdown(rep: &SuiteReport, command: &str) -> String {
 /// is worse than the reference's (and, on equal bands, where it hits faster), by name.
 fn compared(rep: &SuiteReport) -> String {
     let mut out = format!("\n## `{COMPARED}` against the careful driver, cell by cell\n\n");
-    let (Some(ci), Some(ri)) =
-        (rep.controllers.iter().position(|c| c == COMPARED), rep.controllers.iter().position(|c| c == REFERENCE))
+    let (Some(ci), Some(ri)) = (rep.controllers.iter().position(|c| c == COMPARED), rep.controllers.iter().position(|c| c == REFERENCE))
     else {
         out.push_str("Not run: the comparison needs both controllers in the report.\n");
         return out;
@@ -249,15 +248,19 @@ pub fn svg(rep: &SuiteReport) -> String {
                 let v = r.ncap.as_ref().map_or(0.0, |n| n.impact_speed_kmh);
                 (fill.to_string(), if b == Band::Green { String::new() } else { format!("{v:.1}") })
             });
-            let (fill, text) = if let Some(ft) = banded { ft } else { match r.outcome {
-                Outcome::Pass => ("#4caf50".to_string(), String::new()),
-                Outcome::Uncomfortable => ("#ffb300".to_string(), format!("{:.1}", r.metrics.max_decel)),
-                Outcome::Collision => {
-                    let f = (r.metrics.impact_speed / 15.0).clamp(0.0, 1.0);
-                    let g = (120.0 * (1.0 - f)) as u8;
-                    (format!("rgb(220,{g},{g})"), format!("{:.1}", r.metrics.impact_speed))
+            let (fill, text) = if let Some(ft) = banded {
+                ft
+            } else {
+                match r.outcome {
+                    Outcome::Pass => ("#4caf50".to_string(), String::new()),
+                    Outcome::Uncomfortable => ("#ffb300".to_string(), format!("{:.1}", r.metrics.max_decel)),
+                    Outcome::Collision => {
+                        let f = (r.metrics.impact_speed / 15.0).clamp(0.0, 1.0);
+                        let g = (120.0 * (1.0 - f)) as u8;
+                        (format!("rgb(220,{g},{g})"), format!("{:.1}", r.metrics.impact_speed))
+                    }
                 }
-            } };
+            };
             let stroke = if r.below_reference { r#" stroke="black" stroke-width="2""# } else { r#" stroke="white""# };
             let _ = writeln!(out, r#"<rect x="{x}" y="{y}" width="{cell_w}" height="{cell_h}" fill="{fill}"{stroke}/>"#);
             if !text.is_empty() {
