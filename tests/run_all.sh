@@ -78,6 +78,11 @@ echo "== Docs: every generated block equals the code's output (python -m flc doc
 echo "== Python: tests"
 "$VENV/bin/python" -m pytest -q tests/python
 
+echo "== Euro NCAP's 2026 rating calculator (installed by the test extra) on one controller's ncap-ccr-2026 runs"
+mkdir -p target/ncap
+FLC_PYTHON="$VENV/bin/python" cargo run --quiet --release --bin scenario -- suite ncap-ccr-2026 --controllers flc-robust \
+  --ncap-workbook target/ncap/flc-robust.xlsx
+
 echo "== Python: the sdist builds and installs in a fresh venv (the way users install from source)"
 # Its own target directory: the sdist's files carry old timestamps, so a shared one could hand back
 # an extension built from other sources. Fat LTO off for time (the same sources and dependencies;

@@ -23,8 +23,8 @@ import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from osc_writer import (X, activate, after, by_entity, car, condition, document, event, gap_below, lane_change, params, place,  # noqa: E402
-                        road_network, speed, story, storyboard)
+from osc_writer import (X, activate, after, by_entity, car, condition, document, event, gap_below, lane_change, lane_position,  # noqa: E402
+                        params, place, place_at, road_network, speed, story, storyboard)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "scenarios" / "suites"
@@ -212,6 +212,96 @@ def ccrb():
 
 
 # ---------------------------------------------------------------------------------------------
+# Euro NCAP 2026 Frontal Collisions, Car-to-Car Rear: the grid of the 2026 rating calculator
+# (euroncap-rating-2026, its "FC - Car & PTW pred." sheet): every VUT speed at seven impact
+# locations.
+
+NCAP26 = "Euro NCAP 2026 Crash Avoidance - Frontal Collisions (AEB Car-to-Car Rear), grid of the 2026 rating calculator"
+# Impact locations, % of the VUT's width, the calculator's columns (the outer two: its extended range).
+IMPACT_LOCATIONS = [125, 100, 75, 50, 25, 0, -25]
+# ASSUMPTION (the protocol text was not found): the impact location is where the target's
+# centreline meets the VUT's front, measured across the VUT's width from its right edge (0 %) to
+# its left edge (100 %); 50 % is centred (100 % overlap), 75 / 25 % overlap 75 % on the left /
+# right, 100 / 0 % overlap 50 %, 125 / -25 % overlap 25 %. The target's lateral offset from the
+# VUT's centreline is (ImpactLocation - 50) / 100 x VUT width (+ left); the sign is this
+# parameter (-1 puts 0 % on the left edge instead).
+IMPACT_LOCATION_SIGN = 1
+VUT_WIDTH = 1.8  # osc_writer.car
+CCRS26_SPEEDS = list(range(10, 81, 10))
+CCRM26_SPEEDS = [(v, 20) for v in range(30, 81, 10)] + [(90, 30), (100, 40), (110, 50), (120, 60), (130, 70)]
+CCRB26_SPEEDS = list(range(30, 131, 10))
+# ASSUMPTION (the 2026 protocol's CCRb headway and deceleration were not found in public text):
+# the target brakes at 4 m/s2 (reached within 1 s) from 12 m headway at every speed. Both are
+# parameters of ccrb.xosc (Headway, Decel); change them here and rewrite the suite.
+CCRB26_HEADWAY_M = 12.0
+CCRB26_DECEL = 4.0
+
+
+def gvt_offset():
+    return f"${{{IMPACT_LOCATION_SIGN} * ($ImpactLocation - 50) / 100 * {VUT_WIDTH}}}"
+
+
+def ccrs26():
+    comment = f"""flc standard suite ncap-ccr-2026 (tools/suite_cases.py), written for this project after the
+    {NCAP26}, CCRs: the VUT at TestSpeed_kmh in lane -2 toward a stationary GVT from TTC = 4 s
+    (freespace gap = 4 s x test speed), the GVT's centreline at ImpactLocation % of the VUT's
+    width (50 centred; its lateral offset (ImpactLocation - 50) / 100 x {VUT_WIDTH} m, + left: an
+    assumption, docs/standard-suites.md). The VUT's controller drives from t = 0. Stop: contact,
+    the VUT standing for 1 s, or 12 s."""
+    gvt_s = f"${{50 + {FRONT + REAR} + $TTCStart * $TestSpeed_kmh / 3.6}}"
+    return scenario_doc(
+        comment, "CCRs 2026: the VUT approaches a stationary target at an impact location from TTC 4 s",
+        [("TestSpeed_kmh", "double", "50.0"), ("ImpactLocation", "double", "50.0"), ("TTCStart", "double", str(NCAP_TTC0))],
+        ["VUT", "GVT"],
+        [place("VUT", -2, "50.0", "${$TestSpeed_kmh / 3.6}"), place_at("GVT", lane_position(-2, gvt_s, gvt_offset()), "0.0")],
+        [],
+        stops("VUT", "GVT", "12.0"),
+    )
+
+
+def ccrm26():
+    comment = f"""flc standard suite ncap-ccr-2026 (tools/suite_cases.py), written for this project after the
+    {NCAP26}, CCRm: the VUT at TestSpeed_kmh approaches a GVT driving at TargetSpeed_kmh in the
+    same lane from TTC = 4 s (freespace gap = 4 s x the speed difference), the GVT's centreline at
+    ImpactLocation % of the VUT's width (as in ccrs.xosc). The VUT's controller drives from t = 0.
+    Stop: contact or 15 s."""
+    gvt_s = f"${{50 + {FRONT + REAR} + $TTCStart * ($TestSpeed_kmh - $TargetSpeed_kmh) / 3.6}}"
+    hit = stops("VUT", "GVT", "15.0")
+    return scenario_doc(
+        comment, "CCRm 2026: the VUT approaches a slower target at an impact location from TTC 4 s",
+        [("TestSpeed_kmh", "double", "50.0"), ("TargetSpeed_kmh", "double", "20.0"), ("ImpactLocation", "double", "50.0"),
+         ("TTCStart", "double", str(NCAP_TTC0))],
+        ["VUT", "GVT"],
+        [place("VUT", -2, "50.0", "${$TestSpeed_kmh / 3.6}"),
+         place_at("GVT", lane_position(-2, gvt_s, gvt_offset()), "${$TargetSpeed_kmh / 3.6}")],
+        [],
+        [hit[0], hit[2]],
+    )
+
+
+def ccrb26():
+    comment = f"""flc standard suite ncap-ccr-2026 (tools/suite_cases.py), written for this project after the
+    {NCAP26}, CCRb: VUT and GVT both at TestSpeed_kmh in lane -2, Headway ({CCRB26_HEADWAY_M:g} m)
+    freespace apart, the GVT's centreline at ImpactLocation % of the VUT's width (as in ccrs.xosc).
+    The VUT is held at the test speed and headway by the story until the GVT brakes at BrakeTime
+    (2 s); then its controller drives. The GVT's deceleration (Decel, {CCRB26_DECEL:g} m/s2) is
+    reached within RampTime (1 s), a linear ramp (ramp_events). Headway and Decel are assumptions
+    (docs/standard-suites.md). Stop: contact, the VUT standing for 1 s, or 20 s."""
+    hand_over = event("HandOver", "HandOverAction", activate("true"), condition("AtBrake", after("$BrakeTime")))
+    return scenario_doc(
+        comment, "CCRb 2026: the target ahead brakes, the VUT's controller takes over at the brake onset",
+        [("TestSpeed_kmh", "double", "50.0"), ("ImpactLocation", "double", "50.0"), ("Headway", "double", str(CCRB26_HEADWAY_M)),
+         ("Decel", "double", str(CCRB26_DECEL)), ("BrakeTime", "double", "2.0"), ("RampTime", "double", "1.0")],
+        ["VUT", "GVT"],
+        [place("VUT", -2, "50.0", "${$TestSpeed_kmh / 3.6}", activate("false")),
+         place_at("GVT", lane_position(-2, f"${{50 + {FRONT + REAR} + $Headway}}", gvt_offset()), "${$TestSpeed_kmh / 3.6}")],
+        [maneuver_story("TargetBrake", "GVT", ramp_events("GVT", "$Decel", "$BrakeTime", "$RampTime")),
+         maneuver_story("VUTHandOver", "VUT", [hand_over])],
+        stops("VUT", "GVT", "20.0"),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
 # UN R157 (ALKS), Annex 5 test scenarios.
 
 R157 = "UN Regulation No. 157 (ALKS), Annex 5"
@@ -349,6 +439,33 @@ SUITES = {
                  criterion="ncap"),
             dict(id="CCRb", file="ccrb-runs.xosc", ego="VUT",
                  section="Test scenarios: CCRb (both 50 km/h, 12 / 40 m, target braking 2 / 6 m/s2 reached within 1 s)", criterion="ncap"),
+        ],
+    ),
+    "ncap-ccr-2026": dict(
+        title="Euro NCAP 2026 AEB Car-to-Car Rear (the rating calculator's grid)",
+        source=NCAP26,
+        files={"ccrs.xosc": ccrs26, "ccrm.xosc": ccrm26, "ccrb.xosc": ccrb26},
+        dists={
+            "ccrs-runs.xosc": ("ccrs.xosc", dict(sets=[[("TestSpeed_kmh", v), ("ImpactLocation", il)] for v in CCRS26_SPEEDS
+                                                       for il in IMPACT_LOCATIONS]),
+                               "CCRs: VUT 10-80 km/h in 10 km/h steps, impact locations 125 to -25 %"),
+            "ccrm-runs.xosc": ("ccrm.xosc", dict(sets=[[("TestSpeed_kmh", v), ("TargetSpeed_kmh", g), ("ImpactLocation", il)]
+                                                       for v, g in CCRM26_SPEEDS for il in IMPACT_LOCATIONS]),
+                               "CCRm: VUT 30-80 km/h behind a target at 20 km/h, 90/30 to 130/70 km/h, impact locations 125 to -25 %"),
+            "ccrb-runs.xosc": ("ccrb.xosc", dict(sets=[[("TestSpeed_kmh", v), ("ImpactLocation", il)] for v in CCRB26_SPEEDS
+                                                       for il in IMPACT_LOCATIONS]),
+                               "CCRb: both 30-130 km/h in 10 km/h steps, impact locations 125 to -25 %"),
+        },
+        cases=[
+            dict(id="CCRs", file="ccrs-runs.xosc", ego="VUT",
+                 section="CCRs: stationary target, VUT 10-80 km/h, impact locations 125 to -25 % (outer two: extended range)",
+                 criterion="ncap_2026"),
+            dict(id="CCRm", file="ccrm-runs.xosc", ego="VUT",
+                 section="CCRm: target 20 km/h at VUT 30-80 km/h, then 90/30 to 130/70 km/h, impact locations 125 to -25 %",
+                 criterion="ncap_2026"),
+            dict(id="CCRb", file="ccrb-runs.xosc", ego="VUT",
+                 section=f"CCRb: both 30-130 km/h, {CCRB26_HEADWAY_M:g} m headway, target braking {CCRB26_DECEL:g} m/s2 within 1 s "
+                         "(assumed), impact locations 125 to -25 %", criterion="ncap_2026"),
         ],
     ),
     "r157": dict(

@@ -98,6 +98,27 @@ def include(path: str) -> str:
     return _LINK_RE.sub(relink, text)
 
 
+@generator("ncap-calculator")
+def ncap_calculator(path: str = "docs/standard-suites/ncap-ccr-2026-calculator.json",
+                    report: str = "docs/standard-suites/ncap-ccr-2026.json") -> str:
+    """Euro NCAP's 2026 rating calculator's points per controller on the ncap-ccr-2026 grid, from
+    the committed PATH, written by ``python -m flc.ncap docs/standard-suites/ncap-ccr-2026.json
+    --all --out docs/standard-suites/ncap-ccr-2026-calculator.json`` (a minute: the calculator
+    runs once per controller). Refused when the suite's committed REPORT no longer gives the
+    cells the points were computed from (each controller's fingerprint)."""
+    from . import ncap
+
+    data = json.loads((ROOT / path).read_text(encoding="utf-8"))
+    rep = json.loads((ROOT / report).read_text(encoding="utf-8"))
+    scored = [s["controller"] for s in data["scores"]]
+    if scored != rep["controllers"]:
+        raise ValueError(f"{path}: scores {scored}, but {report} has {rep['controllers']}: rerun python -m flc.ncap ... --all")
+    for s in data["scores"]:
+        if s.get("report_fingerprint") != ncap.report_fingerprint(rep, s["controller"]):
+            raise ValueError(f"{path}: {s['controller']}'s points are stale ({report} changed): rerun python -m flc.ncap ... --all")
+    return ncap.table(data["scores"])
+
+
 # ---------------------------------------------------------------------------------------------
 # docs/paper-reproduction.md
 

@@ -71,6 +71,57 @@ fn ccrb_12_6_target_ramps_to_minus_6_within_1s_and_the_vut_holds_until_the_brake
     assert!((lost - 3.0).abs() < 0.07, "speed lost over the ramp {lost}");
 }
 
+/// The 2026 grid: every speed at the seven impact locations; the target's lateral offset is
+/// (impact location - 50 %) of the VUT's width (+ left), and the record says so.
+#[test]
+fn ncap_2026_grid_offsets_and_records() {
+    let s = suite("ncap-ccr-2026");
+    let runs = s.runs(&[ControllerKind::Idm]).expect("runs");
+    assert_eq!(runs.len(), 8 * 7 + 11 * 7 + 11 * 7, "the calculator's grid");
+    for (label, il, offset, overlap, side) in [
+        ("TestSpeed_kmh=30 ImpactLocation=125", 125.0, 1.35, 25.0, "left"),
+        ("TestSpeed_kmh=30 ImpactLocation=75", 75.0, 0.45, 75.0, "left"),
+        ("TestSpeed_kmh=30 ImpactLocation=50", 50.0, 0.0, 100.0, "centre"),
+        ("TestSpeed_kmh=30 ImpactLocation=0", 0.0, -0.9, 50.0, "right"),
+        ("TestSpeed_kmh=30 ImpactLocation=-25", -25.0, -1.35, 25.0, "right"),
+    ] {
+        let sc = case_run(&s, "CCRs", label, ControllerKind::Idm);
+        assert!((sc.lead.offset - sc.follower.start_offset - offset).abs() < 1e-9, "{label}: offset {}", sc.lead.offset);
+        let r = run(&sc).expect("run");
+        let rec = flc_sim::suite::NcapRun::of(&sc, &r.metrics, true);
+        assert!((rec.impact_location - il).abs() < 1e-6 && (rec.overlap - overlap).abs() < 1e-6 && rec.side == side, "{label}: {rec:?}");
+        assert_eq!(rec.vut_speed_kmh, 30.0);
+        assert_eq!(rec.target_speed_kmh, 0.0);
+        assert_eq!(rec.band, Some(flc_sim::suite::band(30.0, rec.impact_speed_kmh)));
+    }
+    // CCRm 130/70 from TTC 4 s; CCRb 120 km/h: 12 m headway, the target brakes at 4 m/s² from 2 s.
+    let r = run(&case_run(&s, "CCRm", "TestSpeed_kmh=130 TargetSpeed_kmh=70 ImpactLocation=50", ControllerKind::Idm)).expect("run");
+    let closing = (130.0 - 70.0) / 3.6;
+    assert!(((r.series.gap[0] + closing * 0.01) / closing - 4.0).abs() < 0.002);
+    assert!(r.series.lead_speed.iter().all(|&x| (x - 70.0 / 3.6).abs() < 1e-9));
+    let r = run(&case_run(&s, "CCRb", "TestSpeed_kmh=120 ImpactLocation=100", ControllerKind::Idm)).expect("run");
+    assert!((r.series.gap[0] - 12.0).abs() < 1e-6, "headway {}", r.series.gap[0]);
+    let min_accel = r.series.lead_accel.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!((min_accel + 4.0).abs() < 1e-9, "decel {min_accel}");
+}
+
+/// The 2026 suite's 210 runs against their twins: the same scenario, field for field, for two
+/// controllers (the runs are then the same bit for bit, as the 2023 suites' runs show).
+#[test]
+fn ncap_2026_files_equal_their_twins() {
+    let s = suite("ncap-ccr-2026");
+    let twins_dir = s.dir.join("twins");
+    let kinds = [ControllerKind::FlcRobust, ControllerKind::Idm];
+    let runs = s.runs(&kinds).expect("runs");
+    for r in &runs {
+        let stem = Scenario { controller: ControllerKind::Flc, ..r.scenario.clone() }.run_file_stem();
+        let twin = Scenario::from_file(&twins_dir.join(format!("{stem}.toml"))).expect("twin");
+        let twin = s.twin_scenario(&twin, r.scenario.controller).expect("twin scenario");
+        assert!(twin == r.scenario, "{}: the twin differs", r.run);
+    }
+    assert_eq!(std::fs::read_dir(&twins_dir).expect("twins").count() * kinds.len(), runs.len(), "one twin per run");
+}
+
 #[test]
 fn cut_in_finishes_its_lateral_move_in_the_lane_change_time() {
     let s = suite("r157");

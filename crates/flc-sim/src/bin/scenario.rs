@@ -205,6 +205,12 @@ enum Command {
         /// No list of the files written on stderr.
         #[arg(long, short)]
         quiet: bool,
+        /// `ncap-ccr-2026` with one controller (`--controllers NAME`): fill Euro NCAP's 2026
+        /// rating calculator's workbook with its runs and print the calculator's points
+        /// (`python3 -m flc.ncap`, needs `pip install 'flc[ncap]'`; `FLC_PYTHON` names another
+        /// interpreter).
+        #[arg(long, value_name = "FILE.xlsx")]
+        ncap_workbook: Option<PathBuf>,
     },
 }
 
@@ -561,6 +567,33 @@ fn sweep(file: &std::path::Path, out: Option<&std::path::Path>, quiet: bool, res
     }
 }
 
+/// Fills Euro NCAP's 2026 calculator workbook for `controller` from `rep` and prints its
+/// points: `python3 -m flc.ncap` (the Python package owns the calculator and its template).
+fn ncap_workbook(rep: &flc_sim::suite::SuiteReport, controller: &str, workbook: &std::path::Path) -> ExitCode {
+    let json = std::env::temp_dir().join(format!("flc-ncap-report-{}.json", std::process::id()));
+    if let Err(e) = std::fs::write(&json, rep.to_json()) {
+        eprintln!("error: writing {}: {e}", json.display());
+        return ExitCode::FAILURE;
+    }
+    let python = std::env::var("FLC_PYTHON").unwrap_or_else(|_| "python3".into());
+    let status = std::process::Command::new(&python)
+        .args(["-m", "flc.ncap"])
+        .arg(&json)
+        .args(["--controller", controller, "--score", "--workbook"])
+        .arg(workbook)
+        .status();
+    let _ = std::fs::remove_file(&json);
+    match status {
+        Ok(s) if s.success() => ExitCode::SUCCESS,
+        Ok(s) if s.code() == Some(2) => ExitCode::from(2),
+        Ok(s) => bad_input(format!(
+            "`--ncap-workbook` {}: `{python} -m flc.ncap` failed ({s}); it needs the flc package with the calculator: pip install 'flc[ncap]'",
+            workbook.display()
+        )),
+        Err(e) => bad_input(format!("`--ncap-workbook` {}: cannot run `{python}` ({e}); set FLC_PYTHON", workbook.display())),
+    }
+}
+
 /// A sweep output that cannot be resumed (exit 2): what is wrong and how to start over.
 fn stale(e: SimError) -> ExitCode {
     bad_input(format!("{e}; start over with `--restart` (or give another `--out`)"))
@@ -568,7 +601,14 @@ fn stale(e: SimError) -> ExitCode {
 
 /// `scenario suite NAME`: the suite's runs for the controllers, the summary on stdout, the
 /// reports into `--out`.
-fn suite(picked: Option<&[String]>, name: &str, out: Option<&std::path::Path>, root: Option<&std::path::Path>, quiet: bool) -> ExitCode {
+fn suite(
+    picked: Option<&[String]>,
+    name: &str,
+    out: Option<&std::path::Path>,
+    root: Option<&std::path::Path>,
+    quiet: bool,
+    workbook: Option<&std::path::Path>,
+) -> ExitCode {
     use flc_sim::suite::{Suite, default_root, markdown, summary_line, summary_table, svg};
     let controllers = match picked {
         None => ControllerKind::ALL.to_vec(),
@@ -591,6 +631,21 @@ fn suite(picked: Option<&[String]>, name: &str, out: Option<&std::path::Path>, r
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
+    // The workbook is one controller's, of the 2026 grid: check before running anything.
+    let ncap_controller = match workbook {
+        None => None,
+        Some(_) => {
+            let tested: Vec<&ControllerKind> = controllers.iter().filter(|k| k.as_str() != flc_sim::suite::REFERENCE).collect();
+            let banded = suites.iter().any(|s| s.spec.cases.iter().any(|c| c.criterion == flc_sim::suite::Criterion::Ncap2026));
+            if !banded {
+                return bad_input(format!("`--ncap-workbook`: suite `{name}` has no 2026 NCAP cases (use ncap-ccr-2026)"));
+            }
+            match (picked, tested.as_slice()) {
+                (Some(_), [one]) => Some(one.as_str()),
+                _ => return bad_input("`--ncap-workbook`: the workbook is one controller's: give `--controllers NAME`"),
+            }
+        }
+    };
     if let Some(dir) = out {
         if let Err(e) = std::fs::create_dir_all(dir) {
             return bad_input(format!("`--out` {}: {e}", dir.display()));
@@ -608,6 +663,15 @@ fn suite(picked: Option<&[String]>, name: &str, out: Option<&std::path::Path>, r
         }
     }
     print!("{}", summary_table(&reports));
+    if let (Some(wb), Some(c)) = (workbook, ncap_controller) {
+        let Some(rep) = reports.iter().find(|r| r.results.iter().any(|x| x.ncap.as_ref().is_some_and(|n| n.band.is_some()))) else {
+            return bad_input("`--ncap-workbook`: no 2026 NCAP runs");
+        };
+        let code = ncap_workbook(rep, c, wb);
+        if code != ExitCode::SUCCESS {
+            return code;
+        }
+    }
     if let Some(dir) = out {
         let command = |n: &str| {
             let picked = picked.map_or(String::new(), |c| format!(" --controllers {}", c.join(",")));
@@ -834,8 +898,8 @@ fn main() -> ExitCode {
             let flags = ImportFlags { xosc, controllers: controllers.as_deref(), quiet: *quiet || cli.quiet };
             return convert(&flags, file, out.as_deref());
         }
-        Some(Command::Suite { name, out, root, controllers, quiet, .. }) => {
-            return suite(controllers.as_deref(), name, out.as_deref(), root.as_deref(), *quiet || cli.quiet);
+        Some(Command::Suite { name, out, root, controllers, quiet, ncap_workbook, .. }) => {
+            return suite(controllers.as_deref(), name, out.as_deref(), root.as_deref(), *quiet || cli.quiet, ncap_workbook.as_deref());
         }
         None => {}
     }

@@ -15,7 +15,7 @@
 //! file = "ccrs-runs.xosc"          # OpenSCENARIO: a scenario or a ParameterValueDistribution
 //! ego = "VUT"
 //! section = "Test scenarios: CCRs ..."
-//! criterion = "ncap"               # or "no_collision"
+//! criterion = "ncap"               # or "ncap_2026", "no_collision"
 //! max_decel = 3.5                  # optional comfort limit, m/s²
 //! ```
 //!
@@ -24,6 +24,7 @@
 //! bit for bit. Runs are deterministic and independent of the thread count (each run is seeded
 //! by its scenario; the batch keeps input order).
 
+mod ncap;
 mod report;
 
 use std::path::{Path, PathBuf};
@@ -37,6 +38,7 @@ use crate::patch::Patch;
 use crate::runner::RunOptions;
 use crate::scenario::{ControllerKind, Scenario};
 
+pub use ncap::{Band, NcapRun, band, round_half_up};
 pub use report::{markdown, summary_line, summary_table, svg};
 
 /// The reference every controller is compared with: UN R157's careful and competent human driver.
@@ -49,6 +51,11 @@ pub enum Criterion {
     /// Euro NCAP: avoided is a pass; a collision scores the speed reduction
     /// `1 - impact speed / test speed` (partial credit).
     Ncap,
+    /// Euro NCAP 2026: each run gets its colour band (green avoided, then by the relative impact
+    /// speed, [`band`]); the points are Euro NCAP's rating calculator's (`flc.ncap`), not the
+    /// suite's.
+    #[serde(rename = "ncap_2026")]
+    Ncap2026,
     /// UN R157: no collision (and the comfort limit where the case gives one).
     NoCollision,
 }
@@ -140,6 +147,10 @@ pub struct CaseResult {
     pub below_reference: bool,
     /// The ego's speed at the start, m/s (the NCAP test speed).
     pub test_speed: f64,
+    /// NCAP runs: VUT and target speeds, impact location, overlap, side, relative impact speed
+    /// and (2026) the colour band; absent for R157 runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub ncap: Option<NcapRun>,
     /// The run's metrics (`docs/v2v-and-metrics.md`).
     pub metrics: Metrics,
 }
@@ -157,7 +168,8 @@ pub struct ControllerSummary {
     pub collisions: usize,
     /// Runs the reference passed and this controller did not.
     pub below_reference: usize,
-    /// Mean NCAP score over the NCAP runs, 0..1 (`null` without NCAP cases).
+    /// Mean NCAP score over the 2023 NCAP runs, 0..1 (`null` without them; the 2026 suite is
+    /// scored by Euro NCAP's calculator, `flc.ncap`).
     pub ncap_score: Option<f64>,
 }
 
@@ -324,6 +336,8 @@ fn score(case: &CaseSpec, r: &CaseRun, metrics: Metrics) -> CaseResult {
     } else {
         Outcome::Pass
     };
+    let ncap = matches!(case.criterion, Criterion::Ncap | Criterion::Ncap2026)
+        .then(|| NcapRun::of(&r.scenario, &metrics, case.criterion == Criterion::Ncap2026));
     let score = (case.criterion == Criterion::Ncap).then(|| match outcome {
         Outcome::Collision if test_speed > 0.0 => (1.0 - metrics.impact_speed / test_speed).clamp(0.0, 1.0),
         Outcome::Collision => 0.0,
@@ -337,6 +351,7 @@ fn score(case: &CaseSpec, r: &CaseRun, metrics: Metrics) -> CaseResult {
         score,
         below_reference: false,
         test_speed,
+        ncap,
         metrics,
     }
 }
