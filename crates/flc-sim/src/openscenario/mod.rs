@@ -660,16 +660,8 @@ fn translate(
             Placement { s: pr.s, lateral: pr.lateral_offset, heading: crate::track::wrap(p.h - pr.heading) }
         })
         .collect();
-    for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
-        if d.kind == Kind::Vehicle && p.heading.abs() > std::f64::consts::FRAC_PI_2 {
-            let at = init_states.get(i).and_then(|s| s.position).unwrap_or(entities);
-            return Err(ImportError::at(
-                file,
-                at,
-                format!("`{}` faces against the ego's road direction: oncoming traffic is not supported", d.osc_name),
-            ));
-        }
-    }
+    // A vehicle facing more than 90° away from the road's direction (an oncoming one, e.g. heading
+    // pi) drives against it: `s` decreasing (`Motion::reversed`).
     let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width)
         .ok_or_else(|| ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"))?;
     let names = entities::flc_names(&defs, ego, lead);

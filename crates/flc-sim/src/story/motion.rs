@@ -61,6 +61,9 @@ pub struct Motion {
     pub heading: f64,
     /// Distance travelled, m.
     pub traveled: f64,
+    /// Drives against the centreline's direction (`s` decreasing): an oncoming entity, one that
+    /// starts facing more than 90° away from the road's direction (`heading` near pi).
+    pub reversed: bool,
     lane_width: f64,
     /// The entity's own length (freespace placements), m.
     own_len: Option<f64>,
@@ -81,6 +84,7 @@ impl Motion {
             accel: 0.0,
             heading: 0.0,
             traveled: 0.0,
+            reversed: false,
             lane_width,
             own_len: None,
             reference: [0.0, 0.0],
@@ -99,6 +103,14 @@ impl Motion {
     /// (entity frame, m).
     pub fn with_reference(mut self, reference: [f64; 2]) -> Self {
         self.reference = reference;
+        self
+    }
+
+    /// This motion facing `heading` relative to the road (rad): beyond 90° it drives against the
+    /// centreline's direction ([`Motion::reversed`]).
+    pub fn with_heading(mut self, heading: f64) -> Self {
+        self.heading = heading;
+        self.reversed = heading.abs() > std::f64::consts::FRAC_PI_2;
         self
     }
 
@@ -263,11 +275,19 @@ impl Motion {
         }
         // Along a curve the centreline moves `1 - kappa offset` times as fast as a point at
         // `offset`: the entity covers `along` on its own path.
+        // A reversed entity runs the other way: `s` decreases, and its heading is pi less the
+        // angle of its lateral motion.
         let scale = 1.0 - curvature * self.offset;
         let ds = if scale > 0.1 { along / scale } else { along };
-        self.s += ds;
+        let lateral = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
         self.traveled += along;
-        self.heading = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
+        if self.reversed {
+            self.s -= ds;
+            self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+        } else {
+            self.s += ds;
+            self.heading = lateral;
+        }
         out
     }
 }
