@@ -32,6 +32,7 @@ const FIXTURES: &[(&str, bool)] = &[
     ("merge_in", false),
     ("lane_leave_reveal", false),
     ("oncoming", false),
+    ("long_distance_continuous", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

@@ -320,3 +320,33 @@ fn oncoming_traffic_drives_against_the_road_and_meets_the_ego_head_on() {
     assert!((10.90..=10.93).contains(t), "first step with touching boxes (esmini: 10.92 s): {t}");
     assert!((v - 25.0).abs() < 1e-6, "closing speed 50 + 40 km/h: {v}");
 }
+
+#[test]
+fn a_continuous_longitudinal_distance_is_kept_every_step_also_for_an_oncoming_pair() {
+    // long_distance_continuous.xosc: Keeper keeps 20 m of free space behind Lead (which brakes
+    // at 3 m/s² from t = 2 s), Escort 10 m ahead of Oncoming in its direction (-x), from t = 0.
+    let import = openscenario::import(&data().join("long_distance_continuous.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let run = &import.runs[0];
+    let name = |osc: &str| run.entities.iter().find(|e| e.osc_name == osc).map(|e| e.flc_name.clone()).unwrap_or_default();
+    let mut sim = Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+    let state = |sim: &Simulation, osc: &str| sim.scripted_state(&name(osc)).copied().unwrap_or_else(|| panic!("no {osc}"));
+    let mut worst = 0.0f64;
+    for k in 0..900 {
+        let (lead, keeper) = (state(&sim, "Lead"), state(&sim, "Keeper"));
+        let (onc, esc) = (state(&sim, "Oncoming"), state(&sim, "Escort"));
+        // Box centres 4.5 m long: free space = centre distance - 4.5 m. The keeper is placed from
+        // the start-of-step position and moves at the start-of-step speed: it lags by at most
+        // |dv| dt = 0.03 m/s * 0.01 s.
+        worst = worst.max((lead.x - keeper.x - 4.5 - 20.0).abs()).max((onc.x - esc.x - 4.5 - 10.0).abs());
+        assert!(esc.x < onc.x, "step {k}: Escort ahead of Oncoming in -x");
+        if k > 0 {
+            assert!((keeper.speed - lead.speed).abs() <= 0.03 + 1e-9, "step {k}: {} vs {}", keeper.speed, lead.speed);
+        }
+        assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+    }
+    assert!(worst < 1e-3, "largest deviation from the kept free space: {worst} m");
+    // Lead ends at 20 km/h, Oncoming at 10 km/h; their keepers with them.
+    let (lead, keeper, esc) = (state(&sim, "Lead"), state(&sim, "Keeper"), state(&sim, "Escort"));
+    assert!((lead.speed - 20.0 / 3.6).abs() < 1e-9 && (keeper.speed - lead.speed).abs() < 1e-9, "{lead:?} {keeper:?}");
+    assert!((esc.speed - 10.0 / 3.6).abs() < 1e-9, "{esc:?}");
+}
