@@ -31,6 +31,8 @@ const FIXTURES: &[(&str, bool)] = &[
     ("target_brakes", false),
     ("merge_in", false),
     ("lane_leave_reveal", false),
+    ("oncoming", false),
+    ("long_distance_continuous", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

@@ -282,3 +282,71 @@ fn a_test_track_lane_of_28_m_imports_with_one_warning_and_runs() {
     assert_eq!(lines.len(), 1, "{err}");
     assert!(lines[0].starts_with("warning:") && lines[0].contains("usual 2-6 m"), "{err}");
 }
+
+#[test]
+fn oncoming_traffic_drives_against_the_road_and_meets_the_ego_head_on() {
+    // oncoming.xosc: Passing (heading pi in lane 1) and HeadOn (lane 1's driving direction, -s)
+    // drive towards Ego; HeadOn changes into Ego's lane, the boxes touch at t = 10.908 s.
+    let file = data().join("oncoming.xosc");
+    let import = openscenario::import(&file, &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let s = &import.runs[0].scenario;
+    let flc_name = |osc: &str| {
+        import.runs[0].entities.iter().find(|e| e.osc_name == osc).map(|e| e.flc_name.clone()).unwrap_or_else(|| panic!("no {osc}"))
+    };
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+    let x0 = sim.scripted_state(&flc_name("HeadOn")).map(|st| st.x).unwrap_or(f64::NAN);
+    for _ in 0..700 {
+        assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+    }
+    for name in ["HeadOn", "Passing"] {
+        let st = sim.scripted_state(&flc_name(name)).copied().unwrap_or_else(|| panic!("no {name}"));
+        assert!((st.yaw.abs() - std::f64::consts::PI).abs() < 1e-3, "{name} faces -x: {}", st.yaw);
+    }
+    let x1 = sim.scripted_state(&flc_name("HeadOn")).map(|st| st.x).unwrap_or(f64::NAN);
+    // 7 s at 40 km/h in -x, less what the sinusoidal lane change (3.5 m over L = 33.3 m) costs
+    // along x: about (pi 3.5 / (2 L))² L / 4 = 0.23 m.
+    let l = 3.0 * 40.0 / 3.6;
+    let lost = (std::f64::consts::PI * 3.5 / (2.0 * l)).powi(2) * l / 4.0;
+    assert!((x0 - x1 - (7.0 * 40.0 / 3.6 - lost)).abs() < 0.02, "{x0} -> {x1} (lane change: {lost} m)");
+    let r = flc_sim::run(s).unwrap_or_else(|e| panic!("{e}"));
+    let pairs: Vec<(String, String, f64, f64)> = r
+        .contacts
+        .iter()
+        .map(|c| (c.a.name.clone().unwrap_or_default(), c.b.name.clone().unwrap_or_default(), c.time, c.relative_speed))
+        .collect();
+    assert_eq!(pairs.len(), 1, "one contact episode, Ego and HeadOn: {pairs:?}");
+    let (a, b, t, v) = &pairs[0];
+    assert!(a == "follower 1" && b == "HeadOn", "the ego (flc's follower 1) and HeadOn: {pairs:?}");
+    assert!((10.90..=10.93).contains(t), "first step with touching boxes (esmini: 10.92 s): {t}");
+    assert!((v - 25.0).abs() < 1e-6, "closing speed 50 + 40 km/h: {v}");
+}
+
+#[test]
+fn a_continuous_longitudinal_distance_is_kept_every_step_also_for_an_oncoming_pair() {
+    // long_distance_continuous.xosc: Keeper keeps 20 m of free space behind Lead (which brakes
+    // at 3 m/s² from t = 2 s), Escort 10 m ahead of Oncoming in its direction (-x), from t = 0.
+    let import = openscenario::import(&data().join("long_distance_continuous.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let run = &import.runs[0];
+    let name = |osc: &str| run.entities.iter().find(|e| e.osc_name == osc).map(|e| e.flc_name.clone()).unwrap_or_default();
+    let mut sim = Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+    let state = |sim: &Simulation, osc: &str| sim.scripted_state(&name(osc)).copied().unwrap_or_else(|| panic!("no {osc}"));
+    let mut worst = 0.0f64;
+    for k in 0..900 {
+        let (lead, keeper) = (state(&sim, "Lead"), state(&sim, "Keeper"));
+        let (onc, esc) = (state(&sim, "Oncoming"), state(&sim, "Escort"));
+        // Box centres 4.5 m long: free space = centre distance - 4.5 m. The keeper is placed from
+        // the start-of-step position and moves at the start-of-step speed: it lags by at most
+        // |dv| dt = 0.03 m/s * 0.01 s.
+        worst = worst.max((lead.x - keeper.x - 4.5 - 20.0).abs()).max((onc.x - esc.x - 4.5 - 10.0).abs());
+        assert!(esc.x < onc.x, "step {k}: Escort ahead of Oncoming in -x");
+        if k > 0 {
+            assert!((keeper.speed - lead.speed).abs() <= 0.03 + 1e-9, "step {k}: {} vs {}", keeper.speed, lead.speed);
+        }
+        assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+    }
+    assert!(worst < 1e-3, "largest deviation from the kept free space: {worst} m");
+    // Lead ends at 20 km/h, Oncoming at 10 km/h; their keepers with them.
+    let (lead, keeper, esc) = (state(&sim, "Lead"), state(&sim, "Keeper"), state(&sim, "Escort"));
+    assert!((lead.speed - 20.0 / 3.6).abs() < 1e-9 && (keeper.speed - lead.speed).abs() < 1e-9, "{lead:?} {keeper:?}");
+    assert!((esc.speed - 10.0 / 3.6).abs() < 1e-9, "{esc:?}");
+}

@@ -660,16 +660,8 @@ fn translate(
             Placement { s: pr.s, lateral: pr.lateral_offset, heading: crate::track::wrap(p.h - pr.heading) }
         })
         .collect();
-    for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
-        if d.kind == Kind::Vehicle && p.heading.abs() > std::f64::consts::FRAC_PI_2 {
-            let at = init_states.get(i).and_then(|s| s.position).unwrap_or(entities);
-            return Err(ImportError::at(
-                file,
-                at,
-                format!("`{}` faces against the ego's road direction: oncoming traffic is not supported", d.osc_name),
-            ));
-        }
-    }
+    // A vehicle facing more than 90° away from the road's direction (an oncoming one, e.g. heading
+    // pi) drives against it: `s` decreasing (`Motion::reversed`).
     let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width)
         .ok_or_else(|| ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"))?;
     let names = entities::flc_names(&defs, ego, lead);
@@ -786,6 +778,7 @@ fn translate(
     if top > 0.0 {
         set_cruise_speed(&mut s, top + crate::paper::BASELINE_SET_SPEED_MARGIN_KMH * KMH);
     }
+    place_init_distances(&mut s, &story);
     s.track = TrackSpec::Custom(track);
     s.stop.trigger = stop;
     s.story = Some(story);
@@ -808,6 +801,51 @@ fn translate(
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
 /// lead only below it (as in the paper experiment, 20 km/h above the fastest speed of the file).
+/// Init `LongitudinalDistanceAction`s by distance place their actor at t = 0, as esmini applies
+/// Init actions before its first step (a continuous one also gives it the target's speed); the
+/// action, in the act `init`, then makes the same placement in the first step. Positions are
+/// box centres along the centreline; an actor facing against the road measures ahead in -s.
+fn place_init_distances(s: &mut Scenario, story: &crate::story::Story) {
+    let Some(init) = story.acts.iter().find(|a| a.name == "init") else { return };
+    for g in &init.groups {
+        for a in g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()) {
+            let Action::LongitudinalDistance { of, distance: Some(d), freespace, ahead, continuous, .. } = &a.action else { continue };
+            let Some((ts, tlen, tv, _)) = entity_slot(s, of) else { continue };
+            for actor in &g.actors {
+                let Some((_, len, _, heading)) = entity_slot(s, actor) else { continue };
+                let dir = if heading.abs() > std::f64::consts::FRAC_PI_2 { -1.0 } else { 1.0 };
+                let gap = d + if *freespace { 0.5 * (tlen + len) } else { 0.0 };
+                let centre = if *ahead { ts + dir * gap } else { ts - dir * gap };
+                set_slot(s, actor, centre, continuous.then_some(tv));
+            }
+        }
+    }
+}
+
+/// `(centre s, length, initial speed, heading)` of an entity by flc name.
+fn entity_slot(s: &Scenario, name: &str) -> Option<(f64, f64, f64, f64)> {
+    match name {
+        "ego" => Some((s.follower.start_s?, s.follower.vehicle.length, s.follower.initial_speed, s.follower.start_heading)),
+        "lead" => Some((s.lead.s?, s.lead.vehicle.length, s.lead.initial_speed, s.lead.heading)),
+        _ => s.vehicles.iter().find(|v| v.name == name).map(|v| (v.s, v.vehicle.length, v.initial_speed, v.heading)),
+    }
+}
+
+fn set_slot(s: &mut Scenario, name: &str, centre: f64, speed: Option<f64>) {
+    let (slot, v0) = match name {
+        "ego" => (s.follower.start_s.get_or_insert(centre), &mut s.follower.initial_speed),
+        "lead" => (s.lead.s.get_or_insert(centre), &mut s.lead.initial_speed),
+        _ => match s.vehicles.iter_mut().find(|x| x.name == name) {
+            Some(x) => (&mut x.s, &mut x.initial_speed),
+            None => return,
+        },
+    };
+    *slot = centre;
+    if let Some(v) = speed {
+        *v0 = v;
+    }
+}
+
 fn set_cruise_speed(s: &mut Scenario, v: f64) {
     let mut sec = s.sections();
     for k in ControllerKind::ALL {
@@ -1252,16 +1290,12 @@ mod tests {
         let want = format!("{}:{}: <RoutingAction>:", p.display(), line_of(&text, "<RoutingAction>"));
         assert!(e.to_string().starts_with(&want), "{e} vs {want}");
         assert!(e.to_string().contains("unsupported"), "{e}");
-        // A teleport outside Init, a continuous distance action, an EndOfRoadCondition, a
-        // DynamicConstraints: errors too.
+        // A teleport outside Init, an EndOfRoadCondition, a DynamicConstraints: errors too (a
+        // continuous distance action is supported: tests/data/openscenario/long_distance_continuous.xosc).
         let cases = [
             (
                 "<Action name=\"X\"><PrivateAction><TeleportAction><Position><WorldPosition x=\"1\" y=\"2\"/></Position></TeleportAction></PrivateAction></Action>",
                 "TeleportAction",
-            ),
-            (
-                "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"true\"/></LongitudinalAction></PrivateAction></Action>",
-                "LongitudinalDistanceAction",
             ),
             (
                 "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"5\" freespace=\"true\" continuous=\"false\"><DynamicConstraints maxSpeed=\"3\"/></LongitudinalDistanceAction></LongitudinalAction></PrivateAction></Action>",

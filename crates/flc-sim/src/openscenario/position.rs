@@ -198,7 +198,14 @@ pub fn resolve(
             let (s0, t0) = geo.road.to_local(r.x, r.y);
             let s = s0 + req("ds")?;
             geo.check_s(file, p, s)?;
-            Ok(on_road(s, t0 + req("dt")?, None))
+            let t = t0 + req("dt")?;
+            // A relative Orientation turns from the reference line's direction (esmini: `h = pi`
+            // in a left-hand lane of a right-hand road faces -s, as in lane -1), not the lane's.
+            let own = match orientation {
+                Some((false, h)) => Some(geo.road.world(s, t).2 + h),
+                _ => None,
+            };
+            Ok(on_road(s, t, own))
         }
         "RelativeLanePosition" => {
             let r = reference(p)?;

@@ -777,9 +777,7 @@ impl Sb<'_, '_, '_> {
         }
         let of = self.entity(file, node, "entityRef")?;
         let p = &self.ctx.params;
-        if p.bool_attr(node, "continuous", file)? == Some(true) {
-            return Err(ImportError::at(file, node, "continuous=\"true\" is not supported (only a distance reached once)"));
-        }
+        let continuous = p.bool_attr(node, "continuous", file)?.unwrap_or(false);
         let distance = p.num_attr(node, "distance", file)?;
         let time_gap = p.num_attr(node, "timeGap", file)?;
         let freespace = p.req_bool(node, "freespace", file)?;
@@ -793,7 +791,7 @@ impl Sb<'_, '_, '_> {
         if distance.is_some() == time_gap.is_some() {
             return Err(ImportError::at(file, node, "give `distance` or `timeGap`"));
         }
-        Ok(Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead })
+        Ok(Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous })
     }
 
     /// `coordinateSystem`: entity, road or lane (measured along the track either way); `warn`:

@@ -37,9 +37,10 @@ pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
     let (c, s) = (st.yaw.cos(), st.yaw.sin());
     let [rx, ry] = b.reference;
     let p = track.project(st.x - c * rx + s * ry, st.y - s * rx - c * ry);
-    let mut m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width).with_length(b.length).with_reference(b.reference);
-    m.heading = crate::track::wrap(st.yaw - p.heading);
-    m
+    Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
+        .with_length(b.length)
+        .with_reference(b.reference)
+        .with_heading(crate::track::wrap(st.yaw - p.heading))
 }
 
 /// The pose a motion puts its vehicle's box centre in.
@@ -146,7 +147,10 @@ impl StoryRun {
 
     /// `true` when slot `j` moves kinematically (its pose is set from its motion).
     pub(super) fn kinematic(&self, j: usize) -> bool {
-        self.dynamics == Dynamics::Kinematic && (j != self.ego() || self.ego_scripted)
+        // An oncoming entity moves kinematically in either dynamics (the traffic driver tracks
+        // the road's direction only).
+        let reversed = j != self.ego() && self.motions.get(j).is_some_and(|m| m.reversed);
+        (self.dynamics == Dynamics::Kinematic || reversed) && (j != self.ego() || self.ego_scripted)
     }
 
     /// `dynamics = "vehicle"`: the acceleration demand (with the resistance feed-forward) and

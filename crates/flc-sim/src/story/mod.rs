@@ -220,9 +220,12 @@ pub enum Action {
         /// `maxLateralAcc`, m/s² (sets the duration: `sqrt(k |change| / a)` with `k` of the shape).
         max_lateral_acc: f64,
     },
-    /// `LongitudinalDistanceAction` (non-continuous): puts the actor at `distance` (m) or
-    /// `time_gap` (s, times the actor's speed) behind (`ahead = false`) or ahead of entity `of`,
-    /// between bounding boxes with `freespace`, between centres without.
+    /// `LongitudinalDistanceAction`: puts the actor at `distance` (m) or `time_gap` (s, times
+    /// the actor's speed) behind (`ahead = false`) or ahead of entity `of` in the actor's driving
+    /// direction, between bounding boxes with `freespace`, between centres without. `continuous`
+    /// (esmini without `DynamicConstraints`): every step it is put there again from `of`'s
+    /// position at the start of the step, takes `of`'s speed and moves on with it (a time gap
+    /// then times `of`'s speed); the action never ends by itself.
     LongitudinalDistance {
         /// Reference entity.
         of: String,
@@ -237,6 +240,9 @@ pub enum Action {
         /// The actor ahead of `of` (`true`) or behind it (`false`, default).
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         ahead: bool,
+        /// Kept every step (`true`), or reached once (default).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        continuous: bool,
     },
     /// `VariableSetAction`.
     VariableSet {

@@ -16,6 +16,18 @@ struct Long {
     t0: f64,
     /// Relative target tracked after the transition: `(entity, delta, factor)`.
     track: Option<(String, f64, f64)>,
+    /// A continuous longitudinal distance kept to another entity.
+    keep: Option<Keep>,
+}
+
+/// A continuous `LongitudinalDistanceAction`.
+#[derive(Debug, Clone, PartialEq)]
+struct Keep {
+    of: String,
+    distance: Option<f64>,
+    time_gap: Option<f64>,
+    freespace: bool,
+    ahead: bool,
 }
 
 /// A running lateral action.
@@ -61,6 +73,9 @@ pub struct Motion {
     pub heading: f64,
     /// Distance travelled, m.
     pub traveled: f64,
+    /// Drives against the centreline's direction (`s` decreasing): an oncoming entity, one that
+    /// starts facing more than 90° away from the road's direction (`heading` near pi).
+    pub reversed: bool,
     lane_width: f64,
     /// The entity's own length (freespace placements), m.
     own_len: Option<f64>,
@@ -81,6 +96,7 @@ impl Motion {
             accel: 0.0,
             heading: 0.0,
             traveled: 0.0,
+            reversed: false,
             lane_width,
             own_len: None,
             reference: [0.0, 0.0],
@@ -99,6 +115,14 @@ impl Motion {
     /// (entity frame, m).
     pub fn with_reference(mut self, reference: [f64; 2]) -> Self {
         self.reference = reference;
+        self
+    }
+
+    /// This motion facing `heading` relative to the road (rad): beyond 90° it drives against the
+    /// centreline's direction ([`Motion::reversed`]).
+    pub fn with_heading(mut self, heading: f64) -> Self {
+        self.heading = heading;
+        self.reversed = heading.abs() > std::f64::consts::FRAC_PI_2;
         self
     }
 
@@ -148,7 +172,8 @@ impl Motion {
                     (None, None) => (self.speed, None),
                 };
                 let duration = speed_duration(transition, self.speed, target);
-                self.long = Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track });
+                self.long =
+                    Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track, keep: None });
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
@@ -184,22 +209,48 @@ impl Motion {
                 self.start_lateral(i, to, &tr, false, t);
                 (replaced, false)
             }
-            Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead } => {
+            Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
+                let keep = Keep { of: of.clone(), distance: *distance, time_gap: *time_gap, freespace: *freespace, ahead: *ahead };
                 if let Some(r) = world.entity(of) {
-                    // Distances between box centres (reference points are taken to sit alike in
-                    // both entities), between boxes with `freespace`.
-                    let mut d = distance.unwrap_or_else(|| time_gap.unwrap_or(0.0) * self.speed);
-                    if *freespace {
-                        d += 0.5 * r.length + 0.5 * self.own_len.unwrap_or(r.length);
+                    // A reached-once time gap is the actor's own speed times the gap (as before);
+                    // a kept one `of`'s (esmini).
+                    let v = if *continuous { r.speed } else { self.speed };
+                    self.keep_at(&keep, &r, v);
+                    if *continuous {
+                        self.speed = r.speed;
                     }
-                    let centre = if *ahead { r.s + d } else { r.s - d };
-                    self.s = centre - self.reference[0];
+                }
+                if *continuous {
+                    self.long = Some(Long {
+                        action: i,
+                        v0: self.speed,
+                        v1: self.speed,
+                        shape: Shape::Step,
+                        duration: 0.0,
+                        t0: t,
+                        track: None,
+                        keep: Some(keep),
+                    });
+                    return (replaced, false);
                 }
                 (replaced, true)
             }
             _ => (None, true),
         }
+    }
+
+    /// Puts the reference point where `k` wants it from `r` (distances between box centres,
+    /// reference points taken to sit alike in both entities; between boxes with `freespace`),
+    /// along the actor's driving direction; a time gap is taken times `v`.
+    fn keep_at(&mut self, k: &Keep, r: &crate::trigger::EntityState, v: f64) {
+        let mut d = k.distance.unwrap_or_else(|| k.time_gap.unwrap_or(0.0) * v);
+        if k.freespace {
+            d += 0.5 * r.length + 0.5 * self.own_len.unwrap_or(r.length);
+        }
+        let dir = if self.reversed { -1.0 } else { 1.0 };
+        let centre = if k.ahead { r.s + dir * d } else { r.s - dir * d };
+        self.s = centre - dir * self.reference[0];
     }
 
     fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool, t0: f64) {
@@ -217,7 +268,14 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
-        if let Some(l) = &self.long {
+        if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
+            // A kept distance: placed from `of` at the start of the step, at its speed, then
+            // moved on with that speed (esmini's order).
+            if let Some(r) = world.entity(&k.of) {
+                self.keep_at(&k, &r, r.speed);
+                self.speed = r.speed.max(0.0);
+            }
+        } else if let Some(l) = &self.long {
             let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
             let mut v = l.v0 + (l.v1 - l.v0) * l.shape.at(p);
             if p >= 1.0 - 1e-12 {
@@ -263,11 +321,19 @@ impl Motion {
         }
         // Along a curve the centreline moves `1 - kappa offset` times as fast as a point at
         // `offset`: the entity covers `along` on its own path.
+        // A reversed entity runs the other way: `s` decreases, and its heading is pi less the
+        // angle of its lateral motion.
         let scale = 1.0 - curvature * self.offset;
         let ds = if scale > 0.1 { along / scale } else { along };
-        self.s += ds;
+        let lateral = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
         self.traveled += along;
-        self.heading = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
+        if self.reversed {
+            self.s -= ds;
+            self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+        } else {
+            self.s += ds;
+            self.heading = lateral;
+        }
         out
     }
 }
