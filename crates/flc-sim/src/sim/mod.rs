@@ -254,15 +254,16 @@ impl Simulation {
         let any = s.stop.trigger.is_some()
             || s.lead.phases.iter().chain(s.vehicles.iter().flat_map(|v| v.phases.iter())).any(|p| p.start.is_some());
         let story = s.story.as_ref().map(|story| {
-            let body = |name: &str, state: VehicleState, length: f64| self::story::Body {
+            let body = |name: &str, state: VehicleState, p: &crate::vehicle::VehicleParams| self::story::Body {
                 state,
-                length,
+                length: p.length,
                 reference: story.references.get(name).copied().unwrap_or_default(),
+                pedestrian: p.body == crate::vehicle::BodyKind::Pedestrian,
             };
-            let mut initial = vec![body("lead", lead_state, ll.length)];
-            initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), t.params.length)));
+            let mut initial = vec![body("lead", lead_state, ll)];
+            initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), &t.params)));
             if let Some(f) = followers.first() {
-                initial.push(body(crate::scenario::EGO, *f.vehicle.state(), f.cfg.follower.vehicle.length));
+                initial.push(body(crate::scenario::EGO, *f.vehicle.state(), &f.cfg.follower.vehicle));
             }
             StoryRun::new(story, &track, &initial)
         });
@@ -878,6 +879,7 @@ impl<O: Observer> Simulation<O> {
             state: st.followers.first().map(|f| *f.vehicle.state()).unwrap_or_default(),
             length: st.followers.first().map_or(0.0, |f| f.cfg.follower.vehicle.length),
             reference: story.references.get(crate::scenario::EGO).copied().unwrap_or_default(),
+            pedestrian: false,
         };
         {
             let truth = truth!(st);

@@ -111,6 +111,16 @@ impl Shape {
         }
     }
 
+    /// The largest `df/dp` over [0, 1] (0 for a step): 1 linear, 1.5 cubic, pi/2 sinusoidal.
+    pub fn peak_slope(self) -> f64 {
+        match self {
+            Shape::Step => 0.0,
+            Shape::Linear => 1.0,
+            Shape::Cubic => 1.5,
+            Shape::Sinusoidal => 0.5 * std::f64::consts::PI,
+        }
+    }
+
     /// `df/dp` at `p` (0 outside [0, 1]).
     pub fn slope(self, p: f64) -> f64 {
         if !(0.0..=1.0).contains(&p) {
@@ -131,8 +141,10 @@ impl Shape {
 pub enum Dimension {
     /// `time`: the duration, s.
     Time,
-    /// `rate`: the mean rate of change (m/s² for speed, m/s for lateral), the duration is
-    /// `|change| / rate`.
+    /// `rate`: for a speed change the rate of change, m/s² (the duration is `|change| / rate`);
+    /// for a lane change the peak lateral speed, m/s, as esmini reads it (the duration is
+    /// `k |change| / rate` with `k` = 1 linear, 1.5 cubic, pi/2 sinusoidal: the shape's
+    /// peak slope [`Shape::peak_slope`]).
     Rate,
     /// `distance`: the distance travelled during the transition, m.
     Distance,
@@ -189,7 +201,8 @@ pub enum Action {
     /// `LaneChangeAction`: to the lateral offset `offset` (absolute target lane: the lane centre,
     /// m from the centreline), or `lanes` lanes left (+) of the current lane of entity `of`
     /// (`RelativeTargetLane`, lanes of the track's `lane_width`), plus `lane_offset`
-    /// (`targetLaneOffset`, m). `dimension` is `time` or `distance`.
+    /// (`targetLaneOffset`, m). `dimension` is `time`, `distance` or `rate` (peak lateral
+    /// speed, m/s).
     LaneChange {
         /// Absolute target offset, m.
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -302,9 +315,6 @@ impl Action {
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
                 transition.validate()?;
-                if transition.dimension == Dimension::Rate {
-                    return Err(ConfigError::new("dimension", "a lane change is given by `time` or `distance`"));
-                }
                 check_range("lane_offset", *lane_offset, -50.0, 50.0, "m")?;
                 match (offset, of, lanes) {
                     (Some(o), None, None) => check_range("offset", *o, -100.0, 100.0, "m"),

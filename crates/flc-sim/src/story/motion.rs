@@ -205,7 +205,9 @@ impl Motion {
     fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool, t0: f64) {
         let (by_distance, extent) = match tr.dimension {
             Dimension::Distance => (true, tr.value),
-            _ => (false, tr.value),
+            // The peak lateral speed (esmini): the duration whose peak slope is `value`.
+            Dimension::Rate => (false, tr.shape.peak_slope() * (to - self.offset).abs() / tr.value),
+            Dimension::Time => (false, tr.value),
         };
         self.lat =
             Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
