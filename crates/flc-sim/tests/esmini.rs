@@ -31,6 +31,8 @@ const FIXTURES: &[(&str, bool)] = &[
     ("target_brakes", false),
     ("merge_in", false),
     ("lane_leave_reveal", false),
+    ("lane_change_rate", false),
+    ("pedestrians", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

@@ -769,6 +769,12 @@ fn translate(
     // The controller and its set speed.
     let kind = opts.controller.or(init_controller).or(ed.controller).unwrap_or_default();
     s.set_controller(kind);
+    if s.v2v.enabled && s.lead.vehicle.body == crate::vehicle::BodyKind::Pedestrian {
+        // A pedestrian sends no V2V: the follower has its LiDAR only.
+        s.v2v.enabled = false;
+        let lead_name = defs.get(lead).map(|d| d.osc_name.as_str()).unwrap_or_default();
+        ctx.warn.line("pedestrian-v2v", format!("{file}: the lead `{lead_name}` is a Pedestrian: it sends no V2V (v2v.enabled = false)"));
+    }
     let mut top = (0..defs.len()).map(speed_of).fold(0.0_f64, f64::max);
     for a in &story.acts {
         for g in &a.groups {

@@ -728,7 +728,17 @@ impl Sb<'_, '_, '_> {
             )?;
             value = value.abs();
         }
-        if shape != Shape::Step && value <= 0.0 {
+        if shape != Shape::Step && value == 0.0 && dimension == Dimension::Rate && dyn_tag == "SpeedActionDynamics" {
+            // esmini: a speed rate of 0 never moves the speed off its start value; the action
+            // ends at once if that is the target, else never (ALKS 4_4_x templates' default).
+            self.ctx.esmini_extension(
+                "SpeedActionDynamics@rate=0",
+                file,
+                d,
+                "a speed change at rate 0",
+                "the speed stays at its start value (the action ends only if that is the target)",
+            )?;
+        } else if shape != Shape::Step && value <= 0.0 {
             return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
         }
         let mut it = xml::elements(t);

@@ -769,7 +769,14 @@ impl<O: Observer> Simulation<O> {
         st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
         st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
-        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
+        let pedestrians = pedestrian_flags(st);
+        let bodies = contacts::Bodies {
+            vehicles: &st.bodies,
+            followers: st.followers.len(),
+            traffic: &names,
+            pedestrians: &pedestrians,
+            track: &st.track,
+        };
         for (i, f) in st.followers.iter_mut().enumerate() {
             if f.collision.is_none() {
                 f.collision = contacts::first_collision(contacts, &bodies, i + 1, st.t);
@@ -795,7 +802,14 @@ impl<O: Observer> Simulation<O> {
         st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
         st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
-        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
+        let pedestrians = pedestrian_flags(st);
+        let bodies = contacts::Bodies {
+            vehicles: &st.bodies,
+            followers: st.followers.len(),
+            traffic: &names,
+            pedestrians: &pedestrians,
+            track: &st.track,
+        };
         let now = contacts::pair_contacts(contacts, &bodies, st.t);
         let mut touching = Vec::with_capacity(now.len());
         for c in now {
@@ -992,6 +1006,16 @@ fn assemble(
     });
     let first = runs.swap_remove(0);
     RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts, contacts, end }
+}
+
+/// Which bodies are pedestrians, in the order of `State::bodies` (the lead, the followers, the
+/// traffic).
+fn pedestrian_flags(st: &State) -> Vec<bool> {
+    let ped = |p: &crate::vehicle::VehicleParams| p.body == crate::vehicle::BodyKind::Pedestrian;
+    std::iter::once(ped(&st.scenario.lead.vehicle))
+        .chain(st.followers.iter().map(|_| false))
+        .chain(st.traffic.iter().map(|t| ped(&t.params)))
+        .collect()
 }
 
 /// The true CAM / BSM kinematics of a V2V sender: its reference point is the centre of the front

@@ -167,6 +167,18 @@ impl Transition {
         if self.shape == Shape::Step {
             return check_range("value", self.value, 0.0, 1.0e6, "");
         }
+        self.validate_moving()
+    }
+
+    /// A speed change may have a rate of 0 (as esmini: the speed stays at its start value).
+    fn validate_speed(&self) -> Result<(), ConfigError> {
+        if self.shape == Shape::Step || self.dimension == Dimension::Rate {
+            return check_range("value", self.value, 0.0, 1.0e6, "");
+        }
+        self.validate_moving()
+    }
+
+    fn validate_moving(&self) -> Result<(), ConfigError> {
         check_range("value", self.value, 1.0e-6, 1.0e6, "(s, rate or m: positive)")
     }
 }
@@ -305,7 +317,7 @@ impl Action {
     fn validate(&self) -> Result<(), ConfigError> {
         match self {
             Action::Speed { speed, of, delta, factor, transition, .. } => {
-                transition.validate()?;
+                transition.validate_speed()?;
                 match (speed, of, delta, factor) {
                     (Some(v), None, None, None) => check_range("speed", *v, 0.0, 100.0, "m/s"),
                     (None, Some(_), Some(d), None) => check_range("delta", *d, -100.0, 100.0, "m/s"),

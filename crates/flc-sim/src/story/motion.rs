@@ -275,7 +275,7 @@ impl Motion {
 }
 
 /// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
-/// rate`, `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
+/// rate` (infinite for a rate of 0 and a change), `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
 /// (every shape is symmetric); 0 for a step.
 fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
     if tr.shape == Shape::Step {
@@ -283,6 +283,14 @@ fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
     }
     match tr.dimension {
         Dimension::Time => tr.value,
+        // A rate of 0 (esmini): the speed never leaves `v0` (done at once if that is `v1`).
+        Dimension::Rate if tr.value == 0.0 => {
+            if v1 == v0 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
+        }
         Dimension::Rate => (v1 - v0).abs() / tr.value,
         Dimension::Distance => {
             let mean = 0.5 * (v0 + v1);
