@@ -599,13 +599,23 @@ impl Scenario {
     }
 
     /// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
-    /// `[A-Za-z0-9._-]` replaced by `_`.
+    /// `[A-Za-z0-9._-]` replaced by `_`; longer than 160 bytes, its first 143 bytes, `-` and a
+    /// 16-digit hash of the whole.
     pub fn run_file_stem(&self) -> String {
+        /// Longest stem, bytes (room for the longest suffix, `-trajectory.csv`, ... in 255).
+        const MAX_STEM: usize = 160;
         let raw = match &self.variant {
             Some(v) => format!("{}-{v}-{}", self.name, self.controller.as_str()),
             None => format!("{}-{}", self.name, self.controller.as_str()),
         };
-        raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
+        let stem: String = raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect();
+        if stem.len() <= MAX_STEM {
+            return stem;
+        }
+        // A file name has at most 255 bytes: a long stem (a distribution's many parameters) is
+        // cut and told apart from other cut stems by the FNV-1a hash of the whole.
+        let hash = stem.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+        format!("{}-{hash:016x}", &stem[..MAX_STEM - 17])
     }
 
     /// Parses TOML text. Errors name the dotted key (`lidar.rate_hz`) and the problem; `origin`

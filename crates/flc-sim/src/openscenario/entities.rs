@@ -136,6 +136,9 @@ impl Ctx<'_, '_> {
         }
         let cx = self.params.req_num(center, "x", file)?;
         let cy = self.params.req_num(center, "y", file)?;
+        // Not used in 2-D, but numbers (NaN and infinities are errors).
+        self.params.req_num(center, "z", file)?;
+        self.params.req_num(dims, "height", file)?;
         let length = self.params.req_num(dims, "length", file)?;
         let width = self.params.req_num(dims, "width", file)?;
         if pedestrian {
@@ -202,6 +205,15 @@ impl Ctx<'_, '_> {
                 "ParameterDeclarations" | "BoundingBox" => {}
                 "Performance" => self.performance(file, c, &mut v)?,
                 "Axles" => {
+                    // Every axle's numbers are checked (finite), though only positionX is used.
+                    for axle in xml::elements(c) {
+                        if !matches!(axle.tag_name().name(), "FrontAxle" | "RearAxle" | "AdditionalAxle") {
+                            return Err(ImportError::unsupported(file, axle));
+                        }
+                        for a in ["maxSteering", "wheelDiameter", "trackWidth", "positionX", "positionZ"] {
+                            self.params.req_num(axle, a, file)?;
+                        }
+                    }
                     let x = |name: &str| -> Result<Option<f64>, ImportError> {
                         match xml::child(c, name) {
                             Some(a) => self.params.num_attr(a, "positionX", file),

@@ -326,6 +326,7 @@ impl Source {
         let mut warn = Warnings::default();
         for c in xml::elements(doc.root_element()) {
             if c.tag_name().name() == "FileHeader" {
+                file_header(&origin, c)?;
                 warn.skip(&origin, c, "metadata");
             }
         }
@@ -492,7 +493,10 @@ fn import_doc(
     let (mut vars, mut locations, mut network, mut entities, mut board) = (None, None, None, None, None);
     for c in xml::elements(root) {
         match c.tag_name().name() {
-            "FileHeader" => warn.skip(file, c, "metadata"),
+            "FileHeader" => {
+                file_header(file, c)?;
+                warn.skip(file, c, "metadata");
+            }
             "ParameterDeclarations" => {}
             "VariableDeclarations" => vars = Some(c),
             "CatalogLocations" => locations = Some(c),
@@ -810,6 +814,24 @@ fn translate(
         .collect();
     // `import_doc` fills `typed_params` from the values it was given.
     Ok(Imported { scenario: s, params: opts.params.clone(), typed_params: Vec::new(), entities: infos })
+}
+
+/// `FileHeader`: metadata, but `revMajor` and `revMinor` (required) must be whole numbers in
+/// [0, 65535] (`unsignedShort`: NaN, infinities and text are errors). A parameter reference is
+/// left alone (a header is read before the parameters).
+fn file_header(file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
+    for a in ["revMajor", "revMinor"] {
+        let raw = node.attribute(a).ok_or_else(|| ImportError::at(file, node, format!("missing attribute `{a}`")))?;
+        if raw.trim().starts_with('$') {
+            continue;
+        }
+        if raw.trim().parse::<u16>().is_err() {
+            let mut e = ImportError::at(file, node, format!("`{raw}` is not an unsignedShort (a whole number in 0-65535)"));
+            e.element = format!("{}@{a}", e.element);
+            return Err(e);
+        }
+    }
+    Ok(())
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
