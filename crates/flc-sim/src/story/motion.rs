@@ -219,6 +219,7 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
+        let long_action = self.long.as_ref().map(|l| l.action);
         if let Some(l) = &self.long {
             let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
             let mut v = l.v0 + (l.v1 - l.v0) * l.shape.at(p);
@@ -239,8 +240,16 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        let step_len = self.speed * dt;
+        let mut step_len = self.speed * dt;
         let offset_prev = self.offset;
+        if let Some(l) = &self.lat {
+            // esmini steps actions in storyboard order and a lane change moves the entity: a
+            // lane change before the speed action in that order moves it at the speed of the
+            // step before (the speed action sets the new one after it).
+            if l.along_heading && long_action.is_some_and(|a| l.action < a) {
+                step_len = v_prev * dt;
+            }
+        }
         let mut along = step_len;
         if let Some(l) = &self.lat {
             let p = if l.extent <= 0.0 || l.shape == Shape::Step {
