@@ -324,11 +324,9 @@ fn lane_changes_by_rate_last_the_shapes_peak_slope_times_the_change_over_the_rat
     let tr = transitions(&imp.runs[0].scenario);
     // Peak lateral speed `rate` (esmini): sinusoidal pi/2 * 3.5 / 1.0, cubic 1.5 * 3.5 / 1.2,
     // linear 3.5 / 0.7.
-    for (action, expected) in [
-        ("ALaneChange", std::f64::consts::FRAC_PI_2 * 3.5 / 1.0),
-        ("BLaneChange", 1.5 * 3.5 / 1.2),
-        ("CLaneChange", 3.5 / 0.7),
-    ] {
+    for (action, expected) in
+        [("ALaneChange", std::f64::consts::FRAC_PI_2 * 3.5 / 1.0), ("BLaneChange", 1.5 * 3.5 / 1.2), ("CLaneChange", 3.5 / 0.7)]
+    {
         let (t0, t1) = (when(&tr, action, ElementEvent::StartTransition), when(&tr, action, ElementEvent::EndTransition));
         assert!((t1 - t0 - expected).abs() <= 0.011, "{action}: {t0} -> {t1}, expected {expected}");
     }

@@ -96,28 +96,24 @@ impl Ctx<'_, '_> {
     /// A `Vehicle`, `Pedestrian`, `MiscObject` or `CatalogReference` to one.
     fn entity_object(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
         match node.tag_name().name() {
-            "CatalogReference" => self.catalog_entry(
-                file,
-                node,
-                &["VehicleCatalog", "PedestrianCatalog", "MiscObjectCatalog"],
-                |ctx, efile, entry| match entry.tag_name().name() {
-                    "Vehicle" => ctx.vehicle(efile, entry),
-                    "Pedestrian" => ctx.pedestrian(efile, entry),
-                    "MiscObject" => ctx.misc_object(efile, entry),
-                    _ => Err(ImportError::unsupported(efile, entry)),
-                },
-            ),
+            "CatalogReference" => {
+                self.catalog_entry(file, node, &["VehicleCatalog", "PedestrianCatalog", "MiscObjectCatalog"], |ctx, efile, entry| {
+                    match entry.tag_name().name() {
+                        "Vehicle" => ctx.vehicle(efile, entry),
+                        "Pedestrian" => ctx.pedestrian(efile, entry),
+                        "MiscObject" => ctx.misc_object(efile, entry),
+                        _ => Err(ImportError::unsupported(efile, entry)),
+                    }
+                })
+            }
             name => {
                 // Inline objects may declare their own parameters.
                 self.params.push_scope();
-                let r = self
-                    .params
-                    .declare_in(node, file, &Default::default())
-                    .and_then(|()| match name {
-                        "Vehicle" => self.vehicle(file, node),
-                        "Pedestrian" => self.pedestrian(file, node),
-                        _ => self.misc_object(file, node),
-                    });
+                let r = self.params.declare_in(node, file, &Default::default()).and_then(|()| match name {
+                    "Vehicle" => self.vehicle(file, node),
+                    "Pedestrian" => self.pedestrian(file, node),
+                    _ => self.misc_object(file, node),
+                });
                 self.params.pop_scope();
                 r
             }
