@@ -215,6 +215,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         ("selfref.xosc", target_brakes_with(r#"name="Gap" parameterType="double" value="12.0""#, r#"name="Gap" parameterType="double" value="${$Gap + 1}""#), "Gap"),
         ("unknownparam.xosc", target_brakes_with(r#"value="$Decel""#, r#"value="$Nope""#), "Nope"),
         ("million.xosc", format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"{}\"/><Deterministic>{}</Deterministic></ParameterValueDistribution></OpenSCENARIO>", data().join("target_brakes.xosc").display(), ["Gap", "Decel", "BrakeTime"].map(|p| format!("<DeterministicSingleParameterDistribution parameterName=\"{p}\"><DistributionRange stepWidth=\"0.001\"><Range lowerLimit=\"1\" upperLimit=\"100\"/></DistributionRange></DeterministicSingleParameterDistribution>")).join("")), "combinations"),
+        // Non-finite numbers in attributes flc does not use for motion (issue 45 item 14).
+        ("wheelnan.xosc", target_brakes_with(r#"wheelDiameter="0.6""#, r#"wheelDiameter="NaN""#), "wheelDiameter"),
+        ("trackinf.xosc", target_brakes_with(r#"trackWidth="1.6""#, r#"trackWidth="inf""#), "trackWidth"),
+        ("centerz.xosc", target_brakes_with(r#"z="0.75""#, r#"z="Infinity""#), "<Center@z>"),
+        ("revmajor.xosc", target_brakes_with(r#"revMajor="1""#, r#"revMajor="1e999""#), "revMajor"),
         ("noroad.xosc", target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
     ];
     for (name, text, needle) in &cases {
