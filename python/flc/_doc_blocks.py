@@ -49,7 +49,7 @@ def outcome(r: RunResult) -> str:
     m = r.metrics
     if m["collision"]:
         hit = (r.collision or {}).get("object") or {}
-        if hit.get("kind") == "vehicle":
+        if hit.get("kind") in ("vehicle", "pedestrian"):
             label = "" if hit.get("name") == "lead" else f", {hit.get('name')}"
         else:
             label = f", {hit.get('kind')} #{hit.get('index')}" if hit else ""

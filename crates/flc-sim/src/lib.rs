@@ -82,4 +82,4 @@ pub use sim::{
 pub use track::{Projection, RoadsideObject, Track};
 pub use units::KMH;
 pub use v2v::{GilbertElliott, Outage, V2vChannel, V2vPacket, V2vParams, V2vStats};
-pub use vehicle::{SpeedController, SpeedControllerParams, Vehicle, VehicleParams, VehicleState};
+pub use vehicle::{BodyKind, SpeedController, SpeedControllerParams, Vehicle, VehicleParams, VehicleState};

@@ -198,6 +198,7 @@ impl Scenario {
             p.validate().map_err(|e| e.within(&format!("lead.phases[{i}]")))?;
         }
         self.validate_traffic()?;
+        self.validate_pedestrians()?;
         self.base_follower_config().validate()?;
         check_range("stop.standstill_time", self.stop.standstill_time, 0.0, 3600.0, "s")?;
         if let Some(s) = self.speed_kmh {
@@ -272,6 +273,23 @@ impl Scenario {
     /// `[[vehicles]]`, lanes and every trigger: names unique and not reserved, lanes on the
     /// track, triggers naming existing entities and phases, no cycle of phases waiting on each
     /// other; errors name the dotted key.
+    /// A pedestrian (`vehicle.body = "pedestrian"`) is a scripted entity that the story moves
+    /// kinematically: never the ego or a follower, never without `[story]`.
+    fn validate_pedestrians(&self) -> Result<(), ConfigError> {
+        use crate::vehicle::BodyKind;
+        if self.follower.vehicle.body == BodyKind::Pedestrian {
+            return Err(ConfigError::new("follower.vehicle.body", "the ego is a vehicle (a pedestrian cannot be driven by a controller)"));
+        }
+        let scripted = std::iter::once(("lead.vehicle.body".to_string(), &self.lead.vehicle))
+            .chain(self.vehicles.iter().enumerate().map(|(i, v)| (format!("vehicles[{i}].vehicle.body"), &v.vehicle)));
+        for (key, v) in scripted {
+            if v.body == BodyKind::Pedestrian && self.story.is_none() {
+                return Err(ConfigError::new(&key, "a pedestrian moves by a story's actions only: it needs a [story]"));
+            }
+        }
+        Ok(())
+    }
+
     fn validate_traffic(&self) -> Result<(), ConfigError> {
         let track = self.track.build().map_err(|e| e.within("track"))?;
         let lane_change = |key: &str, phases: &[ScriptedPhase]| -> Result<(), ConfigError> {
@@ -593,13 +611,23 @@ impl Scenario {
     }
 
     /// File name of a run's outputs: `<scenario>[-<variant>]-<controller>` with anything but
-    /// `[A-Za-z0-9._-]` replaced by `_`.
+    /// `[A-Za-z0-9._-]` replaced by `_`; longer than 160 bytes, its first 143 bytes, `-` and a
+    /// 16-digit hash of the whole.
     pub fn run_file_stem(&self) -> String {
+        /// Longest stem, bytes (room for the longest suffix, `-trajectory.csv`, ... in 255).
+        const MAX_STEM: usize = 160;
         let raw = match &self.variant {
             Some(v) => format!("{}-{v}-{}", self.name, self.controller.as_str()),
             None => format!("{}-{}", self.name, self.controller.as_str()),
         };
-        raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
+        let stem: String = raw.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect();
+        if stem.len() <= MAX_STEM {
+            return stem;
+        }
+        // A file name has at most 255 bytes: a long stem (a distribution's many parameters) is
+        // cut and told apart from other cut stems by the FNV-1a hash of the whole.
+        let hash = stem.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+        format!("{}-{hash:016x}", &stem[..MAX_STEM - 17])
     }
 
     /// Parses TOML text. Errors name the dotted key (`lidar.rate_hz`) and the problem; `origin`

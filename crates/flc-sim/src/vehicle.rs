@@ -11,11 +11,37 @@ use crate::error::{ConfigError, check_range};
 
 /// Gravity, m/s².
 const G: f64 = 9.81;
+/// A pedestrian's box length and width range, m.
+pub const PEDESTRIAN_BOX: (f64, f64) = (0.1, 3.0);
+/// A pedestrian's mass range, kg.
+pub const PEDESTRIAN_MASS: (f64, f64) = (10.0, 500.0);
+
+/// What a body is: a vehicle (default) or a pedestrian (`body = "pedestrian"`: a small box,
+/// only ever moved kinematically by a story's actions; see `docs/scenarios.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyKind {
+    /// A road vehicle. Default.
+    #[default]
+    Vehicle,
+    /// A pedestrian: box 0.1-3 m, mass 10-500 kg; a scripted entity of a `[story]` only.
+    Pedestrian,
+}
+
+impl BodyKind {
+    /// `true` for [`BodyKind::Vehicle`] (the default, not written to TOML).
+    pub fn is_vehicle(&self) -> bool {
+        *self == BodyKind::Vehicle
+    }
+}
 
 /// Vehicle parameters. `Default`: a mid-size sedan on dry asphalt.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct VehicleParams {
+    /// What the body is (default: a vehicle; not written when it is one).
+    #[serde(skip_serializing_if = "BodyKind::is_vehicle")]
+    pub body: BodyKind,
     /// Body length (collider), m.
     pub length: f64,
     /// Body width (collider), m.
@@ -51,6 +77,7 @@ pub struct VehicleParams {
 impl Default for VehicleParams {
     fn default() -> Self {
         Self {
+            body: BodyKind::Vehicle,
             length: 4.9,
             width: 1.9,
             wheelbase: 2.9,
@@ -83,10 +110,20 @@ impl VehicleParams {
 
     /// Checks every field; the error names it and the allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check_range("length", self.length, 1.0, 25.0, "m")?;
-        check_range("width", self.width, 0.5, 3.0, "m")?;
-        check_range("wheelbase", self.wheelbase, 0.5, self.length, "m (<= length)")?;
-        check_range("mass", self.mass, 100.0, 60_000.0, "kg")?;
+        match self.body {
+            BodyKind::Vehicle => {
+                check_range("length", self.length, 1.0, 25.0, "m")?;
+                check_range("width", self.width, 0.5, 3.0, "m")?;
+                check_range("wheelbase", self.wheelbase, 0.5, self.length, "m (<= length)")?;
+                check_range("mass", self.mass, 100.0, 60_000.0, "kg")?;
+            }
+            BodyKind::Pedestrian => {
+                check_range("length", self.length, PEDESTRIAN_BOX.0, PEDESTRIAN_BOX.1, "m (a pedestrian)")?;
+                check_range("width", self.width, PEDESTRIAN_BOX.0, PEDESTRIAN_BOX.1, "m (a pedestrian)")?;
+                check_range("wheelbase", self.wheelbase, 0.05, self.length, "m (<= length)")?;
+                check_range("mass", self.mass, PEDESTRIAN_MASS.0, PEDESTRIAN_MASS.1, "kg (a pedestrian)")?;
+            }
+        }
         check_range("max_brake", self.max_brake, 0.5, 15.0, "m/s²")?;
         check_range("max_accel", self.max_accel, 0.1, 15.0, "m/s²")?;
         check_range("max_power", self.max_power, 1_000.0, 2.0e6, "W")?;

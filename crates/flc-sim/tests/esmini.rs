@@ -33,6 +33,8 @@ const FIXTURES: &[(&str, bool)] = &[
     ("lane_leave_reveal", false),
     ("oncoming", false),
     ("long_distance_continuous", false),
+    ("lane_change_rate", false),
+    ("pedestrians", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

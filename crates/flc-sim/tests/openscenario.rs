@@ -200,7 +200,10 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     let cases: Vec<(&str, String, &str)> = vec![
         // Unsupported elements that would change motion.
         ("routing.xosc", target_brakes_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
-        ("pedestrian.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "<Pedestrian>"),
+        // A pedestrian outside its box range, of an unknown category, or with a NaN mass.
+        ("pedestrian.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"40\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "pedestrian range"),
+        ("pedcategory.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"robot\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "pedestrianCategory"),
+        ("pednan.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"NaN\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "mass"),
         ("stochastic.xosc", "<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"target_brakes.xosc\"/><Stochastic numberOfTestRuns=\"3\"/></ParameterValueDistribution></OpenSCENARIO>".into(), "<Stochastic>"),
         // Hostile inputs.
         ("dtd.xosc", "<?xml version=\"1.0\"?>\n<!DOCTYPE x [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;\">]>\n<OpenSCENARIO>&b;</OpenSCENARIO>".into(), "DTD"),
@@ -212,6 +215,11 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
         ("selfref.xosc", target_brakes_with(r#"name="Gap" parameterType="double" value="12.0""#, r#"name="Gap" parameterType="double" value="${$Gap + 1}""#), "Gap"),
         ("unknownparam.xosc", target_brakes_with(r#"value="$Decel""#, r#"value="$Nope""#), "Nope"),
         ("million.xosc", format!("<?xml version=\"1.0\"?>\n<OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"2026-01-01T00:00:00\" author=\"x\" description=\"d\"/>\n<ParameterValueDistribution><ScenarioFile filepath=\"{}\"/><Deterministic>{}</Deterministic></ParameterValueDistribution></OpenSCENARIO>", data().join("target_brakes.xosc").display(), ["Gap", "Decel", "BrakeTime"].map(|p| format!("<DeterministicSingleParameterDistribution parameterName=\"{p}\"><DistributionRange stepWidth=\"0.001\"><Range lowerLimit=\"1\" upperLimit=\"100\"/></DistributionRange></DeterministicSingleParameterDistribution>")).join("")), "combinations"),
+        // Non-finite numbers in attributes flc does not use for motion (issue 45 item 14).
+        ("wheelnan.xosc", target_brakes_with(r#"wheelDiameter="0.6""#, r#"wheelDiameter="NaN""#), "wheelDiameter"),
+        ("trackinf.xosc", target_brakes_with(r#"trackWidth="1.6""#, r#"trackWidth="inf""#), "trackWidth"),
+        ("centerz.xosc", target_brakes_with(r#"z="0.75""#, r#"z="Infinity""#), "<Center@z>"),
+        ("revmajor.xosc", target_brakes_with(r#"revMajor="1""#, r#"revMajor="1e999""#), "revMajor"),
         ("noroad.xosc", target_brakes_with("roads/straight.xodr", "roads/missing.xodr"), "missing.xodr"),
     ];
     for (name, text, needle) in &cases {
@@ -349,4 +357,50 @@ fn a_continuous_longitudinal_distance_is_kept_every_step_also_for_an_oncoming_pa
     let (lead, keeper, esc) = (state(&sim, "Lead"), state(&sim, "Keeper"), state(&sim, "Escort"));
     assert!((lead.speed - 20.0 / 3.6).abs() < 1e-9 && (keeper.speed - lead.speed).abs() < 1e-9, "{lead:?} {keeper:?}");
     assert!((esc.speed - 10.0 / 3.6).abs() < 1e-9, "{esc:?}");
+}
+
+#[test]
+fn pedestrians_are_scripted_boxes_that_the_lidar_sees_and_that_count_in_contacts() {
+    use flc_sim::{BodyKind, ObjectKind};
+    let file = data().join("pedestrians.xosc");
+    // Scripted: the ego runs on at 10 m/s into `Standing` (catalog pedestrian, 0.4 x 0.7 m,
+    // reference point 0.1 m behind its centre, at s = 100): the ego's front (20 + 1.4 + 2.25 m)
+    // meets its rear (100 + 0.1 - 0.2 m) at t = 76.25 / 10 = 7.625 s.
+    let imp = openscenario::import(&file, &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let s = &imp.runs[0].scenario;
+    assert_eq!((s.lead.vehicle.body, s.lead.vehicle.width, s.lead.vehicle.length), (BodyKind::Pedestrian, 0.7, 0.4));
+    assert!(s.vehicles.iter().any(|v| v.name == "Walker" && v.vehicle.body == BodyKind::Pedestrian));
+    assert!(!s.v2v.enabled, "a pedestrian sends no V2V");
+    let r = flc_sim::run(s).unwrap_or_else(|e| panic!("{e}"));
+    let hits: Vec<_> = r.contacts.iter().filter(|c| c.a.kind == ObjectKind::Pedestrian || c.b.kind == ObjectKind::Pedestrian).collect();
+    assert_eq!(hits.len(), 1, "{:?}", r.contacts);
+    let c = hits[0];
+    let names = [c.a.label(), c.b.label()];
+    // The ego is follower 1; `Standing`, the only body ahead in its lane, is the lead.
+    assert_eq!(names, ["follower 1".to_string(), "lead".to_string()]);
+    assert_eq!((c.a.kind, c.b.kind), (ObjectKind::Vehicle, ObjectKind::Pedestrian));
+    assert!((c.time - 7.625).abs() <= 0.011, "contact at {}", c.time);
+    // The walker moves by its actions: one lane to the left by rate 0.5 m/s (7 s, linear).
+    let tr = transitions(s);
+    let (t0, t1) = (when(&tr, "WalkerCross", ElementEvent::StartTransition), when(&tr, "WalkerCross", ElementEvent::EndTransition));
+    assert!((t1 - t0 - 3.5 / 0.5).abs() <= 0.011, "{t0} -> {t1}");
+    // flc's controller drives the ego: its LiDAR sees the 0.7 m wide pedestrian and stops short.
+    let imp = openscenario::import(&file, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let r = flc_sim::run(&imp.runs[0].scenario).unwrap_or_else(|e| panic!("{e}"));
+    assert!(!r.metrics.collision, "the ego hit the pedestrian: {:?}", r.collision);
+    assert!(r.metrics.min_gap > 0.5 && r.metrics.min_gap < 10.0, "min gap {}", r.metrics.min_gap);
+}
+
+#[test]
+fn lane_changes_by_rate_last_the_shapes_peak_slope_times_the_change_over_the_rate() {
+    let imp = openscenario::import(&data().join("lane_change_rate.xosc"), &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let tr = transitions(&imp.runs[0].scenario);
+    // Peak lateral speed `rate` (esmini): sinusoidal pi/2 * 3.5 / 1.0, cubic 1.5 * 3.5 / 1.2,
+    // linear 3.5 / 0.7.
+    for (action, expected) in
+        [("ALaneChange", std::f64::consts::FRAC_PI_2 * 3.5 / 1.0), ("BLaneChange", 1.5 * 3.5 / 1.2), ("CLaneChange", 3.5 / 0.7)]
+    {
+        let (t0, t1) = (when(&tr, action, ElementEvent::StartTransition), when(&tr, action, ElementEvent::EndTransition));
+        assert!((t1 - t0 - expected).abs() <= 0.011, "{action}: {t0} -> {t1}, expected {expected}");
+    }
 }

@@ -22,8 +22,10 @@ pub struct FollowerRun {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ObjectKind {
-    /// The lead or a follower.
+    /// The lead, a follower or a scripted vehicle.
     Vehicle,
+    /// A scripted pedestrian (`vehicle.body = "pedestrian"`), by name.
+    Pedestrian,
     /// A parked car of the track (`RoadsideObject::ParkedCar`).
     ParkedCar,
     /// A guard rail of the track (`RoadsideObject::GuardRail`, any of its pieces).
@@ -33,10 +35,12 @@ pub enum ObjectKind {
 }
 
 impl ObjectKind {
-    /// The name in JSON and in the tables (`vehicle`, `parked_car`, `guard_rail`, `post`).
+    /// The name in JSON and in the tables (`vehicle`, `pedestrian`, `parked_car`, `guard_rail`,
+    /// `post`).
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Vehicle => "vehicle",
+            Self::Pedestrian => "pedestrian",
             Self::ParkedCar => "parked_car",
             Self::GuardRail => "guard_rail",
             Self::Post => "post",

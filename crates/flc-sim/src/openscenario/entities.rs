@@ -1,12 +1,12 @@
-//! `Entities`: `ScenarioObject`s with a `Vehicle`, a `MiscObject` or a `CatalogReference` to
-//! either, their `ObjectController`; the choice of the ego and the lead and the names the
+//! `Entities`: `ScenarioObject`s with a `Vehicle`, a `Pedestrian`, a `MiscObject` or a
+//! `CatalogReference` to one, their `ObjectController`; the choice of the ego and the lead and the names the
 //! entities get in the scenario.
 
 use super::Ctx;
 use super::error::ImportError;
 use super::xml;
 use crate::controllers::ControllerKind;
-use crate::vehicle::VehicleParams;
+use crate::vehicle::{BodyKind, PEDESTRIAN_BOX, PEDESTRIAN_MASS, VehicleParams};
 
 type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
 
@@ -20,6 +20,8 @@ pub enum Kind {
     Vehicle,
     /// A `MiscObject`: it stands.
     Misc,
+    /// A `Pedestrian`: a small box the story moves kinematically.
+    Pedestrian,
 }
 
 /// One `ScenarioObject`, read.
@@ -70,7 +72,7 @@ impl Ctx<'_, '_> {
             let mut controller = None;
             for c in xml::elements(so) {
                 match c.tag_name().name() {
-                    "Vehicle" | "MiscObject" | "CatalogReference" => {
+                    "Vehicle" | "Pedestrian" | "MiscObject" | "CatalogReference" => {
                         if object.is_some() {
                             return Err(ImportError::at(file, c, "a ScenarioObject holds one entity object"));
                         }
@@ -85,38 +87,42 @@ impl Ctx<'_, '_> {
                 }
             }
             let (kind, vehicle, center) =
-                object.ok_or_else(|| ImportError::at(file, so, format!("entity `{name}` has no Vehicle or MiscObject")))?;
+                object.ok_or_else(|| ImportError::at(file, so, format!("entity `{name}` has no Vehicle, Pedestrian or MiscObject")))?;
             out.push(EntityDef { osc_name: name, kind, vehicle, center, controller, file: file.to_string(), line: xml::line(so) });
         }
         Ok(out)
     }
 
-    /// A `Vehicle`, `MiscObject` or `CatalogReference` to either.
+    /// A `Vehicle`, `Pedestrian`, `MiscObject` or `CatalogReference` to one.
     fn entity_object(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
         match node.tag_name().name() {
-            "CatalogReference" => self.catalog_entry(file, node, &["VehicleCatalog", "MiscObjectCatalog"], |ctx, efile, entry| match entry
-                .tag_name()
-                .name()
-            {
-                "Vehicle" => ctx.vehicle(efile, entry),
-                "MiscObject" => ctx.misc_object(efile, entry),
-                _ => Err(ImportError::unsupported(efile, entry)),
-            }),
+            "CatalogReference" => {
+                self.catalog_entry(file, node, &["VehicleCatalog", "PedestrianCatalog", "MiscObjectCatalog"], |ctx, efile, entry| {
+                    match entry.tag_name().name() {
+                        "Vehicle" => ctx.vehicle(efile, entry),
+                        "Pedestrian" => ctx.pedestrian(efile, entry),
+                        "MiscObject" => ctx.misc_object(efile, entry),
+                        _ => Err(ImportError::unsupported(efile, entry)),
+                    }
+                })
+            }
             name => {
                 // Inline objects may declare their own parameters.
                 self.params.push_scope();
-                let r = self
-                    .params
-                    .declare_in(node, file, &Default::default())
-                    .and_then(|()| if name == "Vehicle" { self.vehicle(file, node) } else { self.misc_object(file, node) });
+                let r = self.params.declare_in(node, file, &Default::default()).and_then(|()| match name {
+                    "Vehicle" => self.vehicle(file, node),
+                    "Pedestrian" => self.pedestrian(file, node),
+                    _ => self.misc_object(file, node),
+                });
                 self.params.pop_scope();
                 r
             }
         }
     }
 
-    /// `BoundingBox`: the centre (x, y) and (length, width), within flc's vehicle ranges.
-    fn bounding_box(&mut self, file: &str, node: Node<'_, '_>) -> Result<([f64; 2], f64, f64), ImportError> {
+    /// `BoundingBox`: the centre (x, y) and (length, width), within flc's ranges for a vehicle
+    /// or object (`pedestrian` false) or a pedestrian.
+    fn bounding_box(&mut self, file: &str, node: Node<'_, '_>, pedestrian: bool) -> Result<([f64; 2], f64, f64), ImportError> {
         let center = xml::child(node, "Center").ok_or_else(|| ImportError::at(file, node, "<Center> is missing"))?;
         let dims = xml::child(node, "Dimensions").ok_or_else(|| ImportError::at(file, node, "<Dimensions> is missing"))?;
         for c in xml::elements(node) {
@@ -126,9 +132,21 @@ impl Ctx<'_, '_> {
         }
         let cx = self.params.req_num(center, "x", file)?;
         let cy = self.params.req_num(center, "y", file)?;
+        // Not used in 2-D, but numbers (NaN and infinities are errors).
+        self.params.req_num(center, "z", file)?;
+        self.params.req_num(dims, "height", file)?;
         let length = self.params.req_num(dims, "length", file)?;
         let width = self.params.req_num(dims, "width", file)?;
-        if !(1.0..=25.0).contains(&length) || !(0.5..=3.0).contains(&width) {
+        if pedestrian {
+            let (lo, hi) = PEDESTRIAN_BOX;
+            if !(lo..=hi).contains(&length) || !(lo..=hi).contains(&width) {
+                return Err(ImportError::at(
+                    file,
+                    dims,
+                    format!("a {length} x {width} m box is outside the simulator's pedestrian range (length and width {lo}-{hi} m)"),
+                ));
+            }
+        } else if !(1.0..=25.0).contains(&length) || !(0.5..=3.0).contains(&width) {
             return Err(ImportError::at(
                 file,
                 dims,
@@ -142,11 +160,15 @@ impl Ctx<'_, '_> {
     }
 
     fn mass(&mut self, file: &str, node: Node<'_, '_>, v: &mut VehicleParams) -> Result<(), ImportError> {
+        let (lo, hi) = match v.body {
+            BodyKind::Vehicle => (100.0, 60_000.0),
+            BodyKind::Pedestrian => PEDESTRIAN_MASS,
+        };
         if let Some(m) = self.params.num_attr(node, "mass", file)? {
-            if (100.0..=60_000.0).contains(&m) {
+            if (lo..=hi).contains(&m) {
                 v.mass = m;
             } else {
-                self.warn.note("mass", file, node, format!("mass {m} kg outside [100, 60000] kg: the default {} kg is used", v.mass));
+                self.warn.note("mass", file, node, format!("mass {m} kg outside [{lo}, {hi}] kg: the default {} kg is used", v.mass));
             }
         }
         Ok(())
@@ -154,24 +176,40 @@ impl Ctx<'_, '_> {
 
     /// The box centre and the vehicle parameters a `Vehicle` or `MiscObject` gets from its
     /// `BoundingBox` and `mass` (wheelbase 0.6 length until `Axles` say otherwise).
-    fn boxed(&mut self, file: &str, node: Node<'_, '_>) -> Result<([f64; 2], VehicleParams), ImportError> {
+    fn boxed(&mut self, file: &str, node: Node<'_, '_>, body: BodyKind) -> Result<([f64; 2], VehicleParams), ImportError> {
         let bb = xml::child(node, "BoundingBox").ok_or_else(|| ImportError::at(file, node, "<BoundingBox> is missing"))?;
-        let (center, length, width) = self.bounding_box(file, bb)?;
-        let mut v = VehicleParams { length, width, ..VehicleParams::default() };
-        v.wheelbase = (0.6 * length).clamp(0.5, length);
+        let pedestrian = body == BodyKind::Pedestrian;
+        let (center, length, width) = self.bounding_box(file, bb, pedestrian)?;
+        let mut v = VehicleParams { body, length, width, ..VehicleParams::default() };
+        if pedestrian {
+            // Within the pedestrian mass range; a pedestrian moves kinematically (no vehicle model).
+            v.mass = 75.0;
+            v.wheelbase = 0.5 * length;
+        } else {
+            v.wheelbase = (0.6 * length).clamp(0.5, length);
+        }
         self.mass(file, node, &mut v)?;
         Ok((center, v))
     }
 
     /// A `Vehicle` element (parameters already in scope).
     fn vehicle(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
-        let (center, mut v) = self.boxed(file, node)?;
+        let (center, mut v) = self.boxed(file, node, BodyKind::Vehicle)?;
         let length = v.length;
         for c in xml::elements(node) {
             match c.tag_name().name() {
                 "ParameterDeclarations" | "BoundingBox" => {}
                 "Performance" => self.performance(file, c, &mut v)?,
                 "Axles" => {
+                    // Every axle's numbers are checked (finite), though only positionX is used.
+                    for axle in xml::elements(c) {
+                        if !matches!(axle.tag_name().name(), "FrontAxle" | "RearAxle" | "AdditionalAxle") {
+                            return Err(ImportError::unsupported(file, axle));
+                        }
+                        for a in ["maxSteering", "wheelDiameter", "trackWidth", "positionX", "positionZ"] {
+                            self.params.req_num(axle, a, file)?;
+                        }
+                    }
                     let x = |name: &str| -> Result<Option<f64>, ImportError> {
                         match xml::child(c, name) {
                             Some(a) => self.params.num_attr(a, "positionX", file),
@@ -257,9 +295,23 @@ impl Ctx<'_, '_> {
         Ok(())
     }
 
+    /// A `Pedestrian` element (parameters already in scope): its box and mass; `model3d`,
+    /// `pedestrianCategory`, `role` and `Properties` change neither motion nor sensing.
+    fn pedestrian(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
+        let (center, v) = self.boxed(file, node, BodyKind::Pedestrian)?;
+        self.params.req_enum(node, "pedestrianCategory", file, &["pedestrian", "wheelchair", "animal"])?;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "ParameterDeclarations" | "BoundingBox" => {}
+                _ => self.other(file, c)?,
+            }
+        }
+        Ok((Kind::Pedestrian, v, center))
+    }
+
     /// A `MiscObject` element (parameters already in scope): a standing object.
     fn misc_object(&mut self, file: &str, node: Node<'_, '_>) -> Result<(Kind, VehicleParams, [f64; 2]), ImportError> {
-        let (center, v) = self.boxed(file, node)?;
+        let (center, v) = self.boxed(file, node, BodyKind::Vehicle)?;
         for c in xml::elements(node) {
             match c.tag_name().name() {
                 "ParameterDeclarations" | "BoundingBox" => {}
@@ -355,7 +407,11 @@ pub fn choose_ego(defs: &[EntityDef], want: Option<&str>) -> Result<usize, Strin
     };
     match defs.get(i) {
         Some(d) if d.kind == Kind::Vehicle => Ok(i),
-        Some(d) => Err(format!("the ego `{}` is a MiscObject: the ego must be a Vehicle", d.osc_name)),
+        Some(d) => Err(format!(
+            "the ego `{}` is a {}: the ego must be a Vehicle",
+            d.osc_name,
+            if d.kind == Kind::Pedestrian { "Pedestrian" } else { "MiscObject" }
+        )),
         None => Err("the scenario has no entities".into()),
     }
 }
@@ -373,7 +429,8 @@ pub struct Placement {
 }
 
 /// The lead: the nearest Vehicle ahead of the ego whose centre is within half a lane width of
-/// the ego lane's centre, else the first other Vehicle, else the first MiscObject.
+/// the ego lane's centre, else the first other Vehicle, else the first other entity (a
+/// Pedestrian or a MiscObject).
 pub fn choose_lead(defs: &[EntityDef], placed: &[Placement], ego: usize, lane_width: f64) -> Option<usize> {
     let ego_s = placed.get(ego)?.s;
     let others = || (0..defs.len()).filter(move |&i| i != ego);

@@ -836,8 +836,8 @@ pub fn from_str(text: &str, origin: &str) -> Result<Network, ImportError> {
                 }
                 roads.push(road);
             }
-            // Metadata only (name, version, geo reference).
-            "header" => {}
+            // Metadata only (name, version, geo reference): its numbers must still be numbers.
+            "header" => p.unused_numbers(el, &["revMajor", "revMinor", "north", "south", "east", "west", "version"])?,
             other => p.skip(other),
         }
     }
@@ -875,6 +875,17 @@ impl Reader<'_> {
 
     fn attr_str<'a>(&self, node: Node<'a, '_>, attr: &str) -> Result<&'a str, ImportError> {
         node.attribute(attr).ok_or_else(|| self.attr_err(node, attr, format!("missing attribute `{attr}`")))
+    }
+
+    /// Attributes flc does not use that OpenDRIVE types as numbers: each present one must be a
+    /// finite number (`NaN`, `inf` or text is an error naming the attribute).
+    fn unused_numbers(&self, node: Node<'_, '_>, attrs: &[&str]) -> Result<(), ImportError> {
+        for a in attrs {
+            if node.attribute(*a).is_some() {
+                self.num(node, a)?;
+            }
+        }
+        Ok(())
     }
 
     /// A required finite number.
@@ -1119,7 +1130,13 @@ impl Reader<'_> {
                     widths.push(w);
                 }
                 "border" => return Err(ImportError::unsupported(self.file, c)),
-                other => self.skip(other),
+                other => {
+                    // Not used for motion, but a number where OpenDRIVE wants one (docs/openscenario.md).
+                    if other == "roadMark" {
+                        self.unused_numbers(c, &["sOffset", "width", "height"])?;
+                    }
+                    self.skip(other)
+                }
             }
         }
         Ok(Lane { id, kind, widths })

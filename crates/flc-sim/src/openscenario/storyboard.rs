@@ -691,13 +691,12 @@ impl Sb<'_, '_, '_> {
     }
 
     /// The `(dynamics, target)` children of a speed or lane change action, the transition the
-    /// dynamics give (`rate` only where `rate_ok`), and the target's one child.
+    /// dynamics give, and the target's one child.
     fn dynamics_and_target<'a, 'i>(
         &mut self,
         file: &str,
         node: Node<'a, 'i>,
         (dyn_tag, target_tag): (&str, &str),
-        rate_ok: bool,
     ) -> Result<(Transition, Node<'a, 'i>), ImportError> {
         let mut dynamics = None;
         let mut target = None;
@@ -713,8 +712,7 @@ impl Sb<'_, '_, '_> {
         let p = &self.ctx.params;
         let shape = shape_of(&p.req_enum(d, "dynamicsShape", file, &SHAPES)?);
         let dimension = match p.req_enum(d, "dynamicsDimension", file, &["time", "rate", "distance"])?.as_str() {
-            "rate" if rate_ok => Dimension::Rate,
-            "rate" => return Err(ImportError::at(file, d, "a lane change by rate is not supported (time or distance)")),
+            "rate" => Dimension::Rate,
             "distance" => Dimension::Distance,
             _ => Dimension::Time,
         };
@@ -730,7 +728,17 @@ impl Sb<'_, '_, '_> {
             )?;
             value = value.abs();
         }
-        if shape != Shape::Step && value <= 0.0 {
+        if shape != Shape::Step && value == 0.0 && dimension == Dimension::Rate && dyn_tag == "SpeedActionDynamics" {
+            // esmini: a speed rate of 0 never moves the speed off its start value; the action
+            // ends at once if that is the target, else never (ALKS 4_4_x templates' default).
+            self.ctx.esmini_extension(
+                "SpeedActionDynamics@rate=0",
+                file,
+                d,
+                "a speed change at rate 0",
+                "the speed stays at its start value (the action ends only if that is the target)",
+            )?;
+        } else if shape != Shape::Step && value <= 0.0 {
             return Err(ImportError::at(file, d, format!("value = {value}: must be positive")));
         }
         let mut it = xml::elements(t);
@@ -741,7 +749,7 @@ impl Sb<'_, '_, '_> {
     }
 
     fn speed(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
-        let (transition, x) = self.dynamics_and_target(file, node, ("SpeedActionDynamics", "SpeedActionTarget"), true)?;
+        let (transition, x) = self.dynamics_and_target(file, node, ("SpeedActionDynamics", "SpeedActionTarget"))?;
         let p = &self.ctx.params;
         match x.tag_name().name() {
             "AbsoluteTargetSpeed" => Ok(Action::Speed {
@@ -811,7 +819,7 @@ impl Sb<'_, '_, '_> {
 
     fn lane_change(&mut self, file: &str, node: Node<'_, '_>, actors: &[String]) -> Result<Action, ImportError> {
         let lane_offset = self.ctx.params.num_attr(node, "targetLaneOffset", file)?.unwrap_or(0.0);
-        let (transition, x) = self.dynamics_and_target(file, node, ("LaneChangeActionDynamics", "LaneChangeTarget"), false)?;
+        let (transition, x) = self.dynamics_and_target(file, node, ("LaneChangeActionDynamics", "LaneChangeTarget"))?;
         match x.tag_name().name() {
             "AbsoluteTargetLane" => {
                 let lane = position::lane_id(&self.ctx.params, file, x, "value")?;

@@ -15,6 +15,8 @@ pub(super) struct Bodies<'a> {
     pub(super) followers: usize,
     /// Names of the scripted vehicles after the string.
     pub(super) traffic: &'a [&'a str],
+    /// Which of `vehicles` are pedestrians (same order).
+    pub(super) pedestrians: &'a [bool],
     /// The track (kinds of its road-side objects).
     pub(super) track: &'a Track,
 }
@@ -25,10 +27,14 @@ impl Bodies<'_> {
         match party {
             Party::Vehicle(b) => {
                 let k = self.vehicles.iter().position(|(v, _)| *v == b).unwrap_or(usize::MAX);
-                match k.checked_sub(self.followers + 1).and_then(|i| self.traffic.get(i)) {
+                let mut o = match k.checked_sub(self.followers + 1).and_then(|i| self.traffic.get(i)) {
                     Some(name) => HitObject::named((*name).to_string()),
                     None => HitObject::vehicle(k),
+                };
+                if self.pedestrians.get(k).copied().unwrap_or(false) {
+                    o.kind = ObjectKind::Pedestrian;
                 }
+                o
             }
             Party::Static(i) => {
                 // The world tags every collider of object `i` with `i`; an unknown index (none

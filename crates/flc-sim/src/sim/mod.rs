@@ -254,15 +254,16 @@ impl Simulation {
         let any = s.stop.trigger.is_some()
             || s.lead.phases.iter().chain(s.vehicles.iter().flat_map(|v| v.phases.iter())).any(|p| p.start.is_some());
         let story = s.story.as_ref().map(|story| {
-            let body = |name: &str, state: VehicleState, length: f64| self::story::Body {
+            let body = |name: &str, state: VehicleState, p: &crate::vehicle::VehicleParams| self::story::Body {
                 state,
-                length,
+                length: p.length,
                 reference: story.references.get(name).copied().unwrap_or_default(),
+                pedestrian: p.body == crate::vehicle::BodyKind::Pedestrian,
             };
-            let mut initial = vec![body("lead", lead_state, ll.length)];
-            initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), t.params.length)));
+            let mut initial = vec![body("lead", lead_state, ll)];
+            initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), &t.params)));
             if let Some(f) = followers.first() {
-                initial.push(body(crate::scenario::EGO, *f.vehicle.state(), f.cfg.follower.vehicle.length));
+                initial.push(body(crate::scenario::EGO, *f.vehicle.state(), &f.cfg.follower.vehicle));
             }
             StoryRun::new(story, &track, &initial)
         });
@@ -773,7 +774,14 @@ impl<O: Observer> Simulation<O> {
         st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
         st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
-        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
+        let pedestrians = pedestrian_flags(st);
+        let bodies = contacts::Bodies {
+            vehicles: &st.bodies,
+            followers: st.followers.len(),
+            traffic: &names,
+            pedestrians: &pedestrians,
+            track: &st.track,
+        };
         for (i, f) in st.followers.iter_mut().enumerate() {
             if f.collision.is_none() {
                 f.collision = contacts::first_collision(contacts, &bodies, i + 1, st.t);
@@ -799,7 +807,14 @@ impl<O: Observer> Simulation<O> {
         st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
         st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
-        let bodies = contacts::Bodies { vehicles: &st.bodies, followers: st.followers.len(), traffic: &names, track: &st.track };
+        let pedestrians = pedestrian_flags(st);
+        let bodies = contacts::Bodies {
+            vehicles: &st.bodies,
+            followers: st.followers.len(),
+            traffic: &names,
+            pedestrians: &pedestrians,
+            track: &st.track,
+        };
         let now = contacts::pair_contacts(contacts, &bodies, st.t);
         let mut touching = Vec::with_capacity(now.len());
         for c in now {
@@ -883,6 +898,7 @@ impl<O: Observer> Simulation<O> {
             state: st.followers.first().map(|f| *f.vehicle.state()).unwrap_or_default(),
             length: st.followers.first().map_or(0.0, |f| f.cfg.follower.vehicle.length),
             reference: story.references.get(crate::scenario::EGO).copied().unwrap_or_default(),
+            pedestrian: false,
         };
         {
             let truth = truth!(st);
@@ -995,6 +1011,16 @@ fn assemble(
     });
     let first = runs.swap_remove(0);
     RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts, contacts, end }
+}
+
+/// Which bodies are pedestrians, in the order of `State::bodies` (the lead, the followers, the
+/// traffic).
+fn pedestrian_flags(st: &State) -> Vec<bool> {
+    let ped = |p: &crate::vehicle::VehicleParams| p.body == crate::vehicle::BodyKind::Pedestrian;
+    std::iter::once(ped(&st.scenario.lead.vehicle))
+        .chain(st.followers.iter().map(|_| false))
+        .chain(st.traffic.iter().map(|t| ped(&t.params)))
+        .collect()
 }
 
 /// The true CAM / BSM kinematics of a V2V sender: its reference point is the centre of the front

@@ -18,6 +18,8 @@ pub(super) struct StoryRun {
     /// The story drives the ego now (`ego = "scripted"`, or a `controller` action handed it over).
     pub(super) ego_scripted: bool,
     pub(super) dynamics: Dynamics,
+    /// Slots that always move kinematically (pedestrians), whatever `dynamics`.
+    always_kinematic: Vec<bool>,
     started: Vec<Started>,
     stopped: Vec<usize>,
 }
@@ -29,6 +31,8 @@ pub(super) struct Body {
     pub(super) state: VehicleState,
     pub(super) length: f64,
     pub(super) reference: [f64; 2],
+    /// A pedestrian: moved kinematically whatever the story's `dynamics`.
+    pub(super) pedestrian: bool,
 }
 
 /// The motion of the reference point of `b` on `track`.
@@ -71,6 +75,7 @@ impl StoryRun {
             motions: initial.iter().map(|b| motion_of(track, b)).collect(),
             ego_scripted: story.ego == EgoMode::Scripted,
             dynamics: story.dynamics,
+            always_kinematic: initial.iter().map(|b| b.pedestrian).collect(),
             started: Vec::new(),
             stopped: Vec::new(),
         }
@@ -148,9 +153,10 @@ impl StoryRun {
     /// `true` when slot `j` moves kinematically (its pose is set from its motion).
     pub(super) fn kinematic(&self, j: usize) -> bool {
         // An oncoming entity moves kinematically in either dynamics (the traffic driver tracks
-        // the road's direction only).
+        // the road's direction only); so does a pedestrian.
         let reversed = j != self.ego() && self.motions.get(j).is_some_and(|m| m.reversed);
-        (self.dynamics == Dynamics::Kinematic || reversed) && (j != self.ego() || self.ego_scripted)
+        let always = self.always_kinematic.get(j).copied().unwrap_or(false);
+        (self.dynamics == Dynamics::Kinematic || reversed || always) && (j != self.ego() || self.ego_scripted)
     }
 
     /// `dynamics = "vehicle"`: the acceleration demand (with the resistance feed-forward) and

@@ -111,6 +111,16 @@ impl Shape {
         }
     }
 
+    /// The largest `df/dp` over [0, 1] (0 for a step): 1 linear, 1.5 cubic, pi/2 sinusoidal.
+    pub fn peak_slope(self) -> f64 {
+        match self {
+            Shape::Step => 0.0,
+            Shape::Linear => 1.0,
+            Shape::Cubic => 1.5,
+            Shape::Sinusoidal => 0.5 * std::f64::consts::PI,
+        }
+    }
+
     /// `df/dp` at `p` (0 outside [0, 1]).
     pub fn slope(self, p: f64) -> f64 {
         if !(0.0..=1.0).contains(&p) {
@@ -131,8 +141,10 @@ impl Shape {
 pub enum Dimension {
     /// `time`: the duration, s.
     Time,
-    /// `rate`: the mean rate of change (m/s² for speed, m/s for lateral), the duration is
-    /// `|change| / rate`.
+    /// `rate`: for a speed change the rate of change, m/s² (the duration is `|change| / rate`);
+    /// for a lane change the peak lateral speed, m/s, as esmini reads it (the duration is
+    /// `k |change| / rate` with `k` = 1 linear, 1.5 cubic, pi/2 sinusoidal: the shape's
+    /// peak slope [`Shape::peak_slope`]).
     Rate,
     /// `distance`: the distance travelled during the transition, m.
     Distance,
@@ -155,6 +167,18 @@ impl Transition {
         if self.shape == Shape::Step {
             return check_range("value", self.value, 0.0, 1.0e6, "");
         }
+        self.validate_moving()
+    }
+
+    /// A speed change may have a rate of 0 (as esmini: the speed stays at its start value).
+    fn validate_speed(&self) -> Result<(), ConfigError> {
+        if self.shape == Shape::Step || self.dimension == Dimension::Rate {
+            return check_range("value", self.value, 0.0, 1.0e6, "");
+        }
+        self.validate_moving()
+    }
+
+    fn validate_moving(&self) -> Result<(), ConfigError> {
         check_range("value", self.value, 1.0e-6, 1.0e6, "(s, rate or m: positive)")
     }
 }
@@ -189,7 +213,8 @@ pub enum Action {
     /// `LaneChangeAction`: to the lateral offset `offset` (absolute target lane: the lane centre,
     /// m from the centreline), or `lanes` lanes left (+) of the current lane of entity `of`
     /// (`RelativeTargetLane`, lanes of the track's `lane_width`), plus `lane_offset`
-    /// (`targetLaneOffset`, m). `dimension` is `time` or `distance`.
+    /// (`targetLaneOffset`, m). `dimension` is `time`, `distance` or `rate` (peak lateral
+    /// speed, m/s).
     LaneChange {
         /// Absolute target offset, m.
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -298,7 +323,7 @@ impl Action {
     fn validate(&self) -> Result<(), ConfigError> {
         match self {
             Action::Speed { speed, of, delta, factor, transition, .. } => {
-                transition.validate()?;
+                transition.validate_speed()?;
                 match (speed, of, delta, factor) {
                     (Some(v), None, None, None) => check_range("speed", *v, 0.0, 100.0, "m/s"),
                     (None, Some(_), Some(d), None) => check_range("delta", *d, -100.0, 100.0, "m/s"),
@@ -308,9 +333,6 @@ impl Action {
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
                 transition.validate()?;
-                if transition.dimension == Dimension::Rate {
-                    return Err(ConfigError::new("dimension", "a lane change is given by `time` or `distance`"));
-                }
                 check_range("lane_offset", *lane_offset, -50.0, 50.0, "m")?;
                 match (offset, of, lanes) {
                     (Some(o), None, None) => check_range("offset", *o, -100.0, 100.0, "m"),

@@ -256,7 +256,9 @@ impl Motion {
     fn start_lateral(&mut self, i: usize, to: f64, tr: &Transition, along_heading: bool, t0: f64) {
         let (by_distance, extent) = match tr.dimension {
             Dimension::Distance => (true, tr.value),
-            _ => (false, tr.value),
+            // The peak lateral speed (esmini): the duration whose peak slope is `value`.
+            Dimension::Rate => (false, tr.shape.peak_slope() * (to - self.offset).abs() / tr.value),
+            Dimension::Time => (false, tr.value),
         };
         self.lat =
             Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
@@ -268,6 +270,7 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
+        let long_action = self.long.as_ref().map(|l| l.action);
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
             // moved on with that speed (esmini's order).
@@ -295,8 +298,16 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        let step_len = self.speed * dt;
+        let mut step_len = self.speed * dt;
         let offset_prev = self.offset;
+        if let Some(l) = &self.lat {
+            // esmini steps actions in storyboard order and a lane change moves the entity: a
+            // lane change before the speed action in that order moves it at the speed of the
+            // step before (the speed action sets the new one after it).
+            if l.along_heading && long_action.is_some_and(|a| l.action < a) {
+                step_len = v_prev * dt;
+            }
+        }
         let mut along = step_len;
         if let Some(l) = &self.lat {
             let p = if l.extent <= 0.0 || l.shape == Shape::Step {
@@ -339,7 +350,7 @@ impl Motion {
 }
 
 /// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
-/// rate`, `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
+/// rate` (infinite for a rate of 0 and a change), `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
 /// (every shape is symmetric); 0 for a step.
 fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
     if tr.shape == Shape::Step {
@@ -347,6 +358,14 @@ fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
     }
     match tr.dimension {
         Dimension::Time => tr.value,
+        // A rate of 0 (esmini): the speed never leaves `v0` (done at once if that is `v1`).
+        Dimension::Rate if tr.value == 0.0 => {
+            if v1 == v0 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
+        }
         Dimension::Rate => (v1 - v0).abs() / tr.value,
         Dimension::Distance => {
             let mean = 0.5 * (v0 + v1);
