@@ -213,7 +213,10 @@ class _Plan:
             keys = [k["key"]] if "key" in k else list(k.get("keys", []))
             if not keys or ("key" in k and "keys" in k):
                 raise SpecError(f"{where}: give `key` or `keys` (a list)")
-            lo, hi = _pair({"range": [k.get("min"), k.get("max")]}, "range", where)
+            lo, hi = k.get("min"), k.get("max")
+            if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in (lo, hi)) or lo > hi:
+                raise SpecError(f"{where}: `min` and `max` must be finite numbers with min <= max, got {lo!r}, {hi!r}")
+            lo, hi = float(lo), float(hi)
             d = Dim(keys[0], lo, hi, bool(k.get("integer", False)))
             self.dims.append(d)
             self.key_dims.append((d, [str(x) for x in keys]))
@@ -488,22 +491,27 @@ def main(argv: Sequence[str]) -> int:
     ap.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     args = ap.parse_args(list(argv))
     t0 = time.monotonic()
+    from ._progress import stderr_is_terminal
+
+    # Progress as the other long commands show it: redrawn on stderr when it is a terminal.
+    shown = [False]
 
     def show(done: int, total: int, best: float) -> None:
         el = int(time.monotonic() - t0)
         sys.stderr.write(f"\r{done}/{total} evaluations, lowest robustness {best:+.4f} {el // 60:02d}:{el % 60:02d}\x1b[K")
         sys.stderr.flush()
+        shown[0] = True
 
     from ._flc import FlcError
 
     try:
-        res = falsify(args.spec, budget=args.budget, seed=args.seed, threads=args.threads, progress=None if args.quiet else show)
+        res = falsify(args.spec, budget=args.budget, seed=args.seed, threads=args.threads, progress=None if args.quiet or not stderr_is_terminal() else show)
     except (SpecError, FlcError, TypeError, OSError) as e:
-        if not args.quiet:
+        if shown[0]:
             sys.stderr.write("\n")
         print(f"error: {args.spec}: {e}", file=sys.stderr)
         return 2
-    if not args.quiet:
+    if shown[0]:
         sys.stderr.write("\n")
     s = res.summary()
     if args.out:
@@ -516,7 +524,7 @@ def main(argv: Sequence[str]) -> int:
         )
         s["worst_file"] = write_scenario(os.path.join(args.out, "worst.toml"), w.scenario, head)
         with open(os.path.join(args.out, "falsify.json"), "w", encoding="utf-8") as f:
-            json.dump({**s, "history": res.history(), "robustness": [e.robustness for e in res.evaluations]}, f, indent=1)
+            json.dump({**s, "history": res.history()}, f)
             f.write("\n")
     print(json.dumps(s))
     return 0

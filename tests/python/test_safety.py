@@ -59,3 +59,79 @@ def test_stl_bad_input_names_the_problem():
         stl.robustness({"t": [0.0, 1.0]}, "no_contact")
     with pytest.raises(ValueError, match="uniformly sampled"):
         stl.robustness(dict(SCRIPT, t=[0, 1, 2, 3, 4, 5, 6, 7, 9]), "time_gap")
+
+
+# --- falsification -----------------------------------------------------------------------------
+
+import json  # noqa: E402
+import os  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from flc import _falsify  # noqa: E402
+
+SPECS = Path(__file__).resolve().parents[2] / "scenarios" / "falsify"
+
+
+def test_falsifier_finds_the_paper_pid_collision_at_90_kmh_on_a_fixed_seed():
+    # The box's centre is safe (the lead brakes at 4.5 m/s²): the search has to move to find it.
+    plan = _falsify._Plan(_falsify.load_spec(SPECS / "paper-pid-90.toml"))
+    centre = flc.run(plan.scenario(plan.point(np.full(len(plan.dims), 0.5))))
+    assert stl.robustness(centre, "no_contact") > 0 and not centre.metrics["collision"]
+    res = flc.falsify(SPECS / "paper-pid-90.toml", budget=48, seed=1)
+    assert len(res.evaluations) == 48
+    assert res.first_violation is not None and res.min_robustness < 0
+    assert res.worst.collision and res.worst.point["lead.phases[2].decel"] > 4.5
+
+
+def test_falsifier_is_deterministic_for_a_seed_on_any_thread_count():
+    a = flc.falsify(SPECS / "robust-envelope.toml", budget=16, seed=3, threads=1)
+    b = flc.falsify(SPECS / "robust-envelope.toml", budget=16, seed=3, threads=2)
+    assert [e.robustness for e in a.evaluations] == [e.robustness for e in b.evaluations]
+    assert [e.point for e in a.evaluations] == [e.point for e in b.evaluations]
+    c = flc.falsify(SPECS / "robust-envelope.toml", budget=16, seed=4)
+    assert [e.point for e in c.evaluations] != [e.point for e in a.evaluations]
+
+
+def test_worst_case_file_replays_bit_for_bit(tmp_path):
+    res = flc.falsify(SPECS / "robust-envelope.toml", budget=16, seed=1)
+    w = res.worst
+    # The lead profile, the faults and the start are in the scenario that ran.
+    d = w.scenario.to_dict()
+    assert len(d["lead"]["phases"]) >= 4 and d["lidar"].get("faults")
+    path = _falsify.write_scenario(tmp_path / "worst.toml", w.scenario, "header")
+    back = flc.Scenario.load(path)
+    assert back == w.scenario
+    again, replay = flc.run(w.scenario), flc.run(back)
+    for k, v in again.series.items():
+        assert np.array_equal(v, replay.series[k], equal_nan=True), k
+    assert stl.robustness(replay, "no_contact") == w.robustness
+    assert replay.metrics == again.metrics
+
+
+def test_falsify_cli_writes_the_worst_case_and_refuses_a_bad_spec(tmp_path):
+    env = dict(os.environ)
+    r = subprocess.run(
+        [sys.executable, "-m", "flc", "falsify", str(SPECS / "paper-flc-90.toml"), "--budget", "16", "--out", str(tmp_path), "-q"],
+        capture_output=True, text=True, env=env, check=False,
+    )
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["evaluations"] == 16 and s["min_robustness"] == json.loads((tmp_path / "falsify.json").read_text())["min_robustness"]
+    back = flc.run(flc.Scenario.load(tmp_path / "worst.toml"))
+    assert stl.robustness(back, "no_contact") == s["min_robustness"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[base]\npaper = { speed_kmh = 90 }\n[search]\nbudjet = 3\n[[search.keys]]\nkey = "lead_decel"\nmin = 1.0\nmax = 2.0\n')
+    r = subprocess.run([sys.executable, "-m", "flc", "falsify", str(bad)], capture_output=True, text=True, check=False)
+    assert r.returncode == 2 and "search: unknown key(s) budjet" in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_falsify_spec_errors_name_the_key():
+    base = {"base": {"paper": {"speed_kmh": 90}}}
+    with pytest.raises(_falsify.SpecError, match=r"search.keys\[0\]: `min` and `max` must be finite numbers with min <= max, got 5.0, 1.0"):
+        flc.falsify({**base, "search": {"keys": [{"key": "lead_decel", "min": 5.0, "max": 1.0}]}})
+    with pytest.raises(_falsify.SpecError, match="lower corner is not a valid scenario.*lidar.rate_hz"):
+        flc.falsify({**base, "search": {"keys": [{"key": "lidar.rate_hz", "min": 0.0, "max": 10.0}]}})
+    with pytest.raises(_falsify.SpecError, match="search.requirement: unknown 'safe'"):
+        flc.falsify({**base, "search": {"requirement": "safe", "keys": [{"key": "lead_decel", "min": 1.0, "max": 2.0}]}})
