@@ -13,6 +13,7 @@ name                formula (``rtamt`` syntax)                                  
 ``comfort``         ``always ((historically[0:H] (lead_accel >= -a_gentle))``                   m/s²
                     ``        implies (follower_accel >= -a_comfort))``
 ``time_gap``        ``always (once[0:T] (gap - tau * follower_speed >= 0))``                    m
+``safe_distance``   ``always (gap - t_safe * follower_speed >= d_safe)``                        m
 ==================  =========================================================================  ====
 
 * ``no_contact``: the bumper-to-bumper gap stays positive. Robustness = the smallest gap.
@@ -22,6 +23,8 @@ name                formula (``rtamt`` syntax)                                  
 * ``time_gap``: no window of ``T`` (10 s) in which the time gap stays below ``tau`` (0.9 s, the
   German fine threshold "half the speedometer"): a time gap lost to a disturbance is recovered
   within ``T``.
+* ``safe_distance``: the ARCH-COMP ACC benchmark's property ``D_rel >= D_default + T_gap v_ego``
+  (10 m + 1.4 s), with ``D_rel`` read as the bumper-to-bumper gap.
 
 :func:`robustness` computes them with NumPy (fast: the falsifier calls it per candidate);
 :func:`monitor` evaluates the same formulas with the ``rtamt`` library (``pip install
@@ -41,10 +44,12 @@ DEFAULTS: dict[str, float] = {
     "a_comfort": 3.5,
     "tau": 0.9,
     "recover_within": 10.0,
+    "d_safe": 10.0,
+    "t_safe": 1.4,
 }
 
 #: The requirements, in order.
-REQUIREMENTS: tuple[str, ...] = ("no_contact", "comfort", "time_gap")
+REQUIREMENTS: tuple[str, ...] = ("no_contact", "comfort", "time_gap", "safe_distance")
 
 
 def _params(overrides: Mapping[str, float]) -> dict[str, float]:
@@ -72,6 +77,8 @@ def formula(name: str, **params: float) -> str:
         )
     if name == "time_gap":
         return f"always (once[0:{p['recover_within']:g}] (gap - {p['tau']:g} * follower_speed >= 0))"
+    if name == "safe_distance":
+        return f"always (gap - {p['t_safe']:g} * follower_speed >= {p['d_safe']:g})"
     raise ValueError(f"stl: unknown requirement {name!r} (known: {', '.join(REQUIREMENTS)})")
 
 
@@ -134,6 +141,8 @@ def robustness(series: Any, name: str, **params: float) -> float:
     if name == "time_gap":
         e = _column(s, "gap") - p["tau"] * _column(s, "follower_speed")
         return float(np.min(_sliding(e, _window(dt, p["recover_within"]), np.max)))
+    if name == "safe_distance":
+        return float(np.min(_column(s, "gap") - p["t_safe"] * _column(s, "follower_speed") - p["d_safe"]))
     raise ValueError(f"stl: unknown requirement {name!r} (known: {', '.join(REQUIREMENTS)})")
 
 
@@ -153,7 +162,7 @@ def monitor(series: Any, name: str, dt: Optional[float] = None, **params: float)
     s = _columns(series)
     step = _dt(s) if dt is None else float(dt)
     spec = rtamt.StlDiscreteTimeSpecification()
-    names = {"no_contact": ["gap"], "comfort": ["lead_accel", "follower_accel"], "time_gap": ["gap", "follower_speed"]}
+    names = {"no_contact": ["gap"], "comfort": ["lead_accel", "follower_accel"], "time_gap": ["gap", "follower_speed"], "safe_distance": ["gap", "follower_speed"]}
     if name not in names:
         raise ValueError(f"stl: unknown requirement {name!r} (known: {', '.join(REQUIREMENTS)})")
     for v in names[name]:

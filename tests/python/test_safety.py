@@ -13,8 +13,8 @@ SCRIPT = dict(
     lead_accel=[0, 0, -1, -1, -3, -3, 0, 0, 0],
     follower_accel=[0, -1, -2, -4, -4, -4, -2, 0, 0],
 )
-# Windows of 1 s = 3 samples; time gap 0.5 s.
-PARAMS = dict(gentle_window=1.0, recover_within=1.0, tau=0.5)
+# Windows of 1 s = 3 samples; time gap 0.5 s; safe distance 1 m + 0.2 s.
+PARAMS = dict(gentle_window=1.0, recover_within=1.0, tau=0.5, d_safe=1.0, t_safe=0.2)
 HAND = {
     # min gap
     "no_contact": 2.5,
@@ -25,6 +25,8 @@ HAND = {
     # gap - 0.5 v = 5 3 -0.5 -1 -0.5 0.5 1.5 3.5 4.5; its max over 3 samples =
     # 5 5 5 3 -0.5 0.5 1.5 3.5 4.5 -> -0.5 (1.0-2.0 s below the time gap throughout)
     "time_gap": -0.5,
+    # gap - 0.2 v - 1 = 7 5 1.2 0.4 0.3 0.7 1.4 3.4 4.4 -> 0.3
+    "safe_distance": 0.3,
 }
 
 
