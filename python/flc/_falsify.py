@@ -374,19 +374,21 @@ def falsify(
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("flc.falsify() needs cmaes: pip install 'flc[safety]'") from e
     root = "."
-    if not isinstance(spec, Mapping):
+    if isinstance(spec, Mapping):
+        raw: Mapping[str, Any] = spec
+    else:
         root = os.path.dirname(os.fspath(spec)) or "."
-        spec = load_spec(spec)
-    spec = json.loads(json.dumps(spec))  # a plain copy
+        raw = load_spec(spec)
+    data: dict[str, Any] = json.loads(json.dumps(raw))  # a plain copy
     if budget is not None:
-        spec.setdefault("search", {})["budget"] = int(budget)
+        data.setdefault("search", {})["budget"] = int(budget)
     if seed is not None:
-        spec.setdefault("search", {})["seed"] = int(seed)
-    plan = _Plan(spec, root)
+        data.setdefault("search", {})["seed"] = int(seed)
+    plan = _Plan(data, root)
     n = len(plan.dims)
     bounds = np.tile([0.0, 1.0], (n, 1))
     opt = CMA(mean=np.full(n, 0.5), sigma=plan.sigma0, bounds=bounds, seed=plan.seed, population_size=plan.population)
-    result = FalsifyResult(spec)
+    result = FalsifyResult(data)
     th = threads if threads is not None else plan.threads
     gen = 0
     while len(result.evaluations) < plan.budget:

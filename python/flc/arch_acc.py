@@ -48,7 +48,7 @@ def scenario(controller: str, gap: float, lead_speed: float, ego_speed: float) -
 def grid() -> list[tuple[float, float, float]]:
     """The 27 sample points (gap, lead speed, ego speed): each interval's ends and middle."""
     axes = [(lo, (lo + hi) / 2, hi) for lo, hi in (GAP, LEAD_SPEED, EGO_SPEED)]
-    return list(itertools.product(*axes))
+    return [(g, vl, ve) for g, vl, ve in itertools.product(*axes)]
 
 
 def evaluate(controllers: tuple[str, ...] = CONTROLLERS) -> list[dict[str, Any]]:

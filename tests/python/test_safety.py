@@ -137,3 +137,27 @@ def test_falsify_spec_errors_name_the_key():
         flc.falsify({**base, "search": {"keys": [{"key": "lidar.rate_hz", "min": 0.0, "max": 10.0}]}})
     with pytest.raises(_falsify.SpecError, match="search.requirement: unknown 'safe'"):
         flc.falsify({**base, "search": {"requirement": "safe", "keys": [{"key": "lead_decel", "min": 1.0, "max": 2.0}]}})
+
+
+# --- the ARCH-COMP ACC benchmark on samples ---------------------------------------------------
+
+from flc import arch_acc  # noqa: E402
+
+
+def test_arch_acc_scenarios_are_the_benchmarks_initial_set():
+    pts = arch_acc.grid()
+    assert len(pts) == 27 and min(p[0] for p in pts) == 79.0 and max(p[0] for p in pts) == 100.0
+    sc = arch_acc.scenario("flc", 79.0, 32.2, 30.0).to_dict()
+    assert sc["duration"] == 5.0 and sc["lidar"]["rate_hz"] == 10.0
+    assert sc["lead"]["initial_speed"] == 32.2 and sc["follower"]["initial_speed"] == 30.0 and sc["follower"]["initial_gap"] == 79.0
+    [phase] = sc["lead"]["phases"]
+    assert phase["kind"] == "brake" and phase["decel"] == 2.0 and phase["speed"] == 0.0
+    r = flc.run(arch_acc.scenario("flc", 79.0, 32.2, 30.0))
+    assert r.t[-1] == pytest.approx(5.0, abs=0.011)
+    assert r.lead_speed[-1] == pytest.approx(32.2 - 2.0 * 5.0, abs=0.6)  # through the lead's lag
+
+
+def test_arch_acc_property_holds_for_the_fallback_laws_on_every_sample():
+    for row in arch_acc.evaluate(("flc", "flc-robust")):
+        assert row["samples"] == 27 and row["violations"] == 0 and row["collisions"] == 0, row
+        assert row["min_robustness"] > 0
