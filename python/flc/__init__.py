@@ -20,6 +20,7 @@ from ._controllers import (
     Supervisor,
 )
 from ._flc import FlcError, ParameterError, ScenarioError, SimulationError
+from ._falsify import falsify
 from ._mcap import read_mcap
 from ._run import PlatoonResult, RunResult, frequency_response, metrics_from_series, run, run_suite, sweep
 from ._scenario import Scenario
@@ -52,6 +53,7 @@ __all__ = [
     "SuiteReport",
     "SuiteResults",
     "Supervisor",
+    "falsify",
     "frequency_response",
     "metrics_from_series",
     "run_suite",

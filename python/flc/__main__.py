@@ -2,6 +2,7 @@
 ``python -m flc reproduction --out DIR``,
 ``python -m flc sumo-tables --out DIR`` (every SUMO result the documents state, ``DIR/sumo-tables.json``; :mod:`flc.sumo`),
 ``python -m flc sweep FILE [--out X.csv|X.parquet] [--dask SCHEDULER_ADDRESS] [--chunk-size N] [--series] [--restart]``,
+``python -m flc falsify SPEC.toml [--out DIR] [--budget N] [--seed N]`` (a CMA-ES search for the least robust run, :mod:`flc._falsify`),
 ``python -m flc docs [--check] [--root DIR] [FILE ...]`` / ``python -m flc docs show NAME [ARG ...]`` / ``python -m flc docs list``
 (the documents' generated blocks, :mod:`flc.docs`; exit 1 when ``--check`` finds a block that differs; they need the
 source tree: the one this package runs from, a checkout around the working directory, or ``--root DIR``; exit 2
@@ -70,6 +71,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from . import docs
 
         return docs.main(rest)
+    if argv[:1] == ["falsify"]:
+        from ._falsify import main as falsify_main
+
+        return falsify_main(argv[1:])
     parser = argparse.ArgumentParser(prog="python -m flc", description="flc command line")
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser(

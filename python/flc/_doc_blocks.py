@@ -697,3 +697,75 @@ def published_files() -> str:
             qc,
         ])
     return table(["file", "runs in file", "run by flc", "within tolerance", "difference (first reason)", "ASAM checker issues"], rows, "lrrrll")
+
+
+# ---------------------------------------------------------------------------------------------
+# Safety evidence (docs/safety-evidence.md)
+
+
+@generator("falsify-benchmarks")
+def falsify_benchmarks(seeds: str = "1,2,3,4,5") -> str:
+    """docs/safety-evidence.md: evaluations the CMA-ES falsifier needs to find the paper PID's and
+    the paper FLC's collision at 90 km/h (scenarios/falsify/paper-{pid,flc}-90.toml), per seed,
+    stopping at the first generation with a negative robustness."""
+    from ._falsify import falsify, load_spec
+
+    rows = []
+    for name in ("paper-pid-90", "paper-flc-90"):
+        spec = load_spec(ROOT / "scenarios" / "falsify" / f"{name}.toml")
+        spec["search"]["stop_below"] = 0.0
+        found = []
+        for seed in [int(s) for s in seeds.split(",")]:
+            r = falsify(spec, seed=seed)
+            found.append(r.first_violation)
+            w = r.worst
+            rows.append([
+                f"`{name}.toml`",
+                str(seed),
+                "not found" if r.first_violation is None else str(r.first_violation),
+                f"{w.robustness:.3f}",
+                f"{w.point['lead.phases[2].decel']:.2f}",
+            ])
+        ok = sorted(f for f in found if f is not None)
+        med = "-" if len(ok) < len(found) else f"{ok[len(ok) // 2]}"
+        rows.append([f"`{name}.toml`", "median", med, "", ""])
+    budget = spec["search"]["budget"]
+    head = f"Budget {budget} evaluations per search; population {spec['search']['population']}.\n\n"
+    return head + table(["spec", "seed", "evaluations to the first collision", "least robustness (m)", "its lead braking (m/s²)"], rows, "lrrrr")
+
+
+@generator("falsify-summary")
+def falsify_summary(path: str) -> str:
+    """docs/safety-evidence.md: the committed result of a long search (``falsify.json`` written by
+    ``python -m flc falsify SPEC --out DIR``; the command is in the document)."""
+    d = json.loads((ROOT / path).read_text(encoding="utf-8"))
+    rows = [
+        ["requirement", f"`{d['requirement']}`"],
+        ["evaluations", str(d["evaluations"])],
+        ["least robustness (m)", f"{d['min_robustness']:.4f}"],
+        ["runs with contact", str(d["collisions"])],
+        ["first negative robustness at evaluation", "-" if d["first_violation"] is None else str(d["first_violation"])],
+        ["the worst case (evaluation)", str(d["worst_index"])],
+    ]
+    pts = [[f"`{k}`", f"{v:.4g}"] for k, v in d["worst_point"].items()]
+    return table(["", ""], rows, "lr") + "\n\nThe worst case's point:\n\n" + table(["dimension", "value"], pts, "lr")
+
+
+@generator("arch-acc")
+def arch_acc_table() -> str:
+    """docs/safety-evidence.md: the ARCH-COMP ACC benchmark's property on 27 samples per
+    controller (:mod:`flc.arch_acc`)."""
+    from . import arch_acc
+
+    rows = [
+        [
+            f"`{r['controller']}`",
+            str(r["samples"]),
+            str(r["violations"]),
+            str(r["collisions"]),
+            f"{r['min_robustness']:.2f}",
+            "gap {:.1f} m, lead {:.1f} m/s, ego {:.1f} m/s".format(*r["worst"]),
+        ]
+        for r in arch_acc.evaluate()
+    ]
+    return table(["controller", "samples", "violations", "contacts", "least robustness (m)", "at"], rows, "lrrrrl")
