@@ -176,7 +176,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],
     &["record", "trajectory", "report", "paper_verdict", "svg"],
-    &["runner"],
+    &["runner", "gym"],
     &["sweep", "suite", "frequency_response", "detection_study"],
     &["stream"],
 ];
