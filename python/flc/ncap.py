@@ -119,7 +119,9 @@ def _fill_template(path: Path, grid: Mapping[tuple[str, float, float, float], Ma
             if ws.cell(r, 2).value:
                 ws.cell(r, cols[s]).value = "NO"
     ws = wb[PRED_SHEET]
-    block, locations, filled = None, [], 0
+    block: Optional[str] = None
+    locations: list[Any] = []
+    filled = 0
     for r in range(1, ws.max_row + 1):
         a = ws.cell(r, 1).value
         if isinstance(a, str) and "km/h" not in a:

@@ -44,14 +44,25 @@ def test_every_cell_of_the_grid_is_run_and_predicted(report, tmp_path):
     assert info["cells"] == len(grid)
     wb = openpyxl.load_workbook(tmp_path / "wb.xlsx")
     ws = wb[ncap.PRED_SHEET]
-    block, blank = None, []
+    # The calculator's `preprocess` re-encodes each typed prediction as the cell's fill colour
+    # (leaving only its "X" marks as text): every cell must carry its run's band as that fill.
+    fill = {"green": "009933", "yellow": "FFDD33", "orange": "FF9933", "brown": "964B00", "red": "FF3333"}
+    block, locations, checked, wrong = None, [], 0, []
     for row in ws.iter_rows(min_row=1):
         a = row[0].value
         if isinstance(a, str) and "km/h" not in a:
-            block = a
+            block, locations = a.strip(), []
+        elif block in ncap.SCENARIOS and a is None and isinstance(row[3].value, (int, float)):
+            locations = [(c.column, 100.0 * float(c.value)) for c in row[3:10] if c.value is not None]
         elif block in ncap.SCENARIOS and isinstance(a, str):
-            blank += [(block, a, c.column) for c in row[3:10] if c.value in (None, "")]
-    assert blank == [], "cells left untested in the workbook"
+            vut, target = float(a.replace("km/h", "")), float(str(row[1].value).replace("km/h", ""))
+            for col, il in locations:
+                got = str(ws.cell(row[0].row, col).fill.fgColor.rgb)[-6:].upper()
+                want = fill[grid[(block, vut, target, il)]["band"].lower()]
+                checked += 1
+                if got != want:
+                    wrong.append((block, a, il, got, want))
+    assert checked == len(grid) and wrong == [], f"{checked} cells checked; wrong fills: {wrong[:5]}"
     # Each drawn verification point carries the run's relative impact speed.
     assert info["drawn"] and all(d["value"] == grid[(d["scenario"], d["vut_speed_kmh"], d["target_speed_kmh"], d["impact_location"])]
                                  ["impact_speed_kmh"] for d in info["drawn"])

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Union, cast
 
 import numpy as np
 
@@ -627,7 +627,7 @@ class FollowingVectorEnv(gymnasium.vector.VectorEnv):  # type: ignore[misc]
         """The ``num_envs`` actions as one contiguous float32 array (shape ``(n,)`` or ``(n, 1)``
         accepted); anything else raises ``TypeError`` / ``ValueError`` saying what they must be."""
         n = self.num_envs
-        box = self.single_action_space
+        box = cast(spaces.Box, self.single_action_space)
         what = (
             f"FollowingVectorEnv.step: `actions` must be an array of shape ({n}, 1) or ({n},): one {self._spec.action_type} "
             f"per environment in [{float(box.low[0]):g}, {float(box.high[0]):g}] (values outside are clipped)"
