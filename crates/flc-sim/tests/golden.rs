@@ -148,7 +148,8 @@ fn standard_suites_report() {
     let summary = scenario(&["suite", "all", "--threads", "1", "--out", one.to_str().expect("utf-8")]);
     assert_eq!(summary, scenario(&["suite", "all", "--threads", "2", "--out", two.to_str().expect("utf-8")]), "summary depends on threads");
     let mut reports = Vec::new();
-    let mut files: Vec<String> = ["ncap-ccr", "ncap-ccr-2026", "r157"].iter().flat_map(|n| ["md", "json", "svg"].map(|e| format!("{n}.{e}"))).collect();
+    let mut files: Vec<String> =
+        ["ncap-ccr", "ncap-ccr-2026", "r157"].iter().flat_map(|n| ["md", "json", "svg"].map(|e| format!("{n}.{e}"))).collect();
     files.extend(["summary.md".to_string(), "summary-line.md".to_string()]);
     for file in &files {
         let a = std::fs::read_to_string(one.join(file)).expect("report");

@@ -827,9 +827,7 @@ fn file_header(file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
     Ok(())
 }
 
-/// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
-/// lead only below it (as in the paper experiment, 20 km/h above the fastest speed of the file).
-/// Init `LongitudinalDistanceAction`s by distance place their actor at t = 0, as esmini applies
+/// Init `LongitudinalDistanceAction`s (by distance or time gap) place their actor at t = 0, as esmini applies
 /// Init actions before its first step (a continuous one also gives it the target's speed); the
 /// action, in the act `init`, then makes the same placement in the first step. Positions are
 /// box centres along the centreline; an actor facing against the road measures ahead in -s.
@@ -837,10 +835,13 @@ fn place_init_distances(s: &mut Scenario, story: &crate::story::Story) {
     let Some(init) = story.acts.iter().find(|a| a.name == "init") else { return };
     for g in &init.groups {
         for a in g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()) {
-            let Action::LongitudinalDistance { of, distance: Some(d), freespace, ahead, continuous, .. } = &a.action else { continue };
+            let Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } = &a.action else { continue };
             let Some((ts, tlen, tv, _)) = entity_slot(s, of) else { continue };
             for actor in &g.actors {
-                let Some((_, len, _, heading)) = entity_slot(s, actor) else { continue };
+                let Some((_, len, v, heading)) = entity_slot(s, actor) else { continue };
+                // A time gap times the actor's own initial speed (a kept one: `of`'s), as the
+                // action itself takes it in the first step (story::motion).
+                let Some(d) = distance.or_else(|| time_gap.map(|g| g * if *continuous { tv } else { v })) else { continue };
                 let dir = if heading.abs() > std::f64::consts::FRAC_PI_2 { -1.0 } else { 1.0 };
                 let gap = d + if *freespace { 0.5 * (tlen + len) } else { 0.0 };
                 let centre = if *ahead { ts + dir * gap } else { ts - dir * gap };
@@ -874,6 +875,8 @@ fn set_slot(s: &mut Scenario, name: &str, centre: f64, speed: Option<f64>) {
     }
 }
 
+/// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
+/// lead only below it (as in the paper experiment, 20 km/h above the fastest speed of the file).
 fn set_cruise_speed(s: &mut Scenario, v: f64) {
     let mut sec = s.sections();
     for k in ControllerKind::ALL {
@@ -1350,6 +1353,30 @@ mod tests {
         let imp = import(&write(&d, "u.xosc", &text), &ImportOptions::default()).expect("environment");
         assert!(imp.warnings.iter().any(|w| w.contains("<EnvironmentAction>: skipped")), "{:?}", imp.warnings);
         assert!(story_of(&imp).variables.iter().any(|v| v.name == storyboard::SKIPPED_VAR));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn an_init_distance_by_time_gap_places_its_actor_at_t0() {
+        // Lead at 15 m/s placed 2 s ahead of Ego (20 m/s) in Init: 2 s x its own 15 m/s = 30 m
+        // between centres at t = 0 (esmini applies Init actions before its first step), not at
+        // its teleported s = 200; `distance` likewise.
+        let d = tmp("init-gap");
+        let ents = format!("{}{}", car("Ego"), car("Lead"));
+        for (attr, want) in [("timeGap=\"2.0\"", 30.0), ("distance=\"25.0\"", 25.0)] {
+            let keep = format!(
+                "<Private entityRef=\"Lead\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" {attr} \
+                 freespace=\"false\" continuous=\"false\" coordinateSystem=\"entity\" displacement=\"leadingReferencedEntity\"/>\
+                 </LongitudinalAction></PrivateAction></Private>"
+            );
+            let init = format!("{}{}{keep}", place("Ego", -1, 50.0, 20.0), place("Lead", -1, 200.0, 15.0));
+            let text = xosc("", &ents, &init, "");
+            let imp = import(&write(&d, "g.xosc", &text), &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() })
+                .unwrap_or_else(|e| panic!("{attr}: {e}"));
+            let s = &imp.runs[0].scenario;
+            let gap = s.lead.s.unwrap_or(f64::NAN) - s.follower.start_s.unwrap_or(f64::NAN);
+            assert!(close(gap, want), "{attr}: centres {gap} m apart, want {want}");
+        }
         let _ = std::fs::remove_dir_all(&d);
     }
 
