@@ -92,8 +92,9 @@ SDIST_DIR="target/sdist"
 rm -rf "$SDIST_DIR" target/sdist-venv target/sdist-build
 "$VENV/bin/maturin" sdist -o "$SDIST_DIR"
 python3 -m venv target/sdist-venv
-# With the `plot` extra: the smoke test draws figures from a temporary folder.
+# With the `plot` extra (the smoke test draws figures from a temporary folder) and `safety` (its
+# docs check renders the falsification block, which needs cmaes).
 SDIST="$(ls "$PWD/$SDIST_DIR"/flc-*.tar.gz)"
 CARGO_TARGET_DIR="$PWD/target/sdist-build" CARGO_PROFILE_DIST_LTO=false CARGO_PROFILE_DIST_CODEGEN_UNITS=16 \
-  target/sdist-venv/bin/python -m pip install --quiet "flc[plot] @ file://$SDIST"
+  target/sdist-venv/bin/python -m pip install --quiet "flc[plot,safety] @ file://$SDIST"
 (cd target && sdist-venv/bin/python "$OLDPWD/tests/sdist_smoke.py")

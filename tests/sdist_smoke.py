@@ -34,7 +34,7 @@ with tempfile.TemporaryDirectory() as tmp:
     os.chdir(tmp)
     # The suites ship with the package: every suite, one controller (next to the careful driver).
     reports = flc.run_suite("all", controllers=["flc"])
-    assert sorted(rep["name"] for rep in reports) == ["ncap-ccr", "r157"], [rep["name"] for rep in reports]
+    assert sorted(rep["name"] for rep in reports) == ["ncap-ccr", "ncap-ccr-2026", "r157"], [rep["name"] for rep in reports]
     for rep in reports:
         runs = {s["controller"]: s["runs"] for s in rep["summary"]}
         assert runs["flc"] > 0 and runs["flc"] == len([x for x in rep["results"] if x["controller"] == "flc"]), runs
