@@ -20,6 +20,7 @@ mod follower;
 mod geometry;
 mod links;
 mod observer;
+mod path;
 mod story;
 mod traffic;
 
@@ -30,10 +31,11 @@ pub use observer::Observer;
 use flc_core::PurePursuit;
 
 use self::follower::Follower;
-use self::geometry::{Road, bumper_gap, centreline_steer};
+use self::geometry::{Road, bumper_gap, centreline_pursuit, centreline_steer};
 use self::links::relay_tick;
+use self::path::{Object, human_front, nearest_in_path};
 use self::story::{StepInput, StoryRun, pose_of};
-use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, human_front, nearest_ahead, truth};
+use self::traffic::{Traffic, Triggers, Truth, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
@@ -145,7 +147,7 @@ struct State {
     fronts: Vec<(VehicleState, f64)>,
     /// For each follower whose controller sees the scene as a human does
     /// ([`crate::ControllerKind::perceives_truth`]): the vehicle in front as it sees it
-    /// ([`traffic::human_front`]), reused.
+    /// ([`path::human_front`]), reused.
     human_fronts: Vec<Option<(VehicleState, f64)>>,
     /// Start and stop triggers.
     triggers: Triggers,
@@ -812,8 +814,8 @@ impl<O: Observer> Simulation<O> {
     }
 
     /// With `[[vehicles]]`: the vehicle in front of each follower and its length, into
-    /// `fronts`: the nearest vehicle ahead in its lane among the lead, the traffic and the
-    /// followers ahead of it (the one it follows in the string if none is). Without traffic
+    /// `fronts`: the nearest vehicle in its path ([`path::nearest_in_path`]) among the lead, the
+    /// traffic and the followers ahead of it (the one it follows in the string if none is). Without traffic
     /// `fronts` stays empty and each follower's vehicle in front is the one ahead in the string.
     fn fill_fronts(&mut self) {
         let st = &mut self.state;
@@ -822,17 +824,22 @@ impl<O: Observer> Simulation<O> {
         }
         st.fronts.clear();
         let ll = &st.scenario.lead.vehicle;
-        let lead = (*st.lead.state(), ll.length, ll.width);
+        let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
         for k in 0..st.followers.len() {
             let f = &st.followers[k];
             let v = &f.cfg.follower.vehicle;
-            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length, g.cfg.follower.vehicle.width));
-            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length, t.params.width));
-            let fallback = k.checked_sub(1).map_or((lead.0, lead.1), |j| {
+            let ahead = st.followers[..k].iter().map(|g| Object {
+                state: *g.vehicle.state(),
+                length: g.cfg.follower.vehicle.length,
+                width: g.cfg.follower.vehicle.width,
+            });
+            let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
+            let fallback = k.checked_sub(1).map_or((lead.state, lead.length), |j| {
                 let g = &st.followers[j];
                 (*g.vehicle.state(), g.cfg.follower.vehicle.length)
             });
-            let front = nearest_ahead(f.vehicle.state(), v.width, std::iter::once(lead).chain(traffic).chain(ahead)).unwrap_or(fallback);
+            let front = nearest_in_path(&st.track, f.vehicle.state(), v.width, std::iter::once(lead).chain(traffic).chain(ahead))
+                .unwrap_or(fallback);
             st.fronts.push(front);
         }
     }
@@ -846,12 +853,18 @@ impl<O: Observer> Simulation<O> {
         if !st.followers.iter().any(|f| f.cfg.controller.perceives_truth()) {
             return;
         }
-        let lead = (*st.lead.state(), st.scenario.lead.vehicle.length);
+        let ll = &st.scenario.lead.vehicle;
+        let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
         for k in 0..st.followers.len() {
             let f = &st.followers[k];
-            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length));
-            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length));
-            let seen = human_front(f.vehicle.state(), st.track.lane_width, std::iter::once(lead).chain(traffic).chain(ahead));
+            let ahead = st.followers[..k].iter().map(|g| Object {
+                state: *g.vehicle.state(),
+                length: g.cfg.follower.vehicle.length,
+                width: g.cfg.follower.vehicle.width,
+            });
+            let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
+            let seen =
+                human_front(&st.track, f.vehicle.state(), f.cfg.follower.vehicle.width, std::iter::once(lead).chain(traffic).chain(ahead));
             st.human_fronts.push(seen);
         }
     }
