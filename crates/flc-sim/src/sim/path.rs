@@ -15,7 +15,9 @@
 //!   *relative to the lane*. A vehicle of the next lane is perceived as cutting in once its centre
 //!   has come more than the wandering zone towards the ego's lane; a vehicle of the ego's lane is
 //!   perceived as cutting out once it is more than the wandering zone off the lane centre and
-//!   heading away (a lead weaving within ±0.3 m stays the vehicle in front).
+//!   moving away from it faster than [`PathParams::leaving_speed`] (a lead weaving within ±0.3 m
+//!   stays the vehicle in front, and so does one at the turning point of a weave a few
+//!   centimetres wider, or a vehicle standing on the marking).
 
 use crate::track::{Track, wrap};
 use crate::vehicle::VehicleState;
@@ -31,6 +33,12 @@ pub const WANDERING: f64 = 0.375;
 /// clearance to pass an object with).
 pub const CORRIDOR_MARGIN: f64 = 0.5;
 
+/// Lateral speed away from the lane's centre above which a vehicle beyond the wandering zone is
+/// read as leaving the lane (a cut-out), m/s: well below a lane change's (a 3.5 m change in 5 s
+/// crosses the wandering zone at about 0.7 m/s), above the lateral speed at the turning point of
+/// a weave and of a standing vehicle (0).
+pub const LEAVING_SPEED: f64 = 0.2;
+
 /// The parameters of the path: the wandering zone and the corridor's margin.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathParams {
@@ -38,11 +46,14 @@ pub struct PathParams {
     pub wandering: f64,
     /// Margin of the swept-path corridor on each side of the ego's body, m ([`CORRIDOR_MARGIN`]).
     pub corridor_margin: f64,
+    /// Lateral speed away from the lane's centre that makes a vehicle beyond the wandering zone
+    /// a cut-out, m/s ([`LEAVING_SPEED`]).
+    pub leaving_speed: f64,
 }
 
 impl Default for PathParams {
     fn default() -> Self {
-        Self { wandering: WANDERING, corridor_margin: CORRIDOR_MARGIN }
+        Self { wandering: WANDERING, corridor_margin: CORRIDOR_MARGIN, leaving_speed: LEAVING_SPEED }
     }
 }
 
@@ -61,8 +72,9 @@ pub(super) struct Located {
     pub(super) ds: f64,
     /// Lateral position of its centre from the centre of the ego's lane, m (+ left).
     pub(super) t: f64,
-    /// Its heading relative to the road there, rad (+ left).
-    pub(super) heading: f64,
+    /// Its lateral speed across the road, m/s (+ left): its speed times the sine of its heading
+    /// relative to the road.
+    pub(super) t_speed: f64,
     /// Half its width, m.
     pub(super) half_width: f64,
 }
@@ -97,7 +109,7 @@ impl<'a> EgoPath<'a> {
         Located {
             ds: p.s - self.s,
             t: p.lateral_offset - self.lane_centre,
-            heading: wrap(o.state.yaw - p.heading),
+            t_speed: o.state.speed * wrap(o.state.yaw - p.heading).sin(),
             half_width: o.width / 2.0,
         }
     }
@@ -111,10 +123,11 @@ impl<'a> EgoPath<'a> {
     /// Whether a careful driver reads an object at `l` (ahead) as in its lane: in the corridor,
     /// or its centre within the lane width less the wandering zone of the lane's centre (a
     /// vehicle of the next lane has moved more than the wandering zone towards it), and not
-    /// cutting out (more than the wandering zone off the lane's centre and heading away).
+    /// cutting out (more than the wandering zone off the lane's centre and moving away from it
+    /// faster than the leaving speed).
     pub(super) fn seen_in_lane(&self, l: &Located) -> bool {
         let w = self.params.wandering;
-        let leaving = l.t.abs() > w && l.t * l.heading.sin() > 0.0;
+        let leaving = l.t.abs() > w && l.t.signum() * l.t_speed > self.params.leaving_speed;
         !leaving && (l.t.abs() < self.track.lane_width - w || self.in_corridor(l))
     }
 }
@@ -180,11 +193,15 @@ mod tests {
     }
 
     /// A vehicle on `track` at `s`, `offset` m left of the centreline, heading along the road
-    /// (+ `heading`).
+    /// (+ `heading`) at 20 m/s (standing if `heading` is NaN).
     fn at(track: &Track, s: f64, offset: f64, heading: f64, (length, width): (f64, f64)) -> Object {
         let (x, y, h) = track.place(s, offset);
-        Object { state: VehicleState { x, y, yaw: h + heading, ..VehicleState::default() }, length, width }
+        let (yaw, speed) = if heading.is_nan() { (h + 0.05, 0.0) } else { (h + heading, 20.0) };
+        Object { state: VehicleState { x, y, yaw, speed, ..VehicleState::default() }, length, width }
     }
+
+    /// Standing (`at`), turned 0.05 rad to the left.
+    const STANDING: f64 = f64::NAN;
 
     const CAR: (f64, f64) = (4.7, 1.8);
     const BIKE: (f64, f64) = (2.2, 0.8);
@@ -203,6 +220,9 @@ mod tests {
                     ("car on the lane centre", 60.0, 0.0, 0.0, CAR, true, true),
                     ("motorbike on the lane centre", 90.0, 0.0, 0.0, BIKE, true, true),
                     ("motorbike on the marking", 40.0, lw / 2.0, 0.0, BIKE, true, true),
+                    ("motorbike standing on the marking, turned away", 40.0, lw / 2.0, STANDING, BIKE, true, true),
+                    ("car standing across both lanes", 40.0, lw / 2.0, STANDING, CAR, true, true),
+                    ("lead at the turning point of a wider weave", 30.0, 0.4, 0.005, CAR, true, true),
                     ("lead weaving 0.3 m left, heading away", 30.0, 0.3, 0.05, CAR, true, true),
                     ("lead weaving 0.3 m right, heading away", 30.0, -0.3, -0.05, CAR, true, true),
                     ("car in the next lane", 30.0, lw, 0.0, CAR, false, false),
