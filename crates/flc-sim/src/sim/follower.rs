@@ -308,8 +308,9 @@ impl Follower {
         self.path_curvature = arc_curvature(x, y);
     }
 
-    /// Records the step (and returns its record).
-    pub(super) fn record(&mut self, t: f64, track: &Track, gap: f64, ls: &VehicleState, fs: &VehicleState) -> StepRecord {
+    /// Records the step (and returns its record): `gap` to the vehicle in path, `lead_gap` to the
+    /// one followed in the string, `ls` the state of the vehicle in front.
+    pub(super) fn record(&mut self, t: f64, track: &Track, (gap, lead_gap): (f64, f64), ls: &VehicleState, fs: &VehicleState) -> StepRecord {
         let proj = track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
         // The desired gap of the law that drives (the law's own formula).
@@ -336,6 +337,7 @@ impl Follower {
             v2v_age: if self.v2v_age == u32::MAX { f64::NAN } else { f64::from(self.v2v_age) },
             lateral_offset: proj.lateral_offset,
             heading_error,
+            lead_gap,
         };
         self.series.push(rec);
         rec

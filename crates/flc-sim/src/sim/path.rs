@@ -19,6 +19,7 @@
 //!   stays the vehicle in front, and so does one at the turning point of a weave a few
 //!   centimetres wider, or a vehicle standing on the marking).
 
+use super::geometry::bumper_gap;
 use crate::track::{Track, wrap};
 use crate::vehicle::VehicleState;
 
@@ -132,44 +133,40 @@ impl<'a> EgoPath<'a> {
     }
 }
 
-/// The nearest of `candidates` ahead for which `keep` holds, as `(state, length)`.
-fn nearest<'a>(
-    path: &EgoPath<'a>,
-    candidates: impl Iterator<Item = Object>,
-    keep: impl Fn(&EgoPath<'a>, &Located) -> bool,
-) -> Option<(VehicleState, f64)> {
+/// The vehicle in the ego's path among `candidates` (ground truth: the nearest whose centre is
+/// ahead along the road and whose body reaches into the ego's swept-path corridor) and its
+/// length; `None` if there is none. An object beside the ego (bumper gap <= 0) whose body does
+/// not overlap the ego's across the road is being passed, not in front: so the gap to the vehicle
+/// in path is negative only when the bodies overlap both ways (a contact).
+pub(super) fn nearest_in_path(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
+    let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default());
     let mut best: Option<(f64, VehicleState, f64)> = None;
     for o in candidates {
         let l = path.locate(&o);
-        if l.ds > 0.0 && keep(path, &l) && best.is_none_or(|b| l.ds < b.0) {
+        if l.ds > 0.0
+            && path.in_corridor(&l)
+            && best.is_none_or(|b| l.ds < b.0)
+            && ((l.t - path.t).abs() < l.half_width + path.half_width || bumper_gap(&o.state, o.length, &ego.state, ego.length) > 0.0)
+        {
             best = Some((l.ds, o.state, o.length));
         }
     }
     best.map(|(_, st, len)| (st, len))
 }
 
-/// The vehicle in the ego's path among `candidates` (ground truth: the nearest whose centre is
-/// ahead along the road and whose body reaches into the ego's swept-path corridor) and its
-/// length; `None` if there is none.
-pub(super) fn nearest_in_path(
-    track: &Track,
-    ego: &VehicleState,
-    ego_width: f64,
-    candidates: impl Iterator<Item = Object>,
-) -> Option<(VehicleState, f64)> {
-    nearest(&EgoPath::new(track, ego, ego_width, PathParams::default()), candidates, EgoPath::in_corridor)
-}
-
 /// The vehicle in front of `ego` as a careful human driver sees it, and its length: the nearest
 /// vehicle ahead along the road that it reads as in its lane ([`EgoPath::seen_in_lane`]).
 /// `None`: nothing in front.
-pub(super) fn human_front(
-    track: &Track,
-    ego: &VehicleState,
-    ego_width: f64,
-    candidates: impl Iterator<Item = Object>,
-) -> Option<(VehicleState, f64)> {
-    nearest(&EgoPath::new(track, ego, ego_width, PathParams::default()), candidates, EgoPath::seen_in_lane)
+pub(super) fn human_front(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
+    let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default());
+    let mut best: Option<(f64, VehicleState, f64)> = None;
+    for o in candidates {
+        let l = path.locate(&o);
+        if l.ds > 0.0 && path.seen_in_lane(&l) && best.is_none_or(|b| l.ds < b.0) {
+            best = Some((l.ds, o.state, o.length));
+        }
+    }
+    best.map(|(_, st, len)| (st, len))
 }
 
 /// The offset (m, + left of the centreline) of the track's lane whose centre is nearest to
@@ -238,13 +235,13 @@ mod tests {
                     assert!((l.t - offset).abs() < 0.01, "{tag}: t {}", l.t);
                     assert_eq!(path.in_corridor(&l), corridor, "{tag}: {l:?}");
                     assert_eq!(path.seen_in_lane(&l), seen, "{tag}: {l:?}");
-                    let front = human_front(&track, &ego.state, CAR.1, std::iter::once(o));
+                    let front = human_front(&track, &ego, std::iter::once(o));
                     assert_eq!(front.is_some(), seen, "{tag}");
-                    assert_eq!(nearest_in_path(&track, &ego.state, CAR.1, std::iter::once(o)).is_some(), corridor, "{tag}");
+                    assert_eq!(nearest_in_path(&track, &ego, std::iter::once(o)).is_some(), corridor, "{tag}");
                 }
                 // Behind the ego: never in front.
                 let behind = at(&track, 100.0, 0.0, 0.0, CAR);
-                assert!(human_front(&track, &ego.state, CAR.1, std::iter::once(behind)).is_none());
+                assert!(human_front(&track, &ego, std::iter::once(behind)).is_none());
             }
         }
     }
@@ -254,30 +251,49 @@ mod tests {
         // What the road coordinates fix: on R = 250 m the car 60 m ahead in the lane is about
         // 60² / 500 = 7.2 m off the ego's heading line (6.9 m on the polyline).
         let track = curve(250.0, true);
-        let ego = at(&track, 120.0, 0.0, 0.0, CAR).state;
-        let o = at(&track, 180.0, 0.0, 0.0, CAR).state;
-        let across = -(o.x - ego.x) * ego.yaw.sin() + (o.y - ego.y) * ego.yaw.cos();
+        let ego = at(&track, 120.0, 0.0, 0.0, CAR);
+        let o = at(&track, 180.0, 0.0, 0.0, CAR);
+        let (e, c) = (ego.state, o.state);
+        let across = -(c.x - e.x) * e.yaw.sin() + (c.y - e.y) * e.yaw.cos();
         assert!(across > 6.5, "{across}");
-        assert!(human_front(&track, &ego, CAR.1, std::iter::once(Object { state: o, length: 4.7, width: 1.8 })).is_some());
+        assert!(human_front(&track, &ego, std::iter::once(o)).is_some());
     }
 
     #[test]
     fn the_nearest_in_path_wins_and_the_corridor_follows_the_ego() {
         let track = curve(1000.0, false);
-        let ego = at(&track, 120.0, 0.0, 0.0, CAR).state;
+        let ego = at(&track, 120.0, 0.0, 0.0, CAR);
         let near = at(&track, 150.0, track.lane_width / 2.0, 0.0, BIKE);
         let far = at(&track, 170.0, 0.0, 0.0, CAR);
         let next_lane = at(&track, 130.0, track.lane_width, 0.0, CAR);
-        let got = nearest_in_path(&track, &ego, CAR.1, [far, next_lane, near].into_iter()).expect("in path");
+        let got = nearest_in_path(&track, &ego, [far, next_lane, near].into_iter()).expect("in path");
         assert_eq!(got.1, BIKE.0);
         // The ego 1 m to the right of its lane's centre: the motorbike on the left marking is
         // 1.75 + 1 - 0.4 - 0.9 = 1.45 m from its body, out of the 0.5 m margin.
-        let ego_right = at(&track, 120.0, -1.0, 0.0, CAR).state;
-        let got = nearest_in_path(&track, &ego_right, CAR.1, [far, next_lane, near].into_iter()).expect("in path");
+        let ego_right = at(&track, 120.0, -1.0, 0.0, CAR);
+        let got = nearest_in_path(&track, &ego_right, [far, next_lane, near].into_iter()).expect("in path");
         assert_eq!(got.1, CAR.0);
         // The ego's lane is the nearest lane: in the left lane, the car there is in path.
-        let ego_left = at(&track, 120.0, track.lane_width - 0.2, 0.0, CAR).state;
-        let got = nearest_in_path(&track, &ego_left, CAR.1, [far, next_lane].into_iter()).expect("in path");
+        let ego_left = at(&track, 120.0, track.lane_width - 0.2, 0.0, CAR);
+        let got = nearest_in_path(&track, &ego_left, [far, next_lane].into_iter()).expect("in path");
         assert!((got.0.x - next_lane.state.x).abs() < 1e-9);
+    }
+
+    #[test]
+    fn an_object_being_passed_is_not_in_front_unless_the_bodies_overlap() {
+        let track = curve(250.0, true);
+        let ego = at(&track, 120.0, 0.0, 0.0, CAR);
+        // A motorbike on the marking, its centre 1 m ahead of the ego's: bumper gap < 0, in the
+        // corridor (0.45 m from the ego's body), not overlapping across the road: being passed.
+        let beside = at(&track, 121.0, track.lane_width / 2.0, STANDING, BIKE);
+        assert!(bumper_gap(&beside.state, BIKE.0, &ego.state, CAR.0) < 0.0);
+        assert!(nearest_in_path(&track, &ego, std::iter::once(beside)).is_none());
+        // 5 m ahead it is in front (gap 1.55 m).
+        let ahead = at(&track, 125.0, track.lane_width / 2.0, STANDING, BIKE);
+        assert!(nearest_in_path(&track, &ego, std::iter::once(ahead)).is_some());
+        // Overlapping across the road and along it: a contact, still the vehicle in path.
+        let hit = at(&track, 123.0, 1.0, STANDING, BIKE);
+        assert!(bumper_gap(&hit.state, BIKE.0, &ego.state, CAR.0) < 0.0);
+        assert!(nearest_in_path(&track, &ego, std::iter::once(hit)).is_some());
     }
 }
