@@ -310,7 +310,14 @@ impl Follower {
 
     /// Records the step (and returns its record): `gap` to the vehicle in path, `lead_gap` to the
     /// one followed in the string, `ls` the state of the vehicle in front.
-    pub(super) fn record(&mut self, t: f64, track: &Track, (gap, lead_gap): (f64, f64), ls: &VehicleState, fs: &VehicleState) -> StepRecord {
+    pub(super) fn record(
+        &mut self,
+        t: f64,
+        track: &Track,
+        (gap, lead_gap): (f64, f64),
+        ls: &VehicleState,
+        fs: &VehicleState,
+    ) -> StepRecord {
         let proj = track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
         // The desired gap of the law that drives (the law's own formula).

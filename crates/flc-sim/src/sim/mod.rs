@@ -816,7 +816,8 @@ impl<O: Observer> Simulation<O> {
         st.fronts.clear();
         let ll = &st.scenario.lead.vehicle;
         let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
-        let object = |g: &Follower| Object { state: *g.vehicle.state(), length: g.cfg.follower.vehicle.length, width: g.cfg.follower.vehicle.width };
+        let object =
+            |g: &Follower| Object { state: *g.vehicle.state(), length: g.cfg.follower.vehicle.length, width: g.cfg.follower.vehicle.width };
         for k in 0..st.followers.len() {
             let ego = object(&st.followers[k]);
             let ahead = st.followers[..k].iter().map(object);

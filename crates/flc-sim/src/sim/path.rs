@@ -76,7 +76,8 @@ pub(super) struct Located {
     /// Its lateral speed across the road, m/s (+ left): its speed times the sine of its heading
     /// relative to the road.
     pub(super) t_speed: f64,
-    /// Half its width, m.
+    /// Half its extent across the road, m: `(L |sin h| + W cos h) / 2` for its body `L` x `W`
+    /// turned by `h` from the road (half its width when it is parallel to the road).
     pub(super) half_width: f64,
 }
 
@@ -104,14 +105,23 @@ impl<'a> EgoPath<'a> {
         Self { track, s: p.s, lane_centre, t: p.lateral_offset - lane_centre, half_width: width / 2.0, params }
     }
 
+    /// The same path, its body's extent across the road that of a box `length` m long turned by
+    /// its heading relative to the road.
+    fn with_length(mut self, ego: &VehicleState, length: f64) -> Self {
+        let h = wrap(ego.yaw - self.track.project(ego.x, ego.y).heading);
+        self.half_width = half_extent(length, 2.0 * self.half_width, h);
+        self
+    }
+
     /// Where `o` is relative to this path.
     pub(super) fn locate(&self, o: &Object) -> Located {
         let p = self.track.project(o.state.x, o.state.y);
+        let h = wrap(o.state.yaw - p.heading);
         Located {
             ds: p.s - self.s,
             t: p.lateral_offset - self.lane_centre,
-            t_speed: o.state.speed * wrap(o.state.yaw - p.heading).sin(),
-            half_width: o.width / 2.0,
+            t_speed: o.state.speed * h.sin(),
+            half_width: half_extent(o.length, o.width, h),
         }
     }
 
@@ -139,14 +149,15 @@ impl<'a> EgoPath<'a> {
 /// not overlap the ego's across the road is being passed, not in front: so the gap to the vehicle
 /// in path is negative only when the bodies overlap both ways (a contact).
 pub(super) fn nearest_in_path(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
-    let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default());
+    let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default()).with_length(&ego.state, ego.length);
     let mut best: Option<(f64, VehicleState, f64)> = None;
     for o in candidates {
         let l = path.locate(&o);
         if l.ds > 0.0
             && path.in_corridor(&l)
             && best.is_none_or(|b| l.ds < b.0)
-            && ((l.t - path.t).abs() < l.half_width + path.half_width || bumper_gap(&o.state, o.length, &ego.state, ego.length) > 0.0)
+            && ((l.t - path.t).abs() < l.half_width + path.half_width + CONTACT_TOLERANCE
+                || bumper_gap(&o.state, o.length, &ego.state, ego.length) > 0.0)
         {
             best = Some((l.ds, o.state, o.length));
         }
@@ -168,6 +179,16 @@ pub(super) fn human_front(track: &Track, ego: &Object, candidates: impl Iterator
     }
     best.map(|(_, st, len)| (st, len))
 }
+
+/// Half the extent across the road of a `length` x `width` box turned by `h` from it, m.
+fn half_extent(length: f64, width: f64, h: f64) -> f64 {
+    0.5 * (length * h.sin().abs() + width * h.cos().abs())
+}
+
+/// How close across the road (m) the extents of two bodies side by side may be for a negative
+/// bumper gap to count as a contact (the vehicle in path) rather than a pass: a side-swipe
+/// touches at the extents' sum, within the boxes' corners.
+const CONTACT_TOLERANCE: f64 = 0.1;
 
 /// The offset (m, + left of the centreline) of the track's lane whose centre is nearest to
 /// `lateral_offset`.
