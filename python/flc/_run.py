@@ -111,6 +111,7 @@ class RunResult:
     v2v_age: np.ndarray
     lateral_offset: np.ndarray
     heading_error: np.ndarray
+    lead_gap: np.ndarray
 
     def __init__(
         self,

@@ -115,7 +115,9 @@ series_columns! {
     follower_speed: f64, "m/s";
     /// Follower longitudinal acceleration, m/s².
     follower_accel: f64, "m/s^2";
-    /// Bumper-to-bumper distance (ground truth), m; negative when overlapping.
+    /// Bumper-to-bumper distance to the vehicle in the follower's path (ground truth, the
+    /// nearest whose body reaches into its swept path plus margin, `sim/path.rs`), m; NaN when
+    /// nothing is in its path, negative only in a contact.
     gap: f64, "m";
     /// Desired gap of the law that drives at this step, m (for `gap_error_rms`; NaN if not defined).
     desired_gap: f64, "m";
@@ -137,6 +139,10 @@ series_columns! {
     lateral_offset: f64, "m";
     /// Follower heading minus centreline heading, wrapped to (-pi, pi], rad.
     heading_error: f64, "rad";
+    /// Bumper-to-bumper distance to the vehicle the follower follows in the string (the lead,
+    /// the sender of its V2V, for the first follower; its predecessor for the others), wherever
+    /// that is (ground truth), m; negative once it is passed in another lane.
+    lead_gap: f64, "m";
 }
 
 /// The value of a code column that [`Series::from_columns`] was not given (no controller, no

@@ -442,10 +442,28 @@ impl Track {
             (100.0, 120.0, -std::f64::consts::FRAC_PI_3),
             (400.0, 1.0, 0.0),
         ];
-        let step = 2.0;
+        let mut t = Self::from_plan("curvy", &plan, 2.0);
+        let len = t.length();
+        let lw = t.lane_width;
+        t.objects = vec![
+            RoadsideObject::GuardRail { offset: -(lw / 2.0 + 1.5), from_s: 0.0, to_s: len },
+            RoadsideObject::GuardRail { offset: lw / 2.0 + 1.5, from_s: 0.0, to_s: len },
+        ];
+        let mut s = 30.0;
+        while s < len {
+            t.objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08, lane: None });
+            s += 60.0;
+        }
+        t
+    }
+
+    /// One lane (3.5 m) along a plan of `(straight length m, arc radius m, arc angle rad, + left)`
+    /// legs from the origin heading along +x, sampled every `step` m (each sub-arc a chord),
+    /// without road-side objects: the curved roads of [`Track::curvy`] and of the fixtures.
+    pub fn from_plan(name: &str, plan: &[(f64, f64, f64)], step: f64) -> Self {
         let (mut x, mut y, mut h) = (0.0_f64, 0.0_f64, 0.0_f64);
         let mut pts = vec![[x, y]];
-        for (straight, radius, angle) in plan {
+        for &(straight, radius, angle) in plan {
             let n = (straight / step).round() as usize;
             for _ in 0..n {
                 x += step * h.cos();
@@ -467,19 +485,7 @@ impl Track {
                 }
             }
         }
-        let mut t = Self::new("curvy", pts, default_lane_width(), Vec::new());
-        let len = t.length();
-        let lw = t.lane_width;
-        t.objects = vec![
-            RoadsideObject::GuardRail { offset: -(lw / 2.0 + 1.5), from_s: 0.0, to_s: len },
-            RoadsideObject::GuardRail { offset: lw / 2.0 + 1.5, from_s: 0.0, to_s: len },
-        ];
-        let mut s = 30.0;
-        while s < len {
-            t.objects.push(RoadsideObject::Post { s, offset: -(lw / 2.0 + 1.0), radius: 0.08, lane: None });
-            s += 60.0;
-        }
-        t
+        Self::new(name, pts, default_lane_width(), Vec::new())
     }
 }
 

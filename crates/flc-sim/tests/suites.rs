@@ -138,11 +138,13 @@ fn cut_in_finishes_its_lateral_move_in_the_lane_change_time() {
         // intrusion would be v_rel/12 + 0.35 s plus the case's 0.5 s margin. The intrusion: the
         // intruder's reference point has moved 0.85 m (its side on the marking), a fraction
         // acos(1 - 2 * 0.85 / 3.5) / pi of the sinusoidal lane change. The ego is held at its
-        // speed until the lane change starts, so the gap then fixes the TTC.
+        // speed until the lane change starts, so the gap then fixes the TTC (the intruder is the
+        // scenario's lead: `lead_gap`, its gap while it is still in the next lane, where `gap`,
+        // against the vehicle in path, is NaN).
         let v_rel = r.series.follower_speed[0] - r.series.lead_speed[0];
         let intrusion = start + t_lc * (1.0 - 2.0 * 0.85 / 3.5_f64).acos() / std::f64::consts::PI;
         let i = (0..r.series.len()).find(|&i| r.series.t[i] >= start).expect("sample");
-        let ttc = (r.series.gap[i] - v_rel * (intrusion - start)) / v_rel;
+        let ttc = (r.series.lead_gap[i] - v_rel * (intrusion - start)) / v_rel;
         let want = v_rel / 12.0 + 0.35 + 0.5;
         // Tolerance: two physics steps (the trigger fires on the step after the gap crosses,
         // the lateral motion shows one step later).

@@ -30,7 +30,9 @@ pub struct Metrics {
     pub impact_speed: f64,
     /// Time of the first contact, s.
     pub collision_time: Option<f64>,
-    /// Smallest bumper-to-bumper gap, m (NaN, serialised `null`, for an empty series).
+    /// Smallest bumper-to-bumper gap to the vehicle in path, m (NaN, serialised `null`, when no
+    /// vehicle was ever in path; read back from `null` as NaN).
+    #[serde(deserialize_with = "nan_if_null")]
     pub min_gap: f64,
     /// Gap at the end of the run if both vehicles stand still and they did not collide, m.
     pub final_clearance: Option<f64>,
@@ -97,6 +99,11 @@ fn field_names<T: Serialize>(v: &T) -> Vec<String> {
     }
     let text = serde_json::to_string(v).unwrap_or_default();
     serde::Deserializer::deserialize_map(&mut serde_json::Deserializer::from_str(&text), Keys).unwrap_or_default()
+}
+
+/// A number, or NaN for JSON `null` (how NaN is written).
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(<Option<f64> as Deserialize>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 impl Metrics {

@@ -3,9 +3,9 @@
 use flc_core::{ActiveController, Frame, LeadDetector, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::drive::{DriveCommand, Driven};
-use super::geometry::{Road, centreline_steer, grid_points, wrap_angle};
+use super::geometry::{Road, centreline_pursuit, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
-use super::traffic::centreline_pursuit;
+use super::path::nearest_lane_offset;
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
 use crate::follower::{FollowerConfig, LostLeadSteering, Perception};
@@ -308,8 +308,16 @@ impl Follower {
         self.path_curvature = arc_curvature(x, y);
     }
 
-    /// Records the step (and returns its record).
-    pub(super) fn record(&mut self, t: f64, track: &Track, gap: f64, ls: &VehicleState, fs: &VehicleState) -> StepRecord {
+    /// Records the step (and returns its record): `gap` to the vehicle in path, `lead_gap` to the
+    /// one followed in the string, `ls` the state of the vehicle in front.
+    pub(super) fn record(
+        &mut self,
+        t: f64,
+        track: &Track,
+        (gap, lead_gap): (f64, f64),
+        ls: &VehicleState,
+        fs: &VehicleState,
+    ) -> StepRecord {
         let proj = track.project(fs.x, fs.y);
         let heading_error = wrap_angle(fs.yaw - proj.heading);
         // The desired gap of the law that drives (the law's own formula).
@@ -336,6 +344,7 @@ impl Follower {
             v2v_age: if self.v2v_age == u32::MAX { f64::NAN } else { f64::from(self.v2v_age) },
             lateral_offset: proj.lateral_offset,
             heading_error,
+            lead_gap,
         };
         self.series.push(rec);
         rec
@@ -347,13 +356,4 @@ impl Follower {
 fn arc_curvature(x: f64, y: f64) -> f64 {
     let r2 = x * x + y * y;
     if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
-}
-
-/// The offset (m, + left of the centreline) of the track's lane whose centre is nearest to
-/// `lateral_offset`.
-fn nearest_lane_offset(track: &Track, lateral_offset: f64) -> f64 {
-    (0..track.lanes.max(1))
-        .map(|l| track.lane_offset(l))
-        .min_by(|a, b| (a - lateral_offset).abs().total_cmp(&(b - lateral_offset).abs()))
-        .unwrap_or(0.0)
 }

@@ -20,6 +20,7 @@ mod follower;
 mod geometry;
 mod links;
 mod observer;
+mod path;
 mod story;
 mod traffic;
 
@@ -30,10 +31,11 @@ pub use observer::Observer;
 use flc_core::PurePursuit;
 
 use self::follower::Follower;
-use self::geometry::{Road, bumper_gap, centreline_steer};
+use self::geometry::{Road, bumper_gap, centreline_pursuit, centreline_steer};
 use self::links::relay_tick;
+use self::path::{Object, human_front, nearest_in_path};
 use self::story::{StepInput, StoryRun, pose_of};
-use self::traffic::{Traffic, Triggers, Truth, centreline_pursuit, human_front, nearest_ahead, truth};
+use self::traffic::{Traffic, Triggers, Truth, truth};
 use crate::error::{ConfigError, SimError};
 use crate::lead::LeadDriver;
 pub use crate::metrics::{CollisionInfo, FollowerRun};
@@ -141,11 +143,11 @@ struct State {
     follower_s0: Vec<f64>,
     /// The `[[vehicles]]` besides the lead.
     traffic: Vec<Traffic>,
-    /// With traffic: the vehicle in front of each follower and its length ([`Simulation::fill_fronts`]), reused.
-    fronts: Vec<(VehicleState, f64)>,
+    /// The vehicles in front of each follower ([`Simulation::fill_fronts`]), reused.
+    fronts: Vec<Fronts>,
     /// For each follower whose controller sees the scene as a human does
     /// ([`crate::ControllerKind::perceives_truth`]): the vehicle in front as it sees it
-    /// ([`traffic::human_front`]), reused.
+    /// ([`path::human_front`]), reused.
     human_fronts: Vec<Option<(VehicleState, f64)>>,
     /// Start and stop triggers.
     triggers: Triggers,
@@ -485,7 +487,7 @@ impl<O: Observer> Simulation<O> {
         let st = &self.state;
         let f = st.followers.get(k.wrapping_sub(1))?;
         let (front, front_len) = match (st.fronts.get(k - 1), k.checked_sub(2)) {
-            (Some(fr), _) => *fr,
+            (Some(fr), _) => fr.seen(),
             (None, None) => (*st.lead.state(), st.scenario.lead.vehicle.length),
             (None, Some(j)) => (*st.followers[j].vehicle.state(), st.followers[j].cfg.follower.vehicle.length),
         };
@@ -598,14 +600,10 @@ impl<O: Observer> Simulation<O> {
         // speed); nothing moves during this loop.
         self.fill_fronts();
         self.fill_human_fronts();
-        let mut front = (ls, self.state.scenario.lead.vehicle.length);
         for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
-            let (mut front_state, mut front_len) = std::mem::replace(&mut front, (fs, len));
-            if let Some(fr) = self.state.fronts.get(k) {
-                (front_state, front_len) = *fr;
-            }
+            let (front_state, front_len) = self.state.fronts[k].seen();
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
                 // The ground truth ideal perception gets; a human-like reference only what is in
                 // front of it (`None`: nothing).
@@ -718,23 +716,22 @@ impl<O: Observer> Simulation<O> {
         }
         let ls = *self.state.lead.state();
         self.fill_fronts();
-        let (mut front, mut front_len) = (ls, self.state.scenario.lead.vehicle.length);
         let mut all_still = ls.speed < 0.05;
         let mut collided = false;
         for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
-            if let Some(fr) = self.state.fronts.get(k) {
-                (front, front_len) = *fr;
-            }
-            let gap = bumper_gap(&front, front_len, &fs, len);
+            let fronts = self.state.fronts[k];
+            let (front, _) = fronts.seen();
+            // The gap to the vehicle in path (none: NaN), and to the one followed in the string.
+            let gap = fronts.in_path.map_or(f64::NAN, |(st, l)| bumper_gap(&st, l, &fs, len));
+            let lead_gap = bumper_gap(&fronts.string.0, fronts.string.1, &fs, len);
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;
-            let rec = f.record(self.state.t, &self.state.track, gap, &front, &fs);
+            let rec = f.record(self.state.t, &self.state.track, (gap, lead_gap), &front, &fs);
             if f.index == 1 {
                 self.observer.step(&rec, &ls, &fs)?;
             }
-            (front, front_len) = (fs, len);
         }
         for (i, tr) in self.state.traffic.iter().enumerate() {
             self.observer.traffic(self.state.t, i, &tr.name, tr.vehicle.state(), (tr.params.length, tr.params.width))?;
@@ -831,29 +828,23 @@ impl<O: Observer> Simulation<O> {
         st.touching = touching;
     }
 
-    /// With `[[vehicles]]`: the vehicle in front of each follower and its length, into
-    /// `fronts`: the nearest vehicle ahead in its lane among the lead, the traffic and the
-    /// followers ahead of it (the one it follows in the string if none is). Without traffic
-    /// `fronts` stays empty and each follower's vehicle in front is the one ahead in the string.
+    /// `fronts`: for each follower the nearest vehicle in its path ([`path::nearest_in_path`])
+    /// among the lead, the traffic and the followers ahead of it, and the one it follows in the
+    /// string (the lead for the first follower).
     fn fill_fronts(&mut self) {
         let st = &mut self.state;
-        if st.traffic.is_empty() {
-            return;
-        }
         st.fronts.clear();
         let ll = &st.scenario.lead.vehicle;
-        let lead = (*st.lead.state(), ll.length, ll.width);
+        let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
+        let object =
+            |g: &Follower| Object { state: *g.vehicle.state(), length: g.cfg.follower.vehicle.length, width: g.cfg.follower.vehicle.width };
         for k in 0..st.followers.len() {
-            let f = &st.followers[k];
-            let v = &f.cfg.follower.vehicle;
-            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length, g.cfg.follower.vehicle.width));
-            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length, t.params.width));
-            let fallback = k.checked_sub(1).map_or((lead.0, lead.1), |j| {
-                let g = &st.followers[j];
-                (*g.vehicle.state(), g.cfg.follower.vehicle.length)
-            });
-            let front = nearest_ahead(f.vehicle.state(), v.width, std::iter::once(lead).chain(traffic).chain(ahead)).unwrap_or(fallback);
-            st.fronts.push(front);
+            let ego = object(&st.followers[k]);
+            let ahead = st.followers[..k].iter().map(object);
+            let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
+            let string = k.checked_sub(1).map_or(lead, |j| object(&st.followers[j]));
+            let in_path = nearest_in_path(&st.track, &ego, std::iter::once(lead).chain(traffic).chain(ahead));
+            st.fronts.push(Fronts { in_path, string: (string.state, string.length) });
         }
     }
 
@@ -866,12 +857,18 @@ impl<O: Observer> Simulation<O> {
         if !st.followers.iter().any(|f| f.cfg.controller.perceives_truth()) {
             return;
         }
-        let lead = (*st.lead.state(), st.scenario.lead.vehicle.length);
+        let ll = &st.scenario.lead.vehicle;
+        let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
         for k in 0..st.followers.len() {
             let f = &st.followers[k];
-            let ahead = st.followers[..k].iter().map(|g| (*g.vehicle.state(), g.cfg.follower.vehicle.length));
-            let traffic = st.traffic.iter().map(|t| (*t.vehicle.state(), t.params.length));
-            let seen = human_front(f.vehicle.state(), st.track.lane_width, std::iter::once(lead).chain(traffic).chain(ahead));
+            let ahead = st.followers[..k].iter().map(|g| Object {
+                state: *g.vehicle.state(),
+                length: g.cfg.follower.vehicle.length,
+                width: g.cfg.follower.vehicle.width,
+            });
+            let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
+            let ego = Object { state: *f.vehicle.state(), length: f.cfg.follower.vehicle.length, width: f.cfg.follower.vehicle.width };
+            let seen = human_front(&st.track, &ego, std::iter::once(lead).chain(traffic).chain(ahead));
             st.human_fronts.push(seen);
         }
     }
@@ -993,6 +990,23 @@ impl<O: Observer> Simulation<O> {
         let laws: Vec<&dyn flc_core::LongitudinalController> =
             st.followers.iter().map(|f| &*f.longitudinal as &dyn flc_core::LongitudinalController).collect();
         assemble(st.scenario.clone(), runs, &laws, &st.lead_driver, (st.other_contacts.clone(), st.contacts.clone(), st.end))
+    }
+}
+
+/// The vehicles in front of one follower (ground truth), each with its length.
+#[derive(Debug, Clone, Copy)]
+struct Fronts {
+    /// The vehicle in its path ([`path::nearest_in_path`]); `None`: nothing is.
+    in_path: Option<(VehicleState, f64)>,
+    /// The vehicle it follows in the string (the lead for the first follower), wherever it is.
+    string: (VehicleState, f64),
+}
+
+impl Fronts {
+    /// The vehicle in front as ideal perception and the records' front columns take it: the one
+    /// in path, else the one followed in the string.
+    fn seen(&self) -> (VehicleState, f64) {
+        self.in_path.unwrap_or(self.string)
     }
 }
 

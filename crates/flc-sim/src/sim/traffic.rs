@@ -1,27 +1,16 @@
 //! Scripted traffic in the loop: the `[[vehicles]]` besides the lead, the start and stop
-//! triggers evaluated on ground truth, and which vehicle is in front of the ego.
+//! triggers evaluated on ground truth (which vehicle is in the ego's path: [`super::path`]).
 
 use flc_core::PurePursuit;
 
 use super::follower::Follower;
-use super::geometry::centreline_steer;
+use super::geometry::{centreline_pursuit, centreline_steer};
 use crate::error::SimError;
 use crate::lead::{LeadDriver, ScriptedVehicle};
 use crate::track::Track;
 use crate::trigger::{EntityState, PhaseStatus, TriggerState, WorldView};
 use crate::vehicle::{Vehicle, VehicleParams, VehicleState};
 use crate::world::{Body, World};
-
-/// Pure pursuit along the centreline for a scripted vehicle of wheelbase / steering limit `p`.
-pub(super) fn centreline_pursuit(p: &VehicleParams) -> Result<PurePursuit, SimError> {
-    Ok(PurePursuit::new(flc_core::PurePursuitParams {
-        base_lookahead: 6.0,
-        lookahead_gain: 0.8,
-        law: flc_core::PursuitLaw::Standard,
-        wheelbase: p.wheelbase,
-        max_steer: p.max_steer,
-    })?)
-}
 
 /// One scripted vehicle besides the lead.
 pub(super) struct Traffic {
@@ -199,53 +188,4 @@ impl WorldView for Truth<'_> {
         let (started, ended) = driver.map_or((None, None), |d| d.phase_times(phase));
         PhaseStatus { started, ended }
     }
-}
-
-/// The vehicle in front of the ego among `candidates` (`(state, length, width)`): the nearest
-/// whose centre is ahead along the ego's heading and whose box overlaps the ego's lane (lateral
-/// distance of the centres below half the two widths plus 0.5 m); `None` if there is none.
-pub(super) fn nearest_ahead(
-    ego: &VehicleState,
-    ego_width: f64,
-    candidates: impl Iterator<Item = (VehicleState, f64, f64)>,
-) -> Option<(VehicleState, f64)> {
-    let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
-    let mut best: Option<(f64, VehicleState, f64)> = None;
-    for (st, len, width) in candidates {
-        let (dx, dy) = (st.x - ego.x, st.y - ego.y);
-        let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
-        if along > 0.0 && across.abs() < 0.5 * (ego_width + width) + 0.5 && best.is_none_or(|b| along < b.0) {
-            best = Some((along, st, len));
-        }
-    }
-    best.map(|(_, st, len)| (st, len))
-}
-
-/// The lateral wandering of a vehicle inside its lane that a careful driver does not read as a
-/// lane change, m (UN R157's performance model of a careful and competent human driver: the risk
-/// of a cut-in is perceived once the vehicle's lateral movement exceeds it;
-/// `docs/careful-driver.md`).
-pub(super) const WANDERING: f64 = 0.375;
-
-/// The vehicle in front of `ego` as a careful human driver sees it, and its length: the nearest
-/// vehicle ahead that has come within `lane_width - WANDERING` of the driver's line (a car in
-/// the next lane starting to cut in counts once it has moved more than the wandering zone) and is
-/// not leaving it (more than `WANDERING` off the line and heading away: a cut-out, past which
-/// the driver looks). `None`: nothing in front.
-pub(super) fn human_front(
-    ego: &VehicleState,
-    lane_width: f64,
-    candidates: impl Iterator<Item = (VehicleState, f64)>,
-) -> Option<(VehicleState, f64)> {
-    let (c, s) = (ego.yaw.cos(), ego.yaw.sin());
-    let mut best: Option<(f64, VehicleState, f64)> = None;
-    for (st, len) in candidates {
-        let (dx, dy) = (st.x - ego.x, st.y - ego.y);
-        let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
-        let leaving = across.abs() > WANDERING && across * (st.yaw - ego.yaw).sin() > 0.0;
-        if along > 0.0 && across.abs() < lane_width - WANDERING && !leaving && best.is_none_or(|b| along < b.0) {
-            best = Some((along, st, len));
-        }
-    }
-    best.map(|(_, st, len)| (st, len))
 }
