@@ -93,8 +93,9 @@ rm -rf "$SDIST_DIR" target/sdist-venv target/sdist-build
 "$VENV/bin/maturin" sdist -o "$SDIST_DIR"
 python3 -m venv target/sdist-venv
 # With the `plot` extra (the smoke test draws figures from a temporary folder) and `safety` (its
-# docs check renders the falsification block, which needs cmaes).
+# docs check renders the falsification block, which needs cmaes). `--no-cache-dir`: pip caches the
+# wheel it built from a local sdist by its path, and would install an old build of the same path.
 SDIST="$(ls "$PWD/$SDIST_DIR"/flc-*.tar.gz)"
 CARGO_TARGET_DIR="$PWD/target/sdist-build" CARGO_PROFILE_DIST_LTO=false CARGO_PROFILE_DIST_CODEGEN_UNITS=16 \
-  target/sdist-venv/bin/python -m pip install --quiet "flc[plot,safety] @ file://$SDIST"
+  target/sdist-venv/bin/python -m pip install --quiet --no-cache-dir "flc[plot,safety] @ file://$SDIST"
 (cd target && sdist-venv/bin/python "$OLDPWD/tests/sdist_smoke.py")
