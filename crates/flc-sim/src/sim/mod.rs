@@ -766,10 +766,7 @@ impl<O: Observer> Simulation<O> {
     /// told to the observer) and the first contact of each pair without a follower.
     fn record_contacts(&mut self, contacts: &[crate::world::Contact]) -> Result<(), SimError> {
         let st = &mut self.state;
-        st.bodies.clear();
-        st.bodies.push((st.lead_body, *st.lead.state()));
-        st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
-        st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
+        st.refresh_bodies();
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
         let pedestrians = pedestrian_flags(st);
         let bodies = contacts::Bodies {
@@ -799,10 +796,7 @@ impl<O: Observer> Simulation<O> {
     /// touching after the step before (a new contact episode), and remembers the pairs touching.
     fn record_episodes(&mut self, contacts: &[crate::world::Contact]) {
         let st = &mut self.state;
-        st.bodies.clear();
-        st.bodies.push((st.lead_body, *st.lead.state()));
-        st.bodies.extend(st.followers.iter().map(|f| (f.body, *f.vehicle.state())));
-        st.bodies.extend(st.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
+        st.refresh_bodies();
         let names: Vec<&str> = st.traffic.iter().map(|t| t.name.as_str()).collect();
         let pedestrians = pedestrian_flags(st);
         let bodies = contacts::Bodies {
@@ -1025,6 +1019,17 @@ fn assemble(
     });
     let first = runs.swap_remove(0);
     RunResult { scenario, metrics: first.metrics, series: first.series, platoon, collision: first.collision, other_contacts, contacts, end }
+}
+
+impl State {
+    /// This step's bodies and states in `bodies` (lead, followers, traffic: the order
+    /// `contacts::Bodies` indexes), reusing its allocation.
+    fn refresh_bodies(&mut self) {
+        self.bodies.clear();
+        self.bodies.push((self.lead_body, *self.lead.state()));
+        self.bodies.extend(self.followers.iter().map(|f| (f.body, *f.vehicle.state())));
+        self.bodies.extend(self.traffic.iter().map(|t| (t.body, *t.vehicle.state())));
+    }
 }
 
 /// Which bodies are pedestrians, in the order of `State::bodies` (the lead, the followers, the
