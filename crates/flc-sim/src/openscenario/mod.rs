@@ -594,9 +594,6 @@ fn translate(
     // Entities, the ego and the init state.
     let defs = ctx.read_entities(file, entities)?;
     let ego = entities::choose_ego(&defs, opts.ego.as_deref()).map_err(|m| ImportError::at(file, entities, m))?;
-    if defs.len() < 2 {
-        return Err(ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"));
-    }
     for (i, d) in defs.iter().enumerate() {
         if i != ego && d.controller.is_some() {
             ctx.warn.line(
@@ -666,9 +663,9 @@ fn translate(
         .collect();
     // A vehicle facing more than 90° away from the road's direction (an oncoming one, e.g. heading
     // pi) drives against it: `s` decreasing (`Motion::reversed`).
-    let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width)
-        .ok_or_else(|| ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"))?;
-    let names = entities::flc_names(&defs, ego, lead);
+    // No entity to take as the lead (the ego alone): the lead is absent (`LeadSpec::absent`).
+    let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width);
+    let names = entities::flc_names(&defs, ego, lead.unwrap_or(usize::MAX));
 
     // The scenario's entities.
     let mut s = Scenario { name: stem.clone(), duration: opts.max_duration.unwrap_or(DEFAULT_MAX_DURATION), ..Scenario::default() };
@@ -693,12 +690,17 @@ fn translate(
     s.follower.start_offset = ep.lateral;
     s.follower.start_heading = ep.heading;
     s.follower.initial_speed = speed_of(ego);
+    if lead.is_none() {
+        // The ego alone (free driving): no lead, nothing in front, no V2V.
+        s.lead = LeadSpec { absent: true, s: Some(ep.s), offset: ep.lateral, ..LeadSpec::default() };
+        s.v2v.enabled = false;
+    }
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if i == ego {
             continue;
         }
         let name = names.get(i).cloned().unwrap_or_default();
-        if i == lead {
+        if Some(i) == lead {
             s.lead = LeadSpec {
                 initial_speed: speed_of(i),
                 vehicle: d.vehicle,
@@ -706,6 +708,7 @@ fn translate(
                 s: Some(p.s),
                 offset: p.lateral,
                 heading: p.heading,
+                absent: false,
             };
         } else {
             s.vehicles.push(ScriptedVehicle {
@@ -768,7 +771,7 @@ fn translate(
     if s.v2v.enabled && s.lead.vehicle.body == crate::vehicle::BodyKind::Pedestrian {
         // A pedestrian sends no V2V: the follower has its LiDAR only.
         s.v2v.enabled = false;
-        let lead_name = defs.get(lead).map(|d| d.osc_name.as_str()).unwrap_or_default();
+        let lead_name = lead.and_then(|l| defs.get(l)).map(|d| d.osc_name.as_str()).unwrap_or_default();
         ctx.warn.line("pedestrian-v2v", format!("{file}: the lead `{lead_name}` is a Pedestrian: it sends no V2V (v2v.enabled = false)"));
     }
     let mut top = (0..defs.len()).map(speed_of).fold(0.0_f64, f64::max);
@@ -1401,8 +1404,10 @@ mod tests {
         assert!(e.to_string().contains("MiscObject"), "{e}");
         // Only the ego: no lead.
         let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
-        let e = import(&write(&d, "m.xosc", &text), &ImportOptions::default()).expect_err("alone");
-        assert!(e.to_string().contains("besides the ego"), "{e}");
+        let imp = import(&write(&d, "m.xosc", &text), &ImportOptions::default()).expect("the ego alone runs");
+        let s = &imp.runs[0].scenario;
+        assert!(s.lead.absent && !s.v2v.enabled && s.vehicles.is_empty());
+        assert!(!imp.runs[0].entities.iter().any(|e| e.flc_name == "lead"));
         let _ = std::fs::remove_dir_all(&d);
     }
 
