@@ -1384,6 +1384,37 @@ mod tests {
     }
 
     #[test]
+    fn the_storyboard_acts_at_t0_and_the_ego_alone_drives_its_speed() {
+        let d = tmp("t0");
+        let ents = format!("{}{}", car("Ego"), car("Target"));
+        let init = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("Target", -1, 60.0, 10.0));
+        let jump = "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"30\" freespace=\"false\" \
+                    continuous=\"false\" displacement=\"leadingReferencedEntity\" coordinateSystem=\"entity\"/></LongitudinalAction></PrivateAction></Action>";
+        let opts = ImportOptions { ego_mode: EgoMode::Scripted, dynamics: crate::story::Dynamics::Kinematic, ..ImportOptions::default() };
+        // An event whose trigger is true at t = 0: its placement (30 m ahead of the ego, not the
+        // 40 m of Init) is in the state at t = 0
+        // (esmini's first logged row), before any step.
+        let text = xosc("", &ents, &init, &story("Target", jump, &at_time(0.0).replace("greaterThan", "greaterOrEqual")));
+        let imp = import(&write(&d, "t0.xosc", &text), &opts).expect("t0");
+        let sim = crate::sim::Simulation::new(&imp.runs[0].scenario).expect("sim");
+        assert_eq!(sim.time(), 0.0);
+        let x0 = sim.scripted_state("lead").map(|st| st.x).unwrap_or(f64::NAN);
+        assert!((x0 - 51.4).abs() < 1e-6, "{x0}");
+        // The ego alone: it runs, nothing is in front, it keeps its speed.
+        let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
+        let imp = import(&write(&d, "alone.xosc", &text), &opts).expect("alone");
+        let mut s = imp.runs[0].scenario.clone();
+        s.duration = 5.0;
+        let r = crate::runner::run(&s).expect("run");
+        let sr = &r.series;
+        let (first, last) = (sr.get(0).expect("rows"), sr.get(sr.len() - 1).expect("rows"));
+        assert!((last.follower_speed - 10.0).abs() < 1e-9 && (last.follower_x - first.follower_x - 49.9).abs() < 0.01, "{last:?}");
+        assert!((0..sr.len()).filter_map(|i| sr.get(i)).all(|row| row.gap.is_nan() && row.lead_gap.is_nan() && row.lead_speed.is_nan()));
+        assert!(r.collision.is_none() && r.contacts.is_empty());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
     fn misc_objects_stand_and_cannot_move() {
         let d = tmp("misc");
         let obj = "<ScenarioObject name=\"Box\"><MiscObject miscObjectCategory=\"obstacle\" mass=\"50\" name=\"b\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.5\"/>\
