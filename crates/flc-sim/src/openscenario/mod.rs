@@ -681,6 +681,16 @@ fn translate(
             let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
             return Err(ImportError::at(file, at, format!("`{}` is a MiscObject: it cannot have a speed", d.osc_name)));
         }
+        if speed_of(i) < 0.0 {
+            // esmini plays it (the entity reverses along the road, facing forward); flc's motions
+            // only go forward.
+            let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
+            return Err(ImportError::at(
+                file,
+                at,
+                format!("`{}` starts at {:.3} m/s: a negative speed (driving backwards) is not supported", d.osc_name, speed_of(i)),
+            ));
+        }
     }
     let (Some(ed), Some(ep)) = (defs.get(ego), placed.get(ego)) else {
         return Err(ImportError::at(file, entities, "no ego"));
@@ -1403,6 +1413,10 @@ mod tests {
         // The ego alone: it runs, nothing is in front, it keeps its speed.
         let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
         let imp = import(&write(&d, "alone.xosc", &text), &opts).expect("alone");
+        // A negative initial speed: one line naming the entity and the speed.
+        let back = xosc("", &car("Ego"), &place("Ego", -1, 20.0, -2.5), "");
+        let e = import(&write(&d, "back.xosc", &back), &opts).expect_err("backwards");
+        assert!(e.to_string().contains("`Ego` starts at -2.500 m/s: a negative speed"), "{e}");
         let mut s = imp.runs[0].scenario.clone();
         s.duration = 5.0;
         let r = crate::runner::run(&s).expect("run");
