@@ -193,6 +193,20 @@ impl Scenario {
         check_range("physics_dt", self.physics_dt, 0.0005, 0.05, "s")?;
         self.track.build().map_err(|e| e.within("track"))?;
         check_range("lead.initial_speed", self.lead.initial_speed, 0.0, 70.0, "m/s")?;
+        if self.lead.absent {
+            let bad = if !self.lead.phases.is_empty() {
+                Some("an absent lead has no phases")
+            } else if self.v2v.enabled {
+                Some("an absent lead sends no V2V: set `v2v.enabled = false`")
+            } else if self.platoon.is_some() {
+                Some("a platoon follows a lead: it cannot be absent")
+            } else {
+                None
+            };
+            if let Some(m) = bad {
+                return Err(ConfigError::new("lead.absent", m));
+            }
+        }
         self.lead.vehicle.validate().map_err(|e| e.within("lead.vehicle"))?;
         for (i, p) in self.lead.phases.iter().enumerate() {
             p.validate().map_err(|e| e.within(&format!("lead.phases[{i}]")))?;

@@ -180,6 +180,13 @@ impl World {
         b
     }
 
+    /// Takes a vehicle out of the scene: its collider is removed (no ray hits it, it touches
+    /// nothing); its handle stays valid for [`World::set_pose`], which then moves nothing seen.
+    pub fn remove_vehicle(&mut self, body: Body) {
+        self.pw.remove_collider(body.collider);
+        self.vehicles.retain(|v| *v != body);
+    }
+
     /// Moves a vehicle's body to `state` (takes effect for contacts at the next [`World::step`]).
     pub fn set_pose(&mut self, body: Body, state: &VehicleState) {
         if let Some(rb) = self.pw.bodies.get_mut(body.body) {

@@ -31,6 +31,12 @@ pub struct LeadSpec {
     /// Initial heading relative to the road, rad (+ left). Default 0.
     #[serde(skip_serializing_if = "is_zero")]
     pub heading: f64,
+    /// `true`: there is no lead (an OpenSCENARIO file with the ego alone). Its slot stays in the
+    /// simulation, at `s`, but out of the world: no sensor sees it, it touches nothing, it is
+    /// no vehicle in front (the series' `lead_*` columns are NaN while nothing is in path) and
+    /// it sends no V2V (`v2v.enabled` must be `false`). Default `false`.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub absent: bool,
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -91,7 +97,15 @@ impl ScriptedVehicle {
 
 impl Default for LeadSpec {
     fn default() -> Self {
-        Self { initial_speed: 0.0, vehicle: VehicleParams::default(), phases: Vec::new(), s: None, offset: 0.0, heading: 0.0 }
+        Self {
+            initial_speed: 0.0,
+            vehicle: VehicleParams::default(),
+            phases: Vec::new(),
+            s: None,
+            offset: 0.0,
+            heading: 0.0,
+            absent: false,
+        }
     }
 }
 

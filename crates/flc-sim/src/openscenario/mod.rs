@@ -594,9 +594,6 @@ fn translate(
     // Entities, the ego and the init state.
     let defs = ctx.read_entities(file, entities)?;
     let ego = entities::choose_ego(&defs, opts.ego.as_deref()).map_err(|m| ImportError::at(file, entities, m))?;
-    if defs.len() < 2 {
-        return Err(ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"));
-    }
     for (i, d) in defs.iter().enumerate() {
         if i != ego && d.controller.is_some() {
             ctx.warn.line(
@@ -666,9 +663,9 @@ fn translate(
         .collect();
     // A vehicle facing more than 90° away from the road's direction (an oncoming one, e.g. heading
     // pi) drives against it: `s` decreasing (`Motion::reversed`).
-    let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width)
-        .ok_or_else(|| ImportError::at(file, entities, "the scenario needs an entity besides the ego (the simulator's lead)"))?;
-    let names = entities::flc_names(&defs, ego, lead);
+    // No entity to take as the lead (the ego alone): the lead is absent (`LeadSpec::absent`).
+    let lead = entities::choose_lead(&defs, &placed, ego, track.lane_width);
+    let names = entities::flc_names(&defs, ego, lead.unwrap_or(usize::MAX));
 
     // The scenario's entities.
     let mut s = Scenario { name: stem.clone(), duration: opts.max_duration.unwrap_or(DEFAULT_MAX_DURATION), ..Scenario::default() };
@@ -684,6 +681,16 @@ fn translate(
             let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
             return Err(ImportError::at(file, at, format!("`{}` is a MiscObject: it cannot have a speed", d.osc_name)));
         }
+        if speed_of(i) < 0.0 {
+            // esmini plays it (the entity reverses along the road, facing forward); flc's motions
+            // only go forward.
+            let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
+            return Err(ImportError::at(
+                file,
+                at,
+                format!("`{}` starts at {:.3} m/s: a negative speed (driving backwards) is not supported", d.osc_name, speed_of(i)),
+            ));
+        }
     }
     let (Some(ed), Some(ep)) = (defs.get(ego), placed.get(ego)) else {
         return Err(ImportError::at(file, entities, "no ego"));
@@ -693,12 +700,17 @@ fn translate(
     s.follower.start_offset = ep.lateral;
     s.follower.start_heading = ep.heading;
     s.follower.initial_speed = speed_of(ego);
+    if lead.is_none() {
+        // The ego alone (free driving): no lead, nothing in front, no V2V.
+        s.lead = LeadSpec { absent: true, s: Some(ep.s), offset: ep.lateral, ..LeadSpec::default() };
+        s.v2v.enabled = false;
+    }
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if i == ego {
             continue;
         }
         let name = names.get(i).cloned().unwrap_or_default();
-        if i == lead {
+        if Some(i) == lead {
             s.lead = LeadSpec {
                 initial_speed: speed_of(i),
                 vehicle: d.vehicle,
@@ -706,6 +718,7 @@ fn translate(
                 s: Some(p.s),
                 offset: p.lateral,
                 heading: p.heading,
+                absent: false,
             };
         } else {
             s.vehicles.push(ScriptedVehicle {
@@ -768,7 +781,7 @@ fn translate(
     if s.v2v.enabled && s.lead.vehicle.body == crate::vehicle::BodyKind::Pedestrian {
         // A pedestrian sends no V2V: the follower has its LiDAR only.
         s.v2v.enabled = false;
-        let lead_name = defs.get(lead).map(|d| d.osc_name.as_str()).unwrap_or_default();
+        let lead_name = lead.and_then(|l| defs.get(l)).map(|d| d.osc_name.as_str()).unwrap_or_default();
         ctx.warn.line("pedestrian-v2v", format!("{file}: the lead `{lead_name}` is a Pedestrian: it sends no V2V (v2v.enabled = false)"));
     }
     let mut top = (0..defs.len()).map(speed_of).fold(0.0_f64, f64::max);
@@ -1381,6 +1394,41 @@ mod tests {
     }
 
     #[test]
+    fn the_storyboard_acts_at_t0_and_the_ego_alone_drives_its_speed() {
+        let d = tmp("t0");
+        let ents = format!("{}{}", car("Ego"), car("Target"));
+        let init = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("Target", -1, 60.0, 10.0));
+        let jump = "<Action name=\"X\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" distance=\"30\" freespace=\"false\" \
+                    continuous=\"false\" displacement=\"leadingReferencedEntity\" coordinateSystem=\"entity\"/></LongitudinalAction></PrivateAction></Action>";
+        let opts = ImportOptions { ego_mode: EgoMode::Scripted, dynamics: crate::story::Dynamics::Kinematic, ..ImportOptions::default() };
+        // An event whose trigger is true at t = 0: its placement (30 m ahead of the ego, not the
+        // 40 m of Init) is in the state at t = 0
+        // (esmini's first logged row), before any step.
+        let text = xosc("", &ents, &init, &story("Target", jump, &at_time(0.0).replace("greaterThan", "greaterOrEqual")));
+        let imp = import(&write(&d, "t0.xosc", &text), &opts).expect("t0");
+        let sim = crate::sim::Simulation::new(&imp.runs[0].scenario).expect("sim");
+        assert_eq!(sim.time(), 0.0);
+        let x0 = sim.scripted_state("lead").map(|st| st.x).unwrap_or(f64::NAN);
+        assert!((x0 - 51.4).abs() < 1e-6, "{x0}");
+        // The ego alone: it runs, nothing is in front, it keeps its speed.
+        let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
+        let imp = import(&write(&d, "alone.xosc", &text), &opts).expect("alone");
+        // A negative initial speed: one line naming the entity and the speed.
+        let back = xosc("", &car("Ego"), &place("Ego", -1, 20.0, -2.5), "");
+        let e = import(&write(&d, "back.xosc", &back), &opts).expect_err("backwards");
+        assert!(e.to_string().contains("`Ego` starts at -2.500 m/s: a negative speed"), "{e}");
+        let mut s = imp.runs[0].scenario.clone();
+        s.duration = 5.0;
+        let r = crate::runner::run(&s).expect("run");
+        let sr = &r.series;
+        let (first, last) = (sr.get(0).expect("rows"), sr.get(sr.len() - 1).expect("rows"));
+        assert!((last.follower_speed - 10.0).abs() < 1e-9 && (last.follower_x - first.follower_x - 49.9).abs() < 0.01, "{last:?}");
+        assert!((0..sr.len()).filter_map(|i| sr.get(i)).all(|row| row.gap.is_nan() && row.lead_gap.is_nan() && row.lead_speed.is_nan()));
+        assert!(r.collision.is_none() && r.contacts.is_empty());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
     fn misc_objects_stand_and_cannot_move() {
         let d = tmp("misc");
         let obj = "<ScenarioObject name=\"Box\"><MiscObject miscObjectCategory=\"obstacle\" mass=\"50\" name=\"b\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.5\"/>\
@@ -1401,8 +1449,10 @@ mod tests {
         assert!(e.to_string().contains("MiscObject"), "{e}");
         // Only the ego: no lead.
         let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
-        let e = import(&write(&d, "m.xosc", &text), &ImportOptions::default()).expect_err("alone");
-        assert!(e.to_string().contains("besides the ego"), "{e}");
+        let imp = import(&write(&d, "m.xosc", &text), &ImportOptions::default()).expect("the ego alone runs");
+        let s = &imp.runs[0].scenario;
+        assert!(s.lead.absent && !s.v2v.enabled && s.vehicles.is_empty());
+        assert!(!imp.runs[0].entities.iter().any(|e| e.flc_name == "lead"));
         let _ = std::fs::remove_dir_all(&d);
     }
 

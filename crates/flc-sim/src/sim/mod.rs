@@ -183,6 +183,9 @@ struct State {
     paused: bool,
     /// The run is over.
     ended: bool,
+    /// `[story]`: the storyboard was already evaluated at the current time (at t = 0, when the
+    /// simulation is built), so the next step only advances the motions.
+    story_evaluated: bool,
 }
 
 impl Simulation {
@@ -249,6 +252,10 @@ impl Simulation {
         }
         // Scripted traffic: bodies after the string's.
         let traffic = s.vehicles.iter().map(|v| Traffic::new(v, &track, &mut world)).collect::<Result<Vec<_>, _>>()?;
+        if s.lead.absent {
+            // No lead: its slot stays, its body leaves the world (no sensor sees it, no contact).
+            world.remove_vehicle(lead_body);
+        }
         let per_phase =
             |phases: &[crate::lead::ScriptedPhase]| phases.iter().map(|_| crate::trigger::TriggerState::new()).collect::<Vec<_>>();
         let mut phase_triggers = vec![per_phase(&s.lead.phases)];
@@ -306,9 +313,12 @@ impl Simulation {
             any_driven: false,
             paused: false,
             ended: false,
+            story_evaluated: false,
             track,
         };
-        Ok(Self { state, observer: () })
+        let mut sim = Self { state, observer: () };
+        sim.evaluate_story_at_start();
+        Ok(sim)
     }
 
     /// This simulation with `observer` as its sink (call it before the first step to observe the
@@ -610,6 +620,8 @@ impl<O: Observer> Simulation<O> {
                 let truth = match self.state.human_fronts.get(k) {
                     Some(Some((hs, hl))) => Some((bumper_gap(hs, *hl, &fs, len), hs.speed)),
                     Some(None) => None,
+                    // Nothing in front (an absent lead and nothing in path).
+                    None if front_state.speed.is_nan() => None,
                     None => Some((bumper_gap(&front_state, front_len, &fs, len), front_state.speed)),
                 };
                 f.control_tick(
@@ -830,14 +842,19 @@ impl<O: Observer> Simulation<O> {
         st.fronts.clear();
         let ll = &st.scenario.lead.vehicle;
         let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
+        // An absent lead is no vehicle in front: followed in the string, it is "nothing" (NaN).
+        let (lead_there, lead_string) = match st.scenario.lead.absent {
+            false => (Some(lead), lead),
+            true => (None, Object { state: NOTHING, length: f64::NAN, width: f64::NAN }),
+        };
         let object =
             |g: &Follower| Object { state: *g.vehicle.state(), length: g.cfg.follower.vehicle.length, width: g.cfg.follower.vehicle.width };
         for k in 0..st.followers.len() {
             let ego = object(&st.followers[k]);
             let ahead = st.followers[..k].iter().map(object);
             let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
-            let string = k.checked_sub(1).map_or(lead, |j| object(&st.followers[j]));
-            let in_path = nearest_in_path(&st.track, &ego, std::iter::once(lead).chain(traffic).chain(ahead));
+            let string = k.checked_sub(1).map_or(lead_string, |j| object(&st.followers[j]));
+            let in_path = nearest_in_path(&st.track, &ego, lead_there.into_iter().chain(traffic).chain(ahead));
             st.fronts.push(Fronts { in_path, string: (string.state, string.length) });
         }
     }
@@ -852,7 +869,7 @@ impl<O: Observer> Simulation<O> {
             return;
         }
         let ll = &st.scenario.lead.vehicle;
-        let lead = Object { state: *st.lead.state(), length: ll.length, width: ll.width };
+        let lead = (!st.scenario.lead.absent).then_some(Object { state: *st.lead.state(), length: ll.length, width: ll.width });
         for k in 0..st.followers.len() {
             let f = &st.followers[k];
             let ahead = st.followers[..k].iter().map(|g| Object {
@@ -862,7 +879,7 @@ impl<O: Observer> Simulation<O> {
             });
             let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
             let ego = Object { state: *f.vehicle.state(), length: f.cfg.follower.vehicle.length, width: f.cfg.follower.vehicle.width };
-            let seen = human_front(&st.track, &ego, std::iter::once(lead).chain(traffic).chain(ahead));
+            let seen = human_front(&st.track, &ego, lead.into_iter().chain(traffic).chain(ahead));
             st.human_fronts.push(seen);
         }
     }
@@ -874,9 +891,44 @@ impl<O: Observer> Simulation<O> {
     /// `[story]` at `t`: its triggers on the ground truth at the start of the step, then the
     /// motions of its entities to `t + dt`.
     fn step_story(&mut self, t: f64, dt: f64) {
+        let evaluated = std::mem::take(&mut self.state.story_evaluated);
+        self.story_pass(t, if evaluated { StoryPass::Advance(dt) } else { StoryPass::Step(dt) });
+    }
+
+    /// The storyboard evaluated at t = 0 before the first step, as esmini does: what its actions
+    /// do at once (a teleport, a step change of speed) is in the state at t = 0 (the first
+    /// trajectory row, the first scan); the first step then only advances the motions.
+    fn evaluate_story_at_start(&mut self) {
+        if self.state.story.is_none() {
+            return;
+        }
+        let moved = self.story_pass(0.0, StoryPass::Evaluate);
+        self.state.story_evaluated = true;
         let st = &mut self.state;
-        let Some(story) = st.scenario.story.as_ref() else { return };
-        let Some(mut run) = st.story.take() else { return };
+        let Some(run) = st.story.as_ref() else { return };
+        let ego_slot = 1 + st.traffic.len();
+        for j in moved {
+            let Some(m) = run.motions.get(j).filter(|_| run.kinematic(j)) else { continue };
+            if j == 0 {
+                st.lead.set_state(pose_of(&st.track, m, 0.0));
+                st.world.set_pose(st.lead_body, st.lead.state());
+            } else if j == ego_slot {
+                if let Some(f) = st.followers.first_mut() {
+                    f.vehicle.set_state(pose_of(&st.track, m, f.steer_cmd));
+                    st.world.set_pose(f.body, f.vehicle.state());
+                }
+            } else if let Some(tr) = st.traffic.get_mut(j - 1) {
+                tr.vehicle.set_state(pose_of(&st.track, m, 0.0));
+                st.world.set_pose(tr.body, tr.vehicle.state());
+            }
+        }
+    }
+
+    /// One pass of the story at `t`; returns the slots an action started on (when evaluated).
+    fn story_pass(&mut self, t: f64, pass: StoryPass) -> Vec<usize> {
+        let st = &mut self.state;
+        let Some(story) = st.scenario.story.as_ref() else { return Vec::new() };
+        let Some(mut run) = st.story.take() else { return Vec::new() };
         let traffic = &st.traffic;
         let slot = |name: &str| -> Option<usize> {
             match name {
@@ -891,11 +943,18 @@ impl<O: Observer> Simulation<O> {
             reference: story.references.get(crate::scenario::EGO).copied().unwrap_or_default(),
             pedestrian: false,
         };
+        let mut moved = Vec::new();
         {
             let truth = truth!(st);
-            run.step(&StepInput { story, world: &truth, slot: &slot, track: &st.track, ego }, t, dt);
+            let input = StepInput { story, world: &truth, slot: &slot, track: &st.track, ego };
+            match pass {
+                StoryPass::Evaluate => moved = run.evaluate(&input, t),
+                StoryPass::Advance(dt) => run.advance(&input, t, dt),
+                StoryPass::Step(dt) => run.step(&input, t, dt),
+            }
         }
         st.story = Some(run);
+        moved
     }
 
     /// Evaluates every armed start trigger at `t` and starts the phases whose trigger fires.
@@ -988,7 +1047,12 @@ impl<O: Observer> Simulation<O> {
 }
 
 /// The vehicles in front of one follower (ground truth), each with its length.
+/// The state of "nothing" (an absent lead followed in the string): NaN throughout.
+const NOTHING: VehicleState =
+    VehicleState { x: f64::NAN, y: f64::NAN, yaw: f64::NAN, speed: f64::NAN, accel: f64::NAN, steer: f64::NAN, odometer: f64::NAN };
+
 #[derive(Debug, Clone, Copy)]
+
 struct Fronts {
     /// The vehicle in its path ([`path::nearest_in_path`]); `None`: nothing is.
     in_path: Option<(VehicleState, f64)>,
@@ -1040,6 +1104,14 @@ fn pedestrian_flags(st: &State) -> Vec<bool> {
         .chain(st.followers.iter().map(|_| false))
         .chain(st.traffic.iter().map(|t| ped(&t.params)))
         .collect()
+}
+
+/// What one pass of the story does: evaluate the storyboard, advance the motions by `dt`, or both.
+#[derive(Debug, Clone, Copy)]
+enum StoryPass {
+    Evaluate,
+    Advance(f64),
+    Step(f64),
 }
 
 /// The true CAM / BSM kinematics of a V2V sender: its reference point is the centre of the front

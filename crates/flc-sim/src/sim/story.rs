@@ -88,7 +88,15 @@ impl StoryRun {
 
     /// One evaluation at `t`: starts / stops actions, then advances every motion to `t + dt`.
     pub(super) fn step(&mut self, input: &StepInput<'_>, t: f64, dt: f64) {
+        self.evaluate(input, t);
+        self.advance(input, t, dt);
+    }
+
+    /// The storyboard evaluated at `t`: starts and stops actions (a teleport, a step change of
+    /// speed take effect in the motions at once). Returns the slots an action started on.
+    pub(super) fn evaluate(&mut self, input: &StepInput<'_>, t: f64) -> Vec<usize> {
         let StepInput { story, world, slot, track, ego: ego_now } = *input;
+        let mut moved = Vec::new();
         self.started.clear();
         self.stopped.clear();
         self.state.step(story, world, t, &mut self.started, &mut self.stopped);
@@ -125,6 +133,7 @@ impl StoryRun {
                     continue;
                 }
                 let Some(m) = self.motions.get_mut(j) else { continue };
+                moved.push(j);
                 let (replaced, done) = m.start(i, action, t, world);
                 if let Some(r) = replaced {
                     self.state.end_action(r, true);
@@ -134,6 +143,13 @@ impl StoryRun {
                 }
             }
         }
+        moved
+    }
+
+    /// Every motion the story drives advanced from `t` to `t + dt`.
+    pub(super) fn advance(&mut self, input: &StepInput<'_>, t: f64, dt: f64) {
+        let StepInput { world, track, .. } = *input;
+        let ego = self.ego();
         for j in 0..self.motions.len() {
             if j == ego && !self.ego_scripted {
                 continue;
