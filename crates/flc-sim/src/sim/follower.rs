@@ -99,7 +99,7 @@ impl Follower {
             v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
             v2v_lead,
             gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
-            detector: Box::new(<LeadDetector>::new(cfg.detector)?),
+            detector: Box::new(<LeadDetector>::new(cfg.detector_params())?),
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
             held_lane: None,
