@@ -47,7 +47,8 @@ pub struct NeighbourParams {
     /// Smallest width across the path of a tracked neighbour, m. Default 1.2: cars and trucks
     /// seen from behind; posts beside a guard rail (0.5 m) and pieces of rail are not tracked.
     pub min_width: f64,
-    /// Farthest a tracked neighbour is ahead (its rear face), m. Default 80.
+    /// Farthest a tracked neighbour is ahead (its rear face), m. Default 80; 0 tracks nothing
+    /// (the tracker off).
     pub max_range: f64,
     /// Lateral movement towards the path that a careful driver does not read as a cut-in, m
     /// (UN R157's wandering zone). Default 0.375.
@@ -77,7 +78,7 @@ impl NeighbourParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         check_positive("band", self.band, 100.0, "must be finite and in (0, 100] m")?;
         check_range("min_width", self.min_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
-        check_positive("max_range", self.max_range, 1000.0, "must be finite and in (0, 1000] m")?;
+        check_range("max_range", self.max_range, 0.0, 1000.0, "must be finite and in [0, 1000] m (0 = off)")?;
         check_range("wandering", self.wandering, 0.0, 10.0, "must be finite and in [0, 10] m")?;
         check_positive("gate_x", self.gate_x, 100.0, "must be finite and in (0, 100] m")?;
         check_positive("gate_d", self.gate_d, 10.0, "must be finite and in (0, 10] m")?;
@@ -226,8 +227,16 @@ impl NeighbourTracker {
                     }
                 }
             };
-            let mut track =
-                NeighbourTrack { x: c.x_min, y: c.center_y(), near, width: c.width(), depth: c.depth(), points: c.points, misses: 0, ..track };
+            let mut track = NeighbourTrack {
+                x: c.x_min,
+                y: c.center_y(),
+                near,
+                width: c.width(),
+                depth: c.depth(),
+                points: c.points,
+                misses: 0,
+                ..track
+            };
             track.intruding = track.moved_towards() > p.wandering;
             if let (Some(t), Some(s)) = (self.tracks.get_mut(i), seen.get_mut(i)) {
                 *t = Some(track);

@@ -2,7 +2,7 @@
 //! `[follower]` section) and everything its pipeline needs ([`FollowerConfig`]: the scenario's
 //! single-follower sections, patched per follower by `[[platoon.overrides]]`).
 
-use flc_core::{DetectorParams, PurePursuitParams};
+use flc_core::{DetectorParams, NeighbourParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
 use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
@@ -157,6 +157,9 @@ pub struct FollowerConfig {
     pub v2v: V2vParams,
     /// Its lead detector.
     pub detector: DetectorParams,
+    /// Its tracker of objects beside the path (the controllers with the swept-path corridor).
+    #[serde(default)]
+    pub neighbours: NeighbourParams,
     /// Its lateral controller.
     pub pure_pursuit: PurePursuitParams,
 }
@@ -180,6 +183,7 @@ impl FollowerConfig {
             r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
         };
         core("detector", self.detector.validate())?;
+        core("neighbours", self.neighbours.validate())?;
         core("pure_pursuit", self.pure_pursuit.validate())?;
         self.check_sections()
     }

@@ -192,10 +192,7 @@ fn flc_robust_never_passes_an_in_path_object_within_the_margin() {
                 let s = &r.series;
                 let n = s.len();
                 let final_gap = s.gap[n - 1];
-                eprintln!(
-                    "{tag}: final speed {:.2} m/s, gap {final_gap:.2} m, passing clearance {clearance:?}",
-                    s.follower_speed[n - 1]
-                );
+                eprintln!("{tag}: final speed {:.2} m/s, gap {final_gap:.2} m, passing clearance {clearance:?}", s.follower_speed[n - 1]);
                 match clearance {
                     // Passed: only with the margin (the lane keeper holds the ego up to 0.8 m
                     // towards the outside of the R = 250 m arc: a motorbike on the inner
@@ -253,4 +250,3 @@ fn flc_robust_follows_a_weaving_lead_and_ignores_the_next_lane() {
         }
     }
 }
-
