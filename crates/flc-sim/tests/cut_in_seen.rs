@@ -106,14 +106,16 @@ fn first_seen(r: &RunResult) -> Option<(f64, f64)> {
 
 /// The two cases measured on main (issue 47): ego 100 km/h, a car at 70 km/h cutting in 30 m
 /// ahead in 2.5 s (contact at 5.7 m/s: first detection 2.36 s into the lane change), and 130 ->
-/// 90 km/h from 40 m (contact at 8.7 m/s). Here the car's lateral motion follows the scripted
-/// lane change with its steering lag. With the neighbour tracker flc-robust is given the car once
+/// 90 km/h from 40 m (contact at 8.7 m/s). In this fixture (the car follows the sinusoid
+/// exactly) those two had no contact before the tracker either (first seen 1.26 s into the lane
+/// change, 1.75 m from its lane's centre); the same two closer, from 12 m and 20 m, had contact at
+/// 6.0 and 2.0 m/s. With the neighbour tracker flc-robust is given the car once
 /// its near edge has come 0.75 m towards the path, and has no contact; so has its odometry
 /// variant.
 #[test]
 fn flc_robust_sees_the_measured_cut_ins_coming() {
     for controller in [ControllerKind::FlcRobust, ControllerKind::FlcRobustOdo] {
-        for (ego, car, gap) in [(100.0, 70.0, 30.0), (130.0, 90.0, 40.0)] {
+        for (ego, car, gap) in [(100.0, 70.0, 30.0), (130.0, 90.0, 40.0), (100.0, 70.0, 12.0), (130.0, 90.0, 20.0)] {
             let before = BEFORE;
             let r = run(&cut_in(controller, ego, car, gap, 2.5)).expect("run");
             let tag = format!("{}: {ego} -> {car} km/h from {gap} m", controller.as_str());
@@ -129,5 +131,61 @@ fn flc_robust_sees_the_measured_cut_ins_coming() {
             // its band); the body turning towards the lane brings the edge in a little sooner.
             assert!(moved > 0.4 && moved < 0.9, "{tag}: first seen {moved:.2} m into the lane change");
         }
+    }
+}
+
+/// No false cut-ins (a short stand-in for issue 47's hour of traffic): a car weaving ±0.3 m in
+/// the next lane 25 m ahead at the ego's speed, and a car overtaking in the next lane from 30 m
+/// behind at 30 km/h more: flc-robust is never given a distance and drives exactly as with the
+/// car starting far behind and slower (never in view).
+#[test]
+fn flc_robust_takes_no_weaving_or_overtaking_neighbour_for_a_cut_in() {
+    let weave: String = (0..12)
+        .map(|k| {
+            let o = if k % 2 == 0 { LW - 0.3 } else { LW + 0.3 };
+            format!("[[lead.phases]]\nkind = \"lane_change\"\noffset = {o}\nduration = 2.0\n")
+        })
+        .collect();
+    let scenario = |ahead: f64, car_kmh: f64, phases: &str| {
+        let text = format!(
+            r#"
+name = "neighbour"
+controller = "flc-robust"
+duration = 24.0
+
+[track]
+kind = "custom"
+name = "straight"
+centerline = [[0.0, 0.0], [6000.0, 0.0]]
+lane_width = {LW}
+objects = []
+lanes = 2
+ego_lane = 0
+
+[lead]
+initial_speed = {car}
+s = {s}
+offset = {LW}
+{phases}
+[follower]
+initial_speed = {ego}
+start_s = {EGO_S}
+lane_keeping = true
+
+[v2v]
+enabled = false
+"#,
+            car = car_kmh * KMH,
+            s = EGO_S + ahead,
+            ego = 100.0 * KMH,
+        );
+        run(&Scenario::from_toml_str(&text, "neighbour").expect("scenario")).expect("run")
+    };
+    let alone = scenario(-500.0, 60.0, "");
+    for (what, r) in [("weaving", scenario(25.0, 100.0, &weave)), ("overtaking", scenario(-30.0, 130.0, ""))] {
+        assert!(r.collision.is_none(), "{what}: {:?}", r.collision);
+        let seen = r.series.detected_distance.iter().filter(|d| d.is_finite()).count();
+        assert_eq!(seen, 0, "{what}: given a distance in {seen} steps");
+        assert_eq!(r.series.follower_speed, alone.series.follower_speed, "{what}: changed the ego's speed");
     }
 }
