@@ -322,9 +322,8 @@ mod tests {
                 let u = (f64::from(k) - 20.0).max(0.0) / 80.0;
                 let t = side * 3.5 * (1.0 - 0.5 * (1.0 - libm::cos(core::f64::consts::PI * u)));
                 let out = n.update(&[car(30.0 - 0.1 * f64::from(k), t)]);
-                if out.is_some() && first.is_none() {
+                if let (Some(d), None) = (out, first) {
                     first = Some((k, t));
-                    let d = out.unwrap();
                     assert!((d.distance - (30.0 - 0.1 * f64::from(k))).abs() < 1e-12);
                 }
             }
