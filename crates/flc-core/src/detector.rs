@@ -147,7 +147,8 @@ pub struct DetectorParams {
     /// counts once its centre is inside.
     pub narrow_width: f64,
     /// Half width of the follower's swept path plus the clearance it keeps, m (issue 46): when
-    /// positive, this replaces the two corridor rules above. An object whose body (its points'
+    /// positive, this replaces the narrow objects' rule above (wide ones keep the centre rule: a
+    /// car cutting out leaves the path as with the paper's corridor). A narrow object whose body (its points'
     /// offsets from the predicted path, widened by one beam spacing at its range as in
     /// `min_width`) reaches within it is in path, whatever its width and
     /// centre: a motorbike standing on the lane marking, 1.35 m from the path, is in the path of
@@ -1274,13 +1275,14 @@ fn judge(c: &ClusterInfo, p: &DetectorParams, kappa: f64) -> Option<RejectReason
     }
 }
 
-/// Step 7's corridor: with `swept_half_width > 0` the body reaches within it (its nearest offset
+/// Step 7's corridor: with `swept_half_width > 0`, a narrow object (below `narrow_width`) is in
+/// it when its body reaches within it (its nearest offset
 /// from the path, 0 when it straddles the path, less one beam spacing at its range, is below
 /// it); otherwise the paper's rule, the
 /// centre within `path_half_width` and narrow objects wholly inside. Written so that a non-finite
 /// offset is rejected.
 fn in_corridor(c: &ClusterInfo, p: &DetectorParams) -> bool {
-    if p.swept_half_width > 0.0 {
+    if p.swept_half_width > 0.0 && c.width() < p.narrow_width {
         let near = if c.d_min > 0.0 {
             c.d_min
         } else if c.d_max < 0.0 {
@@ -1645,7 +1647,7 @@ mod tests {
                 ("car in the next lane", 20.0, 3.5, 1.9, false, false),
                 ("car in the next lane weaving 0.3 m towards", 20.0, 3.2, 1.9, false, false),
                 ("car straddling the marking", 20.0, 1.7, 1.9, true, true),
-                ("car half a lane over the marking", 20.0, 2.4, 1.9, false, true),
+                ("car half a lane over the marking (wide: the centre rule)", 20.0, 2.4, 1.9, false, false),
             ];
             for (what, x, yc, w, in_paper, in_swept) in cases {
                 let scan = rear_face(x, side * yc, w);
