@@ -27,6 +27,7 @@ enum Pt {
 struct Input {
     params: [Param; 6],
     far: [Param; 10],
+    swept: Param,
     join_beams: u8,
     dilation_radius: u8,
     max_dilation_radius: u8,
@@ -68,6 +69,7 @@ fuzz_target!(|inp: Input| {
         depth_per_width: depth_per_width.get(d.depth_per_width, -0.5, 10.0),
         path_half_width: half.get(d.path_half_width, 0.0, 8.0),
         narrow_width: narrow.get(d.narrow_width, -0.5, 5.0),
+        swept_half_width: inp.swept.get(d.swept_half_width, -0.5, 5.0),
         see_through_margin: st_margin.get(d.see_through_margin, -0.5, 5.0),
         see_through_share: st_share.get(d.see_through_share, -0.5, 2.0),
         rear_face_depth: rear_depth.get(d.rear_face_depth, -0.5, 5.0),

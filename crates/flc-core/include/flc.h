@@ -50,7 +50,7 @@
 /**
  * Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
  */
-#define FLC_DETECTOR_WORDS 8050
+#define FLC_DETECTOR_WORDS 8051
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -1204,6 +1204,11 @@ typedef struct FlcDetectorParams {
      * Objects narrower than this must lie wholly inside the corridor, m.
      */
     double narrow_width;
+    /**
+     * Half width of the swept path plus clearance, m: a body reaching within it is in path
+     * (replaces the two rules above when positive; 0 = off, the paper's corridor).
+     */
+    double swept_half_width;
     /**
      * Solid-face test: a ray through the outline counts beyond this past its far edge, m.
      */

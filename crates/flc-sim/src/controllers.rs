@@ -222,6 +222,15 @@ impl Default for ControllerKind {
 }
 
 impl ControllerKind {
+    /// Whether this controller's LiDAR lead selection uses the swept-path corridor (issue 46,
+    /// `docs/detector.md`: `detector.swept_half_width`; the simulator fills in the ego's half
+    /// width plus `sim/path.rs`'s `CORRIDOR_MARGIN` when the scenario leaves it at 0): the robust
+    /// FLC and its odometry variant. The paper's `flc`, the pipeline and the baselines keep the
+    /// paper's corridor.
+    pub fn swept_corridor(self) -> bool {
+        matches!(self, ControllerKind::FlcRobust | ControllerKind::FlcRobustOdo)
+    }
+
     /// Parses the name used in scenario files and on the CLI.
     pub fn parse(s: &str) -> Result<Self, ConfigError> {
         Self::ALL.iter().copied().find(|k| k.as_str() == s).ok_or_else(|| {

@@ -2,7 +2,7 @@
 //! `[follower]` section) and everything its pipeline needs ([`FollowerConfig`]: the scenario's
 //! single-follower sections, patched per follower by `[[platoon.overrides]]`).
 
-use flc_core::{DetectorParams, PurePursuitParams};
+use flc_core::{DetectorParams, NeighbourParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
 use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
@@ -157,6 +157,9 @@ pub struct FollowerConfig {
     pub v2v: V2vParams,
     /// Its lead detector.
     pub detector: DetectorParams,
+    /// Its tracker of objects beside the path (the controllers with the swept-path corridor).
+    #[serde(default)]
+    pub neighbours: NeighbourParams,
     /// Its lateral controller.
     pub pure_pursuit: PurePursuitParams,
 }
@@ -180,8 +183,21 @@ impl FollowerConfig {
             r.map_err(|e| ConfigError::new(format!("{section}.{}", e.field), e.problem))
         };
         core("detector", self.detector.validate())?;
+        core("neighbours", self.neighbours.validate())?;
         core("pure_pursuit", self.pure_pursuit.validate())?;
         self.check_sections()
+    }
+
+    /// The detector's parameters this follower runs: `[detector]`, with the swept-path corridor
+    /// of the controllers that use it ([`crate::ControllerKind::swept_corridor`]) set to the
+    /// ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario leaves
+    /// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
+    pub fn detector_params(&self) -> DetectorParams {
+        let mut p = self.detector;
+        if self.controller.swept_corridor() && p.swept_half_width == 0.0 {
+            p.swept_half_width = 0.5 * self.follower.vehicle.width + crate::sim::CORRIDOR_MARGIN;
+        }
+        p
     }
 
     /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).

@@ -6,7 +6,7 @@
 //! 30 / 50 / 70 / 90 km/h, covers about 650 m and brakes at -6 m/s² to a stop. The follower is
 //! driven by the FLC, the PID or the switching pipeline (V2V lost at brake onset).
 
-use flc_core::{DetectorParams, PurePursuitParams};
+use flc_core::{DetectorParams, NeighbourParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
 use crate::controllers::ControllerSections;
@@ -284,6 +284,7 @@ impl Scenario {
             LidarParams::default(),
             v2v,
             DetectorParams::default(),
+            NeighbourParams::default(),
             PurePursuitParams::default(),
             StopSpec::default(),
             Some(speed_kmh),

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use flc_core::{DetectorParams, PurePursuitParams};
+use flc_core::{DetectorParams, NeighbourParams, PurePursuitParams};
 use serde::{Deserialize, Serialize};
 
 pub use crate::controllers::{ControllerKind, SupervisorSpec};
@@ -98,6 +98,10 @@ fn yes() -> bool {
     true
 }
 
+fn is_default_neighbours(p: &NeighbourParams) -> bool {
+    *p == NeighbourParams::default()
+}
+
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
 fn is_true(b: &bool) -> bool {
     *b
@@ -148,6 +152,11 @@ pub struct Scenario {
     pub v2v: V2vParams,
     /// The lead detector.
     pub detector: DetectorParams,
+    /// Objects beside the path (issue 47, `flc_core::NeighbourTracker`): used by the controllers
+    /// with the swept-path corridor (`flc-robust`, `flc-robust-odo`). Written out only when it
+    /// differs from the defaults.
+    #[serde(skip_serializing_if = "is_default_neighbours")]
+    pub neighbours: NeighbourParams,
     /// The lateral controller (Eq. (1)).
     pub pure_pursuit: PurePursuitParams,
     /// Stop conditions.
@@ -429,6 +438,7 @@ impl Scenario {
             self.lidar.clone(),
             self.v2v.clone(),
             self.detector,
+            self.neighbours,
             self.pure_pursuit,
             self.sections(),
         )

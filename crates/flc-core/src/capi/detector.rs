@@ -87,6 +87,9 @@ pub struct FlcDetectorParams {
     pub path_half_width: f64,
     /// Objects narrower than this must lie wholly inside the corridor, m.
     pub narrow_width: f64,
+    /// Half width of the swept path plus clearance, m: a body reaching within it is in path
+    /// (replaces the two rules above when positive; 0 = off, the paper's corridor).
+    pub swept_half_width: f64,
     /// Solid-face test: a ray through the outline counts beyond this past its far edge, m.
     pub see_through_margin: f64,
     /// Solid-face test: rejected above this share of the cluster's point count.
@@ -177,7 +180,7 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 8050;
+pub const FLC_DETECTOR_WORDS: usize = 8051;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 63 KiB: prefer static storage on small stacks.
@@ -213,6 +216,7 @@ impl From<DetectorParams> for FlcDetectorParams {
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
+            swept_half_width: p.swept_half_width,
             see_through_margin: p.see_through_margin,
             see_through_share: p.see_through_share,
             rear_face_depth: p.rear_face_depth,
@@ -257,6 +261,7 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             depth_per_width: p.depth_per_width,
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
+            swept_half_width: p.swept_half_width,
             see_through_margin: p.see_through_margin,
             see_through_share: p.see_through_share,
             rear_face_depth: p.rear_face_depth,

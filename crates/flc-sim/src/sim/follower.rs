@@ -1,6 +1,6 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
-use flc_core::{ActiveController, Frame, LeadDetector, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
+use flc_core::{ActiveController, Frame, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::drive::{DriveCommand, Driven};
 use super::geometry::{Road, centreline_pursuit, centreline_steer, grid_points, wrap_angle};
@@ -37,6 +37,10 @@ pub(super) struct Follower {
     /// Its own GNSS error (the fix the association rule compares the sender's position with).
     pub(super) gnss: GnssError,
     pub(super) detector: Box<LeadDetector>,
+    /// Objects beside the path, for the controllers whose lead selection uses the swept-path
+    /// corridor ([`crate::ControllerKind::swept_corridor`], issue 47): an intruding one is
+    /// followed like a lead in the path when it is nearer.
+    pub(super) neighbours: Option<NeighbourTracker>,
     pub(super) pursuit: PurePursuit,
     /// Lost-lead steering `hold_lane`: the lane keeper (pure pursuit of a point on the lane
     /// centre, with the follower's own wheelbase and steering limit).
@@ -99,7 +103,8 @@ impl Follower {
             v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
             v2v_lead,
             gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
-            detector: Box::new(<LeadDetector>::new(cfg.detector)?),
+            detector: Box::new(<LeadDetector>::new(cfg.detector_params())?),
+            neighbours: if cfg.controller.swept_corridor() { Some(NeighbourTracker::new(cfg.neighbours)?) } else { None },
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
             held_lane: None,
@@ -168,7 +173,12 @@ impl Follower {
         // controller that sees the scene as a human does (the R157 careful driver): those of the
         // vehicle in front as it sees it (`human_front`; `None` when there is none).
         let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
-        let detection = det.detection;
+        let mut detection = det.detection;
+        if let Some(intruder) = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters())) {
+            if detection.is_none_or(|d| intruder.distance < d.distance) {
+                detection = Some(intruder);
+            }
+        }
         let (distance, lead_speed) =
             if ideal { (truth.map(|x| x.0), truth.map(|x| x.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;

@@ -27,6 +27,7 @@ mod traffic;
 pub use drive::{DriveCommand, DriveOptions, GroundTruth, Measurement, V2vSeen};
 pub(crate) use links::sub_seed;
 pub use observer::Observer;
+pub(crate) use path::CORRIDOR_MARGIN;
 
 use flc_core::PurePursuit;
 
