@@ -61,9 +61,16 @@ use crate::longitudinal::ActiveController;
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
 
-/// (R8) the largest deceleration assumed for the lead, m/s²: about 1 g, what a car's tyres give on
-/// a dry road.
+/// (R8) the largest deceleration assumed for the lead since it was last seen not closing, m/s²:
+/// about 1 g, what a car's tyres give on a dry road.
 pub const LEAD_DECEL: f64 = 10.0;
+
+/// (R8) the deceleration at which both the lead (from its least speed on) and the follower are
+/// taken to brake when the approach is capped, m/s²: the weakest brakes of the robust FLC's
+/// stated envelope (`docs/robust-flc.md`: 6-8 m/s²; the falsifier's `follower.vehicle.max_brake`
+/// range). 4 m/s² (the stop envelope's wet `b_s`) raised CCRb 40 m / -2 m/s²'s braking from 3.2
+/// to 3.7 m/s², over the comfort target.
+pub const APPROACH_DECEL: f64 = 6.0;
 
 /// Parameters of the robust FLC v2: the v1 law's parameters ([`RobustFlcParams`], same meaning)
 /// and the event rules'. `Default` is the documented design.
@@ -141,17 +148,21 @@ impl RobustFlc2Params {
     /// lead may have braked at up to `LEAD_DECEL` since, so its speed is at least
     /// `u_l = max(0, u - sqrt(2 LEAD_DECEL Δ))` (a deficit `w` below `u` takes a closing of at least
     /// `w² / (2 LEAD_DECEL)` while the follower is not slower than `u`); it then brakes no harder
-    /// than the stop envelope's `b_s`: `V_e(d + u_l² / (2 b_s))` (R3), m/s.
+    /// than `APPROACH_DECEL` (`b`), and the follower, reacting after the stop envelope's `T_s`
+    /// and braking at `b`, stops the envelope's `d_s` behind it: the speed `V` that solves
+    /// `d_s + T_s V + V² / (2 b) = d + u_l² / (2 b)` (as (R3) solves it for a standing object), m/s.
     ///
     /// ```
     /// let p = flc_core::RobustFlc2Params::default();
     /// // Seen not closing at 25 m/s and 78 m, now 73 m: the lead is at least 15 m/s fast.
-    /// assert!((p.closing_limit(73.0, 25.0, 78.0) - 26.231188426986208).abs() < 1e-9);
+    /// assert!((p.closing_limit(73.0, 25.0, 78.0) - 29.954514106568162).abs() < 1e-9);
     /// ```
     pub fn closing_limit(&self, distance: f64, u: f64, d1: f64) -> f64 {
         let closed = (d1 - distance).max(0.0);
         let lead = (u - libm::sqrt(2.0 * LEAD_DECEL * closed)).max(0.0);
-        self.law.envelope_speed(distance + lead * lead / (2.0 * self.law.envelope_decel))
+        let b = APPROACH_DECEL;
+        let (t, x) = (self.law.envelope_reaction, distance + lead * lead / (2.0 * b) - self.law.envelope_margin);
+        if x > 0.0 { b * (libm::sqrt(t * t + 2.0 * x / b) - t) } else { 0.0 }
     }
 
     /// (R5') the acceleration toward `target_speed`: (R5) with `k_b` on the first
@@ -456,7 +467,7 @@ impl RobustFallbackController2 {
             _ => law.max_speed,
         };
         let approach_speed = match self.pulling {
-            Some((u, d1)) if approach => approach_speed.min(p.closing_limit(d, u, d1)),
+            Some((u, d1)) if approach && d > law.desired_gap(v) => approach_speed.min(p.closing_limit(d, u, d1)),
             _ => approach_speed,
         };
         // On the reveal frame itself the law cannot yet tell a standing object from a moving one:
@@ -775,7 +786,8 @@ mod tests {
         // Both at 25 m/s, twice the desired gap apart; then 5 m of closing (in frames of 0.5 m)
         // at 25 m/s: the lead
         // may have lost sqrt(2 * 10 * 5) = 10 m/s, so (R8) caps the speed at
-        // V_e(76 + 15² / 8) = 26.65 m/s, below (R7)'s 25 + (76 - 40.5) / 6 = 30.9 m/s.
+        // 30.50 m/s (the envelope's form at 6 m/s², from 76 + 15² / 12 m), below (R7)'s
+        // 25 + (76 - 40.5) / 6 = 30.9 m/s.
         let mut c = ctl();
         let d = 2.0 * c.params.law.desired_gap(25.0);
         assert_eq!(d, 81.0);
@@ -785,15 +797,17 @@ mod tests {
             c.step(Some(d - 0.5 * f64::from(k)), 25.0);
         }
         let t = *c.terms();
-        assert!((t.approach_speed - 26.653097563788805).abs() < 1e-9, "{t:?}");
+        assert!((t.approach_speed - 30.49626844888845).abs() < 1e-9, "{t:?}");
         assert_eq!(t.approach_speed, c.params.closing_limit(d - 5.0, 25.0, d));
         // A frame that does not close starts over from its own speed and distance.
         c.step(Some(d - 5.0), 25.0);
         assert_eq!(c.terms().approach_speed, c.params.law.max_speed);
-        c.step(Some(d - 6.0), 25.0);
+        for k in 1..=12 {
+            c.step(Some(d - 5.0 - 0.5 * f64::from(k)), 25.0);
+        }
         let t = *c.terms();
-        assert_eq!(t.approach_speed, c.params.closing_limit(d - 6.0, 25.0, d - 5.0));
-        assert!(t.approach_speed < c.params.approach_speed(d - 6.0, 25.0));
+        assert_eq!(t.approach_speed, c.params.closing_limit(d - 11.0, 25.0, d - 5.0));
+        assert!(t.approach_speed < c.params.approach_speed(d - 11.0, 25.0));
     }
 
     #[test]
