@@ -30,7 +30,7 @@
 /**
  * Words (8 bytes each) of `FlcRobust2::storage`.
  */
-#define FLC_ROBUST2_WORDS 60
+#define FLC_ROBUST2_WORDS 64
 
 /**
  * Words (8 bytes each) of `FlcPid::storage`.

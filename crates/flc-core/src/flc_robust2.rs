@@ -38,6 +38,12 @@
 //! - **(R7) approach**: `v_0`, the own speed at which the distance was seen not to close (against
 //!   the distance `d_0` when `v_0` was set, not the previous frame), caps the target speed on a
 //!   closing frame at `V_a = v_0 + max(0, d - D_r(v_0)) / H` ([`RobustFlc2Params::approach_speed`]).
+//! - **(R8) the lead's least speed**: `(u, d_1)`, the own speed and the distance on the last frame
+//!   that showed the lead not closing; a lead that has since come `Δ = d_1 - d` closer may have
+//!   braked at up to [`LEAD_DECEL`], so it is at least `u - sqrt(2 LEAD_DECEL Δ)` fast; on a
+//!   closing frame the target speed is capped so that the follower stops behind it
+//!   ([`RobustFlc2Params::closing_limit`]). (R7)'s `v_0` stays at the lead's old speed while the
+//!   follower is faster; (R8) follows a lead that brakes during the approach.
 //! - **(R5') braking gain**: `brake_gain` 2.25 on the first `firm_error` of a negative speed
 //!   error, `firm_gain` 4 beyond ([`RobustFlc2Params::acceleration`]).
 //!
@@ -54,6 +60,17 @@ use crate::flc_robust::{FirstObject, RobustFlcParams};
 use crate::longitudinal::ActiveController;
 use crate::longitudinal::{ControlOutput, Frame, LongitudinalController, Terms, flag};
 use crate::params::{ParamError, check_positive, check_range};
+
+/// (R8) the largest deceleration assumed for the lead since it was last seen not closing, m/s²:
+/// about 1 g, what a car's tyres give on a dry road.
+pub const LEAD_DECEL: f64 = 10.0;
+
+/// (R8) the deceleration at which both the lead (from its least speed on) and the follower are
+/// taken to brake when the approach is capped, m/s²: the weakest brakes of the robust FLC's
+/// stated envelope (`docs/robust-flc.md`: 6-8 m/s²; the falsifier's `follower.vehicle.max_brake`
+/// range). 4 m/s² (the stop envelope's wet `b_s`) raised CCRb 40 m / -2 m/s²'s braking from 3.2
+/// to 3.7 m/s², over the comfort target.
+pub const APPROACH_DECEL: f64 = 6.0;
 
 /// Parameters of the robust FLC v2: the v1 law's parameters ([`RobustFlcParams`], same meaning)
 /// and the event rules'. `Default` is the documented design.
@@ -126,6 +143,28 @@ impl RobustFlc2Params {
         lead_speed + (distance - self.law.desired_gap(lead_speed)).max(0.0) / self.approach_time_gap
     }
 
+    /// (R8) the speed from which the follower still stops behind a lead that was last seen not
+    /// closing at own speed `u` and distance `d_1` and has since come `Δ = d_1 - d` closer: that
+    /// lead may have braked at up to `LEAD_DECEL` since, so its speed is at least
+    /// `u_l = max(0, u - sqrt(2 LEAD_DECEL Δ))` (a deficit `w` below `u` takes a closing of at least
+    /// `w² / (2 LEAD_DECEL)` while the follower is not slower than `u`); it then brakes no harder
+    /// than `APPROACH_DECEL` (`b`), and the follower, reacting after the stop envelope's `T_s`
+    /// and braking at `b`, stops the envelope's `d_s` behind it: the speed `V` that solves
+    /// `d_s + T_s V + V² / (2 b) = d + u_l² / (2 b)` (as (R3) solves it for a standing object), m/s.
+    ///
+    /// ```
+    /// let p = flc_core::RobustFlc2Params::default();
+    /// // Seen not closing at 25 m/s and 78 m, now 73 m: the lead is at least 15 m/s fast.
+    /// assert!((p.closing_limit(73.0, 25.0, 78.0) - 29.954514106568162).abs() < 1e-9);
+    /// ```
+    pub fn closing_limit(&self, distance: f64, u: f64, d1: f64) -> f64 {
+        let closed = (d1 - distance).max(0.0);
+        let lead = (u - libm::sqrt(2.0 * LEAD_DECEL * closed)).max(0.0);
+        let b = APPROACH_DECEL;
+        let (t, x) = (self.law.envelope_reaction, distance + lead * lead / (2.0 * b) - self.law.envelope_margin);
+        if x > 0.0 { b * (libm::sqrt(t * t + 2.0 * x / b) - t) } else { 0.0 }
+    }
+
     /// (R5') the acceleration toward `target_speed`: (R5) with `k_b` on the first
     /// `firm_error` m/s of a negative speed error and `firm_gain` on the rest, clamped to
     /// `[-b_max, a_max]`, m/s².
@@ -194,7 +233,7 @@ pub struct RobustFlc2Terms {
     pub gap_speed: f64,
     /// (R3) stop-envelope speed, m/s.
     pub envelope_speed: f64,
-    /// (R7) approach speed, m/s (`max_speed` before the lead's speed has shown).
+    /// (R7)-(R8) approach speed, m/s (`max_speed` before the lead's speed has shown).
     pub approach_speed: f64,
     /// (R4) target speed, m/s.
     pub target_speed: f64,
@@ -236,6 +275,9 @@ pub struct RobustFallbackController2 {
     /// `(v_0, d_0)` of (R7): `v_0` estimates the lead's speed from below, `d_0` is the distance
     /// when it was last lowered or first set (`None` until the first frame after a reveal).
     reference: Option<(f64, f64)>,
+    /// `(u, d)` of (R8): the own speed and the distance on the last frame that showed the lead
+    /// not closing (`None` until the first such frame after a reveal).
+    pulling: Option<(f64, f64)>,
     /// (C1) the closing-speed estimate.
     estimate: ClosingEstimate,
     terms: RobustFlc2Terms,
@@ -252,6 +294,7 @@ impl RobustFallbackController2 {
             trend: 0.0,
             latch_min: None,
             reference: None,
+            pulling: None,
             estimate: ClosingEstimate::default(),
             terms: RobustFlc2Terms::default(),
         })
@@ -269,6 +312,7 @@ impl RobustFallbackController2 {
         self.trend = 0.0;
         self.latch_min = None;
         self.reference = None;
+        self.pulling = None;
         self.estimate = ClosingEstimate::default();
         self.terms = RobustFlc2Terms::default();
     }
@@ -399,6 +443,11 @@ impl RobustFallbackController2 {
             (_, Some((v0, d0))) if d >= d0 - p.release_closing => Some((v0.max(v), d0)),
             (_, r) => r,
         };
+        self.pulling = match not_closing {
+            None if revealed => None,
+            Some(true) => Some((v, d)),
+            _ => self.pulling,
+        };
         // (R7) limits a closing speed: it does not apply on a frame that shows none.
         let mut terms = self.law_terms(d, v, revealed, not_closing != Some(true));
         terms.revealed = revealed;
@@ -406,7 +455,7 @@ impl RobustFallbackController2 {
         self.command(v, terms.a, Status::Ok)
     }
 
-    /// (R2)-(R5) and (R7) at distance `d` with the current latch and reference.
+    /// (R2)-(R5), (R7) and (R8) at distance `d` with the current latch and reference.
     fn law_terms(&self, d: f64, v: f64, revealed: bool, approach: bool) -> RobustFlc2Terms {
         let p = self.params;
         let law = p.law;
@@ -416,6 +465,10 @@ impl RobustFallbackController2 {
         let approach_speed = match self.reference {
             Some((v0, _)) if approach => p.approach_speed(d, v0).min(law.max_speed),
             _ => law.max_speed,
+        };
+        let approach_speed = match self.pulling {
+            Some((u, d1)) if approach && d > law.desired_gap(v) => approach_speed.min(p.closing_limit(d, u, d1)),
+            _ => approach_speed,
         };
         // On the reveal frame itself the law cannot yet tell a standing object from a moving one:
         // it holds at most (the envelope's reaction time `T_s` covers the frame); from the next
@@ -707,10 +760,12 @@ mod tests {
         c.step(Some(d), v);
         let out = c.step(Some(d), v);
         assert!(!c.latched() && out.accel > 0.0);
-        // Closing at 27 m/s: V_a = 25 + (d - 39.5) / 6 = 31.3 m/s while V_g = 49.7 m/s.
-        let out = c.step(Some(d - 1.0), 27.0);
+        // Closing at 27 m/s: V_a = 25 + (d - 0.15 - 40.5) / 6 = 31.2 m/s while V_g = 49.6 m/s
+        // ((R8) allows 31.9 m/s after 0.15 m of closing).
+        let out = c.step(Some(d - 0.15), 27.0);
         let t = *c.terms();
-        assert!((t.approach_speed - (25.0 + (d - 1.0 - 40.5) / 6.0)).abs() < 1e-9, "{t:?}");
+        assert!((t.approach_speed - (25.0 + (d - 0.15 - 40.5) / 6.0)).abs() < 1e-9, "{t:?}");
+        assert!(c.params.closing_limit(d - 0.15, 25.0, d) > t.approach_speed + 0.5);
         assert_eq!(t.target_speed, t.approach_speed);
         assert!(t.gap_speed > t.approach_speed + 15.0);
         assert!((t.a_law - 2.0).abs() < 1e-12, "{t:?}");
@@ -724,6 +779,35 @@ mod tests {
         assert_eq!(c.terms().approach_speed, c.params.law.max_speed);
         assert_eq!(c.terms().a_law, 2.0);
         assert!(out.accel <= 2.0);
+    }
+
+    #[test]
+    fn a_closing_approach_is_capped_by_the_lead_s_least_speed() {
+        // Both at 25 m/s, twice the desired gap apart; then 5 m of closing (in frames of 0.5 m)
+        // at 25 m/s: the lead
+        // may have lost sqrt(2 * 10 * 5) = 10 m/s, so (R8) caps the speed at
+        // 30.50 m/s (the envelope's form at 6 m/s², from 76 + 15² / 12 m), below (R7)'s
+        // 25 + (76 - 40.5) / 6 = 30.9 m/s.
+        let mut c = ctl();
+        let d = 2.0 * c.params.law.desired_gap(25.0);
+        assert_eq!(d, 81.0);
+        c.step(Some(d), 25.0);
+        c.step(Some(d), 25.0);
+        for k in 1..=10 {
+            c.step(Some(d - 0.5 * f64::from(k)), 25.0);
+        }
+        let t = *c.terms();
+        assert!((t.approach_speed - 30.49626844888845).abs() < 1e-9, "{t:?}");
+        assert_eq!(t.approach_speed, c.params.closing_limit(d - 5.0, 25.0, d));
+        // A frame that does not close starts over from its own speed and distance.
+        c.step(Some(d - 5.0), 25.0);
+        assert_eq!(c.terms().approach_speed, c.params.law.max_speed);
+        for k in 1..=12 {
+            c.step(Some(d - 5.0 - 0.5 * f64::from(k)), 25.0);
+        }
+        let t = *c.terms();
+        assert_eq!(t.approach_speed, c.params.closing_limit(d - 11.0, 25.0, d - 5.0));
+        assert!(t.approach_speed < c.params.approach_speed(d - 11.0, 25.0));
     }
 
     #[test]

@@ -160,16 +160,19 @@ fn missed_detections_while_following_cause_no_phantom_braking() {
 }
 
 /// Approach: ego and lead at the same speed on a straight, the ego twice v2's desired gap behind;
-/// after 20 s the gap is within 10 % of the desired gap. The ego never brakes (beyond 0.3 m/s²)
-/// while it is not faster than the lead, i.e. merely because the lead is far, and sheds its
-/// closing speed at no more than 2 m/s² (an ACC's approach, under ISO 15622's 3.5 m/s²).
+/// after 30 s the gap is within 10 % of the desired gap. The ego never brakes (beyond 0.3 m/s²)
+/// while it is not faster than the lead and more than 10 % beyond its gap, i.e. merely because
+/// the lead is far, and sheds its
+/// closing speed at no more than 3.5 m/s² (ISO 15622's limit for an ACC). Before (R8) this was
+/// 20 s and 2 m/s²; (R8) trades them for no contact when the lead brakes during the approach
+/// (`docs/robust-flc.md`, (R8): 25 s and 3.0 m/s² at 130 km/h).
 #[test]
-fn v2_closes_in_from_twice_its_gap_within_20_s() {
+fn v2_closes_in_from_twice_its_gap_within_30_s() {
     let mut bad = Vec::new();
     for (law, kmh) in law_speeds(&[50.0, 100.0, 130.0]) {
         let law_name = law.as_str();
         let mut s = steady(law, kmh, 0.0);
-        s.duration = 20.0;
+        s.duration = 30.0;
         s.follower.initial_gap *= 2.0;
         let r = flc_sim::run(&s).unwrap();
         let x = &r.series;
@@ -177,13 +180,15 @@ fn v2_closes_in_from_twice_its_gap_within_20_s() {
         let (gap, desired) = (x.gap[n], x.desired_gap[n]);
         // From t = 1 s: the first second is the vehicles settling into the run (drag before the
         // first commands), the same without any approach (`missed_detections_...`' clean runs).
-        let far_brake =
-            (0..=n).filter(|&i| x.t[i] >= 1.0 && x.follower_speed[i] <= x.lead_speed[i]).map(|i| -x.follower_accel[i]).fold(0.0, f64::max);
+        let far_brake = (0..=n)
+            .filter(|&i| x.t[i] >= 1.0 && x.follower_speed[i] <= x.lead_speed[i] && x.gap[i] > 1.1 * x.desired_gap[i])
+            .map(|i| -x.follower_accel[i])
+            .fold(0.0, f64::max);
         println!(
-            "{law_name} {kmh} km/h: gap {gap:.1} m after 20 s, desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2} while not faster than the lead",
+            "{law_name} {kmh} km/h: gap {gap:.1} m after 30 s, desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2} while not faster than the lead",
             r.metrics.max_decel
         );
-        if (gap - desired).abs() > 0.1 * desired || r.metrics.max_decel > 2.0 || far_brake > 0.3 || r.metrics.collision {
+        if (gap - desired).abs() > 0.1 * desired || r.metrics.max_decel > 3.5 || far_brake > 0.3 || r.metrics.collision {
             bad.push(format!(
                 "{law_name} {kmh} km/h: gap {gap:.1} m vs desired {desired:.1} m, max decel {:.2} m/s², {far_brake:.2}",
                 r.metrics.max_decel
@@ -286,18 +291,24 @@ fn v2_a_dropout_at_the_brake_onset_causes_no_contact() {
 }
 
 /// The cases of the impairment target at 30-130 km/h (the suites stop at 80): following at v2's
-/// own gap, the lead brakes at 2 or 6 m/s² to a stop after 10 s; and a standing car first in
-/// the LiDAR's reach from 250 m away (beyond the detector's 200 m).
+/// own gap, the lead brakes at 2 or 6 m/s² to a stop after 10 s; the same while the ego
+/// approaches from 2 and 3 times its gap (the lead brakes 10 s into the approach: the
+/// falsifier's counterexample of `docs/safety-evidence.md`, without its LiDAR faults); and a
+/// standing car first in the LiDAR's reach from 250 m away (beyond the detector's 200 m).
 fn highway_cases(kmh: f64) -> Vec<(String, Scenario)> {
     let mut out = Vec::new();
     for decel in [2.0, 6.0] {
-        let mut s = steady(ControllerKind::FlcRobust, kmh, 0.0);
-        s.duration = 10.0 + kmh / 3.6 / decel + 15.0;
-        s.lead.phases = vec![
-            Phase::Hold { until_x: None, until_t: Some(10.0), duration: None }.into(),
-            Phase::Brake { decel, speed: None, speed_kmh: None }.into(),
-        ];
-        out.push((format!("{kmh} km/h, lead -{decel} m/s²"), s));
+        for times in [1.0, 2.0, 3.0] {
+            let mut s = steady(ControllerKind::FlcRobust, kmh, 0.0);
+            s.duration = 10.0 + kmh / 3.6 / decel + 15.0;
+            s.follower.initial_gap *= times;
+            s.lead.phases = vec![
+                Phase::Hold { until_x: None, until_t: Some(10.0), duration: None }.into(),
+                Phase::Brake { decel, speed: None, speed_kmh: None }.into(),
+            ];
+            let from = if times == 1.0 { String::new() } else { format!(" from {times}x its gap") };
+            out.push((format!("{kmh} km/h{from}, lead -{decel} m/s²"), s));
+        }
     }
     let mut s = steady(ControllerKind::FlcRobust, kmh, 0.0);
     s.lead.initial_speed = 0.0;

@@ -211,7 +211,7 @@ impl From<RobustFlc2Terms> for FlcRobust2Terms {
 pub const FLC_ROBUST_WORDS: usize = 29;
 
 /// Words (8 bytes each) of `FlcRobust2::storage`.
-pub const FLC_ROBUST2_WORDS: usize = 60;
+pub const FLC_ROBUST2_WORDS: usize = 64;
 
 /// Caller-owned storage of one robust FLC v1. Initialise with `flc_robust_init`.
 #[repr(C)]
