@@ -693,6 +693,7 @@ fn translate(
     s.follower.start_offset = ep.lateral;
     s.follower.start_heading = ep.heading;
     s.follower.initial_speed = speed_of(ego);
+    s.follower.lane_keeping = crate::FollowerSpec::default_lane_keeping(crate::ScenarioOrigin::OpenScenario);
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if i == ego {
             continue;
