@@ -47,6 +47,19 @@ fn fixture(track: &TrackSpec, controller: ControllerKind, ahead: f64, offset: f6
     s
 }
 
+/// Every gap-based metric is >= 0 unless a contact happened (the gap is to the vehicle in path;
+/// none: no gap).
+fn gaps_non_negative(r: &RunResult, tag: &str) {
+    let m = &r.metrics;
+    if m.collision {
+        return;
+    }
+    assert!(r.series.gap.iter().all(|g| g.is_nan() || *g >= 0.0), "{tag}: a negative gap without contact");
+    assert!(m.min_gap.is_nan() || m.min_gap >= 0.0, "{tag}: min_gap {}", m.min_gap);
+    assert!(m.min_ttc.is_none_or(|x| x >= 0.0) && m.min_time_headway.is_none_or(|x| x >= 0.0), "{tag}: {m:?}");
+    assert!(m.tet >= 0.0 && m.tit >= 0.0 && m.max_drac >= 0.0, "{tag}: {m:?}");
+}
+
 /// Where the run ends: the ego's position along the road (m), its final speed and its lowest.
 fn end(r: &RunResult, track: &TrackSpec) -> (f64, f64, f64) {
     let TrackSpec::Custom(t) = track else { unreachable!("custom tracks only") };
@@ -62,6 +75,7 @@ fn with_nothing_ahead_every_controller_holds_its_set_speed() {
         for &k in ControllerKind::ALL {
             let tag = format!("{road}: {}", k.as_str());
             let r = run(&fixture(&track, k, -60.0, 0.0)).expect("run");
+            gaps_non_negative(&r, &tag);
             assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
             assert!(r.series.gap.iter().all(|g| g.is_nan()), "{tag}: something in path");
             let (_, last, lowest) = end(&r, &track);
@@ -79,6 +93,7 @@ fn a_target_beyond_range_is_driven_to_not_stopped_for() {
             let mut sc = fixture(&track, k, ahead, 0.0);
             sc.duration = 60.0;
             let r = run(&sc).expect("run");
+            gaps_non_negative(&r, &tag);
             let TrackSpec::Custom(t) = &track else { unreachable!("custom tracks only") };
             // Centre to centre less the half lengths: the bumper gap along the road.
             let half = 0.5 * (sc.follower.vehicle.length + sc.lead.vehicle.length);
@@ -103,6 +118,7 @@ fn a_standing_car_in_the_next_lane_is_passed() {
         for &k in ControllerKind::ALL {
             let tag = format!("{road}: {}", k.as_str());
             let r = run(&fixture(&track, k, ahead, LW)).expect("run");
+            gaps_non_negative(&r, &tag);
             assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
             let (at, last, lowest) = end(&r, &track);
             assert!(at > EGO_S + ahead + 50.0, "{tag}: ends at {:.1} m, the car at {:.1} m", at, EGO_S + ahead);
