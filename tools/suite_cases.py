@@ -411,8 +411,8 @@ def cut_out():
 def suite_toml(name, title, source, cases):
     lines = [f'# The {name} suite of `scenario suite` (written by tools/suite_cases.py; docs/standard-suites.md).',
              f'name = "{name}"', f'title = "{title}"', f'source = "{source}"', "",
-             "# The vehicle under test keeps its lane (the test driver / the ALKS does; the paper's pure",
-             "# pursuit would steer after a lead that changes lanes).", "[patch]", '"follower.lane_keeping" = true', ""]
+             "# The vehicle under test keeps its lane: the importer's default for OpenSCENARIO files",
+             "# (docs/sim-model.md, \"Steering\").", ""]
     for c in cases:
         lines += ["[[cases]]"] + [f"{k} = {v!r}".replace("'", '"') if not isinstance(v, bool) else f"{k} = {str(v).lower()}"
                                   for k, v in c.items()] + [""]

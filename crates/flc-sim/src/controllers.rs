@@ -6,11 +6,12 @@
 //! gap) live with the law in `flc-core`.
 //!
 //! A row: `Kind = "name", section: ParamsType` (with `validate() -> Result<(), ParamError>`), build |cfg| expr, cruise |params, v| stmt, v2v,
-//! truth, starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
+//! truth, free_road, starts Active;` — the scenario-file name, the section (field and TOML table) holding the law's
 //! parameters, how to build the law from a follower's configuration, how the paper experiment sets
 //! a cruise controller's set speed (`docs/baselines.md`), whether the law listens to V2V, whether it
-//! perceives the ground truth instead of the LiDAR (the R157 reference driver), and which law the
-//! `active` column shows before the first control frame.
+//! perceives the ground truth instead of the LiDAR (the R157 reference driver), whether it has a
+//! free-road branch of its own (otherwise it cruises at the set speed until its first target,
+//! [`crate::no_target`]), and which law the `active` column shows before the first control frame.
 
 use flc_core::baselines::{AccController, CarlaBehaviorController, IdmController, RssController};
 use flc_core::{ActiveController, FallbackController, LongitudinalController, PidController, RobustFallbackController, Supervisor};
@@ -27,36 +28,36 @@ macro_rules! for_each_controller {
     ($callback:ident! { $($prefix:tt)* }) => {
         $callback! { { $($prefix)* }
             /// The paper's FLC only (LiDAR distance + own speed; Sec. III-B, Eqs. (2)-(5)).
-            Flc = "flc", flc: flc_core::FlcParams, build |c| FallbackController::new(c.flc), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            Flc = "flc", flc: flc_core::FlcParams, build |c| FallbackController::new(c.flc), cruise |_p, _v| {}, v2v false, truth false, free_road false, starts Flc;
             /// The V2V PID only (holds the last received lead speed when V2V is lost; Sec. III-A.3).
-            Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, truth false, starts Pid;
+            Pid = "pid", pid: flc_core::PidParams, build |c| PidController::new(c.pid), cruise |_p, _v| {}, v2v true, truth false, free_road false, starts Pid;
             /// The parallel longitudinal controller of Fig. 1 (PID while V2V is fresh, FLC
             /// otherwise), from `[supervisor]`, `[flc]` and `[pid]`.
-            Pipeline = "pipeline", supervisor: $crate::controllers::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, truth false, starts Flc;
+            Pipeline = "pipeline", supervisor: $crate::controllers::SupervisorSpec, build |c| Supervisor::new(c.supervisor_params()), cruise |_p, _v| {}, v2v true, truth false, free_road false, starts Flc;
             /// Baseline under identical sensing: the Intelligent Driver Model (`[idm]`, `docs/baselines.md`).
-            Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
+            Idm = "idm", idm: flc_core::baselines::IdmParams, build |c| IdmController::new(c.idm), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, free_road true, starts Flc;
             /// Baseline under identical sensing: Milanés & Shladover / SUMO ACC (`[acc]`).
-            Acc = "acc", acc: flc_core::baselines::AccParams, build |c| AccController::new(c.acc), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
+            Acc = "acc", acc: flc_core::baselines::AccParams, build |c| AccController::new(c.acc), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, free_road true, starts Flc;
             /// Baseline under identical sensing: RSS safe-distance controller (`[rss]`).
-            Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
+            Rss = "rss", rss: flc_core::baselines::RssParams, build |c| RssController::new(c.rss), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, free_road true, starts Flc;
             /// Baseline under identical sensing: CARLA BehaviorAgent follower (`[carla_behavior]`).
-            CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, truth false, starts Flc;
+            CarlaBehavior = "carla-behavior", carla_behavior: flc_core::baselines::CarlaBehaviorParams, build |c| CarlaBehaviorController::new(c.carla_behavior), cruise |p, v| { p.cruise_speed = v; p.speed_limit = v }, v2v false, truth false, free_road true, starts Flc;
             /// Beyond the paper: the robust FLC v2 (LiDAR distance + own speed, rate invariant, no
             /// braking for missed or spurious frames, a comfort layer timed by its own motion;
             /// `[flc_robust]`, `docs/robust-flc.md`).
-            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            FlcRobust = "flc-robust", flc_robust: flc_core::RobustFlc2Params, build |c| flc_core::RobustFallbackController2::new(c.flc_robust), cruise |_p, _v| {}, v2v false, truth false, free_road false, starts Flc;
             /// Beyond the paper: v2 with wheel odometry (issue 24's separately named variant: v2
             /// with the closing speed per metre driven as its comfort layer's clock; v2's
             /// parameters `[flc_robust]`, its own `[flc_robust_odo]`).
-            FlcRobustOdo = "flc-robust-odo", flc_robust_odo: flc_core::OdometryFlcParams, build |c| flc_core::OdometryFallbackController::new(c.flc_robust, c.flc_robust_odo), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            FlcRobustOdo = "flc-robust-odo", flc_robust_odo: flc_core::OdometryFlcParams, build |c| flc_core::OdometryFallbackController::new(c.flc_robust, c.flc_robust_odo), cruise |_p, _v| {}, v2v false, truth false, free_road false, starts Flc;
             /// The robust FLC v1, kept for comparison (`[flc_robust_v1]`, `docs/robust-flc.md`).
-            FlcRobustV1 = "flc-robust-v1", flc_robust_v1: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust_v1), cruise |_p, _v| {}, v2v false, truth false, starts Flc;
+            FlcRobustV1 = "flc-robust-v1", flc_robust_v1: flc_core::RobustFlcParams, build |c| RobustFallbackController::new(c.flc_robust_v1), cruise |_p, _v| {}, v2v false, truth false, free_road false, starts Flc;
             /// Baseline under identical sensing: Gipps (1981) safe-speed car following (`[gipps]`).
-            Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, starts Flc;
+            Gipps = "gipps", gipps: flc_core::baselines::GippsParams, build |c| flc_core::baselines::GippsController::new(c.gipps), cruise |p, v| { p.desired_speed = v }, v2v false, truth false, free_road true, starts Flc;
             /// Reference: the UN R157 careful and competent human driver (`[careful_driver]`,
             /// `docs/careful-driver.md`); it sees the scene as a human does (ground truth of the
             /// vehicle in front within its sight distance), not through the LiDAR.
-            CarefulDriver = "careful-driver", careful_driver: flc_core::baselines::CarefulDriverParams, build |c| flc_core::baselines::CarefulDriver::new(c.careful_driver), cruise |p, v| { p.normal.desired_speed = v }, v2v false, truth true, starts Flc;
+            CarefulDriver = "careful-driver", careful_driver: flc_core::baselines::CarefulDriverParams, build |c| flc_core::baselines::CarefulDriver::new(c.careful_driver), cruise |p, v| { p.normal.desired_speed = v }, v2v false, truth true, free_road true, starts Flc;
         }
     };
 }
@@ -65,7 +66,7 @@ pub(crate) use for_each_controller;
 /// Generates [`ControllerKind`] and [`ControllerSections`] from the rows.
 macro_rules! define_registry {
     ({} $( $(#[doc = $doc:literal])* $kind:ident = $name:literal, $field:ident : $params:ty,
-        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, starts $active:ident; )*) => {
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, free_road $free:literal, starts $active:ident; )*) => {
         /// Which longitudinal controller drives a follower (the registry's rows, in order).
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
         pub enum ControllerKind {
@@ -93,6 +94,14 @@ macro_rules! define_registry {
             /// road (`docs/careful-driver.md`).
             pub fn perceives_truth(self) -> bool {
                 match self { $( ControllerKind::$kind => $truth, )* }
+            }
+
+            /// Whether this law has a free-road branch of its own (drives towards its set speed when
+            /// nothing is ahead: the baselines' and the careful driver's `NoLeadPolicy::Cruise`);
+            /// the others are gap laws the simulator drives at the set speed until their first
+            /// target ([`crate::no_target`]).
+            pub fn free_road(self) -> bool {
+                match self { $( ControllerKind::$kind => $free, )* }
             }
 
             /// The law shown in the `active` column before the first control frame.
@@ -134,7 +143,7 @@ for_each_controller!(define_registry! {});
 macro_rules! with_controller_sections {
     ({ $(#[$meta:meta])* pub struct $name:ident { $( $(#[$fmeta:meta])* pub $fname:ident : $fty:ty, )* } }
      $( $(#[doc = $doc:literal])* $kind:ident = $cname:literal, $field:ident : $params:ty,
-        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, starts $active:ident; )*) => {
+        build |$c:ident| $build:expr, cruise |$p:ident, $v:ident| $cruise:block, v2v $v2v:literal, truth $truth:literal, free_road $free:literal, starts $active:ident; )*) => {
         $(#[$meta])*
         pub struct $name {
             $( $(#[$fmeta])* pub $fname: $fty, )*

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::controllers::{BoxedLaw, ControllerKind, for_each_controller, with_controller_sections};
 use crate::error::{ConfigError, check_range};
 use crate::lidar::LidarParams;
+use crate::no_target::NoTargetCruise;
 use crate::patch::Patch;
 use crate::v2v::V2vParams;
 use crate::vehicle::{SpeedControllerParams, VehicleParams};
@@ -18,6 +19,13 @@ use crate::vehicle::{SpeedControllerParams, VehicleParams};
 pub struct FollowerSpec {
     /// Initial speed, m/s.
     pub initial_speed: f64,
+    /// The set speed, m/s, of the gap laws without a free-road branch of their own (the FLC
+    /// family, the PID, the pipeline): they drive at it while nothing has ever been in their
+    /// path ([`crate::no_target`], `docs/sim-model.md`). `None` (default): the initial speed (an
+    /// ACC's set speed is the speed it is engaged at, ISO 15622). The baselines and the careful
+    /// driver cruise at their own `desired_speed`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub set_speed: Option<f64>,
     /// Initial bumper-to-bumper gap to the lead, m. The paper: 7 m at standstill.
     pub initial_gap: f64,
     /// Initial position of the (last) follower's centre along the centreline, m (`None`,
@@ -40,8 +48,12 @@ pub struct FollowerSpec {
     /// front bumper, so the controllers see the bumper-to-bumper gap.
     pub distance_offset: Option<f64>,
     /// Steer along the lane centre instead of pursuing the detected lead (the paper's pipeline
-    /// pursues the lead). For lead-change scenarios: a lead that leaves the lane is not followed,
-    /// and the detector's corridor follows the lane. Default `false`.
+    /// pursues the lead): a lead that leaves the lane is not followed (a cut-out reveals what is
+    /// ahead to an ego that stays in its lane), and the detector's corridor follows the lane.
+    /// The default depends on where the scenario comes from, decided in one place
+    /// ([`FollowerSpec::default_lane_keeping`]): `false` for the paper experiment and TOML files,
+    /// `true` for imported OpenSCENARIO files and the suites (ALKS is lane keeping). How the
+    /// follower then steers: [`FollowerConfig::steering`].
     pub lane_keeping: bool,
     /// How the follower steers while its detector sees no lead (pursuit of the lead only; not
     /// with `lane_keeping` or ideal perception, which always steer along the lane):
@@ -121,10 +133,44 @@ impl Perception {
     }
 }
 
+/// Where a scenario comes from: the one input of the steering default
+/// ([`FollowerSpec::default_lane_keeping`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ScenarioOrigin {
+    /// Written for flc: the paper experiment, the TOML files, the presets.
+    Native,
+    /// Imported from OpenSCENARIO (the published files, the suites).
+    OpenScenario,
+}
+
+/// How a follower steers ([`FollowerConfig::steering`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Steering {
+    /// Along the centre of its lane (the simulator's stand-in for a camera lane keeper).
+    LaneKeeping,
+    /// Pure pursuit of the detected lead (the paper's pipeline); without a detection as
+    /// [`LostLeadSteering`] says.
+    Pursuit(LostLeadSteering),
+}
+
+impl FollowerSpec {
+    /// The default of [`FollowerSpec::lane_keeping`] for a scenario of `origin`: the paper
+    /// experiment and flc's own files pursue the lead (the paper's lateral control, Sec. III-C);
+    /// an imported OpenSCENARIO file keeps its lane (its ego is a driver or an ALKS that keeps its
+    /// lane and does not follow a lead that leaves it; the suites import their files).
+    pub fn default_lane_keeping(origin: ScenarioOrigin) -> bool {
+        match origin {
+            ScenarioOrigin::Native => false,
+            ScenarioOrigin::OpenScenario => true,
+        }
+    }
+}
+
 impl Default for FollowerSpec {
     fn default() -> Self {
         Self {
             initial_speed: 0.0,
+            set_speed: None,
             initial_gap: 7.0,
             start_s: None,
             start_offset: 0.0,
@@ -132,7 +178,7 @@ impl Default for FollowerSpec {
             vehicle: VehicleParams::default(),
             speed_controller: SpeedControllerParams::default(),
             distance_offset: None,
-            lane_keeping: false,
+            lane_keeping: Self::default_lane_keeping(ScenarioOrigin::Native),
             lost_lead_steering: LostLeadSteering::HoldLane,
             perception: Perception::Lidar,
             odometry_scale: 1.0,
@@ -171,6 +217,9 @@ impl FollowerConfig {
         let f = &self.follower;
         check_range("follower.initial_speed", f.initial_speed, 0.0, 70.0, "m/s")?;
         check_range("follower.initial_gap", f.initial_gap, 0.5, 500.0, "m")?;
+        if let Some(v) = f.set_speed {
+            check_range("follower.set_speed", v, 0.0, 70.0, "m/s")?;
+        }
         check_range("follower.odometry_scale", f.odometry_scale, 0.5, 2.0, "(ratio)")?;
         if let Some(o) = f.distance_offset {
             check_range("follower.distance_offset", o, -10.0, 10.0, "m")?;
@@ -200,11 +249,34 @@ impl FollowerConfig {
         p
     }
 
-    /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]).
+    /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]); a law
+    /// without a free-road branch of its own cruises at [`FollowerConfig::set_speed`] until its
+    /// first target ([`NoTargetCruise`]).
     pub fn longitudinal(&self) -> Result<BoxedLaw, ConfigError> {
-        self.controller
+        let law = self
+            .controller
             .build(&self.sections())
-            .map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))
+            .map_err(|e| ConfigError::new(format!("{}.{}", self.controller.section(), e.field), e.problem))?;
+        Ok(if self.controller.free_road() { law } else { Box::new(NoTargetCruise::new(law, self.set_speed())) })
+    }
+
+    /// How this follower steers: along its lane with `lane_keeping`, and always for a controller
+    /// that perceives the scene as a human does or with ideal perception (both see the vehicle in
+    /// front in road coordinates, not a LiDAR lead to pursue); otherwise pure pursuit of the
+    /// detected lead.
+    pub fn steering(&self) -> Steering {
+        let f = &self.follower;
+        if f.lane_keeping || f.perception == Perception::Ideal || self.controller.perceives_truth() {
+            Steering::LaneKeeping
+        } else {
+            Steering::Pursuit(f.lost_lead_steering)
+        }
+    }
+
+    /// The set speed of the gap laws with no target, m/s: `follower.set_speed`, or the initial
+    /// speed.
+    pub fn set_speed(&self) -> f64 {
+        self.follower.set_speed.unwrap_or(self.follower.initial_speed)
     }
 
     /// This configuration with `patch` (a table shaped like the scenario's sections) merged in:

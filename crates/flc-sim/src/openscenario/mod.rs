@@ -705,6 +705,7 @@ fn translate(
         s.lead = LeadSpec { absent: true, s: Some(ep.s), offset: ep.lateral, ..LeadSpec::default() };
         s.v2v.enabled = false;
     }
+    s.follower.lane_keeping = crate::FollowerSpec::default_lane_keeping(crate::ScenarioOrigin::OpenScenario);
     for (i, (d, p)) in defs.iter().zip(&placed).enumerate() {
         if i == ego {
             continue;
@@ -1114,6 +1115,8 @@ mod tests {
         // of the reference point); the track runs along the ego lane (-2).
         assert!(close(s.follower.start_s.unwrap_or(0.0), 51.4));
         assert!(close(s.follower.initial_speed, 13.888889));
+        // An imported ego keeps its lane by default (issue 46), a native scenario pursues.
+        assert!(s.follower.lane_keeping && !Scenario::default().follower.lane_keeping);
         assert!(close(s.lead.s.unwrap_or(0.0), 111.4) && close(s.lead.offset, 0.0));
         assert!(close(s.lead.initial_speed, 13.888889));
         assert_eq!(

@@ -8,7 +8,7 @@ use super::links::{follower_stream, sub_seed};
 use super::path::nearest_lane_offset;
 use crate::controllers::BoxedLaw;
 use crate::error::SimError;
-use crate::follower::{FollowerConfig, LostLeadSteering, Perception};
+use crate::follower::{FollowerConfig, LostLeadSteering, Perception, Steering};
 use crate::gnss::GnssError;
 use crate::lidar::Lidar;
 use crate::metrics::CollisionInfo;
@@ -182,13 +182,14 @@ impl Follower {
         let (distance, lead_speed) =
             if ideal { (truth.map(|x| x.0), truth.map(|x| x.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;
-        if self.cfg.follower.lane_keeping || ideal {
-            // Lane keeping (lead-change scenarios): steer along the lane centre like the lead's
-            // driver; the detector's corridor follows the lane.
+        let steering = self.cfg.steering();
+        if steering == Steering::LaneKeeping {
+            // Lane keeping: steer along the lane centre like the lead's driver; the detector's
+            // corridor follows the lane.
             let s = road.track.project(fs.x, fs.y).s;
             self.steer_cmd = centreline_steer(road.track, road.steer, fs, s, 0.0);
             self.path_curvature = road.track.curvature_at(s);
-        } else if detection.is_none() && self.cfg.follower.lost_lead_steering == LostLeadSteering::HoldLane {
+        } else if detection.is_none() && steering == Steering::Pursuit(LostLeadSteering::HoldLane) {
             self.hold_lane(fs, road.track);
         } else {
             // Pure pursuit in the vehicle frame (sensor offset added).
