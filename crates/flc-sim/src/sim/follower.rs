@@ -189,20 +189,21 @@ impl Follower {
             let s = road.track.project(fs.x, fs.y).s;
             self.steer_cmd = centreline_steer(road.track, road.steer, fs, s, 0.0);
             self.path_curvature = road.track.curvature_at(s);
-        } else if detection.is_none() && steering == Steering::Pursuit(LostLeadSteering::HoldLane) {
+        } else if det.detection.is_none() && steering == Steering::Pursuit(LostLeadSteering::HoldLane) {
             self.hold_lane(fs, road.track);
         } else {
             // Pure pursuit in the vehicle frame (sensor offset added).
             let (mx, my) = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
-            let lead_pos = detection.map(|d| Point2::new(d.position.x + mx, d.position.y + my));
+            // The in-path lead, never an intruding neighbour: a cut-in is braked for, not steered to.
+            let lead_pos = det.detection.map(|d| Point2::new(d.position.x + mx, d.position.y + my));
             let steer = self.pursuit.step(lead_pos, fs.speed);
             self.steer_cmd = steer.steer;
             self.lookahead = (steer.lookahead_point.x, steer.lookahead_point.y);
             // Path for the detector's corridor on the next scan: the arc from the sensor through
             // the lead just detected, kappa = 2 y / (x² + y²) (pure-pursuit geometry); straight
             // without one (`lost_lead_steering = "straight"`).
-            self.path_curvature = detection.map_or(0.0, |d| arc_curvature(d.position.x, d.position.y));
-            if let Some(d) = detection {
+            self.path_curvature = det.detection.map_or(0.0, |d| arc_curvature(d.position.x, d.position.y));
+            if let Some(d) = det.detection {
                 self.held_lane = None;
                 self.last_lead_x = Some(d.position.x);
             }
