@@ -237,18 +237,6 @@ impl FollowerConfig {
         self.check_sections()
     }
 
-    /// The detector's parameters this follower runs: `[detector]`, with the swept-path corridor
-    /// of the controllers that use it ([`crate::ControllerKind::swept_corridor`]) set to the
-    /// ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario leaves
-    /// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
-    pub fn detector_params(&self) -> DetectorParams {
-        let mut p = self.detector;
-        if self.controller.swept_corridor() && p.swept_half_width == 0.0 {
-            p.swept_half_width = 0.5 * self.follower.vehicle.width + crate::sim::CORRIDOR_MARGIN;
-        }
-        p
-    }
-
     /// Builds this follower's longitudinal law (the registry's [`ControllerKind::build`]); a law
     /// without a free-road branch of its own cruises at [`FollowerConfig::set_speed`] until its
     /// first target ([`NoTargetCruise`]).

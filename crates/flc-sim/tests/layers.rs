@@ -173,7 +173,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["error", "units", "noise"],
     &["track", "world", "vehicle", "lidar", "gap_sensor", "gnss", "v2v", "trigger", "lead", "story"],
     &["series", "metrics"],
-    &["patch", "controllers", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
+    &["patch", "controllers", "no_target", "follower", "platoon", "scenario", "paper", "presets", "string_stability", "openscenario"],
     &["sim", "external"],
     &["record", "trajectory", "report", "paper_verdict", "svg"],
     &["runner", "gym"],

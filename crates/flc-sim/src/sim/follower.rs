@@ -103,7 +103,7 @@ impl Follower {
             v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
             v2v_lead,
             gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
-            detector: Box::new(<LeadDetector>::new(cfg.detector_params())?),
+            detector: Box::new(<LeadDetector>::new(detector_params(&cfg))?),
             neighbours: if cfg.controller.swept_corridor() { Some(NeighbourTracker::new(cfg.neighbours)?) } else { None },
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
@@ -368,4 +368,16 @@ impl Follower {
 fn arc_curvature(x: f64, y: f64) -> f64 {
     let r2 = x * x + y * y;
     if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
+}
+
+/// The detector's parameters this follower runs: `[detector]`, with the swept-path corridor
+/// of the controllers that use it ([`crate::ControllerKind::swept_corridor`]) set to the
+/// ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario leaves
+/// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
+fn detector_params(cfg: &FollowerConfig) -> flc_core::DetectorParams {
+    let mut p = cfg.detector;
+    if cfg.controller.swept_corridor() && p.swept_half_width == 0.0 {
+        p.swept_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
+    }
+    p
 }
