@@ -108,13 +108,16 @@ impl OdometryFallbackController {
 ///     (d, s) = (d - 0.2, s + 1.0);
 /// }
 /// // (C1) ĉ -> 20 * 0.2 / 1 = 4 m/s (3.89: the memory, 1 s, still weighs the frames that did
-/// // not close). v2's laws still approach (v_0 is 20 m/s: a_law = +0.20); (C2) at 34.2 m,
+/// // not close). (R7) alone would still approach (v_0 is 20 m/s), but the lead has come 6 m
+/// // closer since it was last seen not closing, so (R8) takes it as possibly 20 - sqrt(120) =
+/// // 9.05 m/s fast and caps the speed at 18.92 m/s: a_law = -2.42; (C2) at 34.2 m,
 /// // Δa = -0.85 ((33 + 3.89 * 6)² - 33²) / 34.2² = -1.52 m/s², so the command is
-/// // 0.20 - 1.52 = -1.32 m/s².
+/// // -2.42 - 1.52 = -3.94 m/s².
 /// let t = *c.terms();
 /// assert!(t.comfort && (t.closing - 3.889).abs() < 1e-3, "{t:?}");
-/// assert!((t.a_law - 0.200).abs() < 1e-3 && (t.closing_brake + 1.515).abs() < 1e-3, "{t:?}");
-/// assert!((t.a + 1.315).abs() < 1e-3, "{t:?}");
+/// assert!((t.approach_speed - 18.922).abs() < 1e-3, "{t:?}");
+/// assert!((t.a_law + 2.425).abs() < 1e-3 && (t.closing_brake + 1.515).abs() < 1e-3, "{t:?}");
+/// assert!((t.a + 3.940).abs() < 1e-3, "{t:?}");
 /// # Ok::<(), flc_core::ParamError>(())
 /// ```
 impl LongitudinalController for OdometryFallbackController {
