@@ -14,12 +14,13 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_a_cut_in_is_seen_and_survived() -> None:
     r = flc.run(flc.Scenario.load(ROOT / "scenarios" / "cut-in.toml"))
     # The gap column jumps to the car that cut in (once its turned body reaches into the ego's
-    # swept path: sim/path.rs); the LiDAR distance follows it within 0.55 s (measured 0.52 s, as
-    # crates/flc-sim/tests/traffic.rs: the detector still wants the car mostly in the lane).
+    # swept path: sim/path.rs); the LiDAR distance follows it within 0.55 s, and flc-robust's
+    # neighbour tracker (docs/detector.md) reports the car while it is still moving in: measured
+    # 0.13 s before the ground truth counts it (0.52 s after, without the tracker).
     k = int(np.argmax(r.gap < 15.0))
     assert 5.0 < r.t[k] < 7.0
     seen = int(np.argmax(r.detected_distance < 15.0))
-    assert 0.0 <= r.t[seen] - r.t[k] < 0.55
+    assert -1.0 < r.t[seen] - r.t[k] < 0.55
     assert r.collision is None and r.metrics["collision"] is False
 
 
