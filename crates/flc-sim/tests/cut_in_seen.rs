@@ -2,96 +2,21 @@
 //! towards the ego's path by more than the wandering zone (`flc_core::NeighbourTracker`), not only
 //! once the detector finds it in the path.
 
-use flc_sim::{ControllerKind, RunResult, Scenario, VehicleParams, run};
+mod common;
 
-const KMH: f64 = 1.0 / 3.6;
-/// The lane width, m.
-const LW: f64 = 3.5;
-/// Where the ego starts, m along the centreline.
-const EGO_S: f64 = 100.0;
+use common::two_lanes::{LW, Road, ahead_for_gap, lane_change, two_lanes};
+use flc_sim::{ControllerKind, Phase, RunResult, Scenario, run};
 
 /// The ego (`controller`, keeping its lane) at `ego_kmh`; a 1.85 m wide car at `car_kmh` in the
 /// next lane, its rear bumper `gap` m ahead of the ego's front bumper when it starts (at 2 s) a
 /// sinusoidal lane change into the ego's lane taking `duration` s (a scripted story, kinematic:
 /// the car follows the profile exactly), then holds its speed.
 fn cut_in(controller: ControllerKind, ego_kmh: f64, car_kmh: f64, gap: f64, duration: f64) -> Scenario {
-    let (ego_len, car_len) = (VehicleParams::default().length, VehicleParams::default().length);
-    let lead_s = EGO_S + 0.5 * (ego_len + car_len) + gap - (car_kmh - ego_kmh) * KMH * BEFORE;
-    let text = format!(
-        r#"
-name = "cut-in-seen"
-controller = "{controller}"
-duration = 20.0
-
-[track]
-kind = "custom"
-name = "straight"
-centerline = [[0.0, 0.0], [6000.0, 0.0]]
-lane_width = {LW}
-objects = []
-lanes = 2
-ego_lane = 0
-
-[lead]
-initial_speed = {car}
-phases = []
-s = {lead_s}
-offset = {LW}
-
-[lead.vehicle]
-width = 1.85
-
-[follower]
-initial_speed = {ego}
-start_s = {EGO_S}
-lane_keeping = true
-
-[v2v]
-enabled = false
-
-[story]
-dynamics = "kinematic"
-ego = "controller"
-
-[[story.acts]]
-name = "CutInAct"
-
-[story.acts.start]
-kind = "simulation_time"
-value = 0.0
-rule = "greater_than"
-
-[[story.acts.groups]]
-name = "IntruderGroup"
-actors = ["lead"]
-
-[[story.acts.groups.maneuvers]]
-name = "IntruderManeuver"
-
-[[story.acts.groups.maneuvers.events]]
-name = "ChangeIn"
-priority = "override"
-max_executions = 1
-
-[story.acts.groups.maneuvers.events.start]
-kind = "simulation_time"
-value = {BEFORE}
-rule = "greater_than"
-
-[[story.acts.groups.maneuvers.events.actions]]
-name = "ChangeInAction"
-kind = "lane_change"
-of = "ego"
-lanes = 0
-shape = "sinusoidal"
-dimension = "time"
-value = {duration}
-"#,
-        controller = controller.as_str(),
-        car = car_kmh * KMH,
-        ego = ego_kmh * KMH,
-    );
-    Scenario::from_toml_str(&text, "cut-in-seen").expect("scenario")
+    let mut s = two_lanes(Road::Straight, controller, ego_kmh, ahead_for_gap(gap, ego_kmh, car_kmh, BEFORE), LW, car_kmh);
+    s.duration = 20.0;
+    s.lead.vehicle.width = 1.85;
+    lane_change(&mut s, BEFORE, 0, duration);
+    s
 }
 
 /// When the lane change starts, s.
@@ -140,49 +65,17 @@ fn flc_robust_sees_the_measured_cut_ins_coming() {
 /// car starting far behind and slower (never in view).
 #[test]
 fn flc_robust_takes_no_weaving_or_overtaking_neighbour_for_a_cut_in() {
-    let weave: String = (0..12)
-        .map(|k| {
-            let o = if k % 2 == 0 { LW - 0.3 } else { LW + 0.3 };
-            format!("[[lead.phases]]\nkind = \"lane_change\"\noffset = {o}\nduration = 2.0\n")
-        })
+    let weave: Vec<Phase> = (0..12)
+        .map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { LW - 0.3 } else { LW + 0.3 }), lane: None, duration: 2.0 })
         .collect();
-    let scenario = |ahead: f64, car_kmh: f64, phases: &str| {
-        let text = format!(
-            r#"
-name = "neighbour"
-controller = "flc-robust"
-duration = 24.0
-
-[track]
-kind = "custom"
-name = "straight"
-centerline = [[0.0, 0.0], [6000.0, 0.0]]
-lane_width = {LW}
-objects = []
-lanes = 2
-ego_lane = 0
-
-[lead]
-initial_speed = {car}
-s = {s}
-offset = {LW}
-{phases}
-[follower]
-initial_speed = {ego}
-start_s = {EGO_S}
-lane_keeping = true
-
-[v2v]
-enabled = false
-"#,
-            car = car_kmh * KMH,
-            s = EGO_S + ahead,
-            ego = 100.0 * KMH,
-        );
-        run(&Scenario::from_toml_str(&text, "neighbour").expect("scenario")).expect("run")
+    let scenario = |ahead: f64, car_kmh: f64, phases: &[Phase]| {
+        let mut s = two_lanes(Road::Straight, ControllerKind::FlcRobust, 100.0, ahead, LW, car_kmh);
+        s.duration = 24.0;
+        s.lead.phases = phases.iter().cloned().map(Into::into).collect();
+        run(&s).expect("run")
     };
-    let alone = scenario(-500.0, 60.0, "");
-    for (what, r) in [("weaving", scenario(25.0, 100.0, &weave)), ("overtaking", scenario(-30.0, 130.0, ""))] {
+    let alone = scenario(-500.0, 60.0, &[]);
+    for (what, r) in [("weaving", scenario(25.0, 100.0, &weave)), ("overtaking", scenario(-30.0, 130.0, &[]))] {
         assert!(r.collision.is_none(), "{what}: {:?}", r.collision);
         let seen = r.series.detected_distance.iter().filter(|d| d.is_finite()).count();
         assert_eq!(seen, 0, "{what}: given a distance in {seen} steps");

@@ -7,13 +7,6 @@ use crate::error::SimError;
 use crate::track::Track;
 use crate::vehicle::{VehicleParams, VehicleState};
 
-/// The road a follower's pipeline may need: the track and the lead driver's pure pursuit (lane
-/// keeping steers like the lead's driver).
-pub(super) struct Road<'a> {
-    pub(super) track: &'a Track,
-    pub(super) steer: &'a PurePursuit,
-}
-
 /// Pure pursuit along the centreline for a scripted vehicle of wheelbase / steering limit `p`.
 pub(super) fn centreline_pursuit(p: &VehicleParams) -> Result<PurePursuit, SimError> {
     Ok(PurePursuit::new(flc_core::PurePursuitParams {

@@ -32,7 +32,7 @@ pub(crate) use path::CORRIDOR_MARGIN;
 use flc_core::PurePursuit;
 
 use self::follower::Follower;
-use self::geometry::{Road, bumper_gap, centreline_pursuit, centreline_steer};
+use self::geometry::{bumper_gap, centreline_pursuit, centreline_steer};
 use self::links::relay_tick;
 use self::path::{Object, human_front, nearest_in_path};
 use self::story::{StepInput, StoryRun, pose_of};
@@ -625,14 +625,7 @@ impl<O: Observer> Simulation<O> {
                     None if front_state.speed.is_nan() => None,
                     None => Some((bumper_gap(&front_state, front_len, &fs, len), front_state.speed)),
                 };
-                f.control_tick(
-                    t,
-                    &scan.points,
-                    &fs,
-                    &Road { track: &self.state.track, steer: &self.state.lead_steer },
-                    (self.state.source, self.state.lead_weight),
-                    truth,
-                );
+                f.control_tick(t, &scan.points, &fs, &self.state.track, (self.state.source, self.state.lead_weight), truth);
                 if f.index == 1 {
                     self.observer.scan(t, &scan, f.detector.clusters(), f.detected, f.lookahead)?;
                 }

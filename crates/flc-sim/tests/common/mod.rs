@@ -9,6 +9,7 @@
 #![allow(dead_code)]
 
 pub mod robust;
+pub mod two_lanes;
 
 use std::path::{Path, PathBuf};
 
