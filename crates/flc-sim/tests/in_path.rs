@@ -20,6 +20,16 @@ fn motorbike() -> VehicleParams {
     VehicleParams { length: 2.2, width: 0.8, wheelbase: 1.5, ..VehicleParams::default() }
 }
 
+/// The standing objects: what, its body, its offset from the ego lane's centre (m, + left).
+fn standing_objects() -> [(&'static str, VehicleParams, f64); 4] {
+    [
+        ("car on the lane centre", car(), 0.0),
+        ("motorbike on the lane centre", motorbike(), 0.0),
+        ("motorbike on the left marking", motorbike(), LW / 2.0),
+        ("motorbike on the right marking", motorbike(), -LW / 2.0),
+    ]
+}
+
 /// The ego (`controller`) at 80 km/h on the curved `road`; the lead (the object under test)
 /// `ahead` m further along the road, `offset` m left of the ego lane's centre, standing (speed 0)
 /// or driving `phases` at `speed` (m/s).
@@ -34,17 +44,25 @@ fn fixture(road: Road, controller: ControllerKind, lead: (VehicleParams, f64, f6
     s
 }
 
+/// A car at 60 km/h steady in the next lane, its centre `ahead` m ahead of the ego's, for 15 s.
+fn neighbour(road: Road, controller: ControllerKind, ahead: f64) -> RunResult {
+    let mut sc = fixture(road, controller, (car(), ahead, LW, 60.0 * KMH, vec![]));
+    sc.lead.phases = vec![Phase::Hold { until_x: None, until_t: Some(1e4), duration: None }.into()];
+    sc.duration = 15.0;
+    run(&sc).expect("run")
+}
+
+/// A lead's weave: ±0.3 m within its lane, 2 s to each side.
+fn weave() -> Vec<Phase> {
+    (0..8).map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { 0.3 } else { -0.3 }), lane: None, duration: 2.0 }).collect()
+}
+
 /// A standing object: the careful driver sees it (its detected distance is the true gap), stops
 /// short of it and touches nothing.
 #[test]
 fn careful_driver_stops_for_standing_objects_in_its_lane_and_on_the_marking() {
     for road in Road::curves() {
-        for (what, vehicle, offset) in [
-            ("car on the lane centre", car(), 0.0),
-            ("motorbike on the lane centre", motorbike(), 0.0),
-            ("motorbike on the left marking", motorbike(), LW / 2.0),
-            ("motorbike on the right marking", motorbike(), -LW / 2.0),
-        ] {
+        for (what, vehicle, offset) in standing_objects() {
             let tag = format!("{road}: {what}");
             let r = run(&fixture(road, ControllerKind::CarefulDriver, (vehicle, 200.0, offset, 0.0, vec![]))).expect("run");
             assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
@@ -65,11 +83,9 @@ fn careful_driver_stops_for_standing_objects_in_its_lane_and_on_the_marking() {
 /// touches nothing.
 #[test]
 fn careful_driver_keeps_a_weaving_lead() {
-    let weave: Vec<Phase> =
-        (0..8).map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { 0.3 } else { -0.3 }), lane: None, duration: 2.0 }).collect();
     for road in Road::curves() {
         let tag = format!("{road}");
-        let mut sc = fixture(road, ControllerKind::CarefulDriver, (car(), 50.0, 0.0, 60.0 * KMH, weave.clone()));
+        let mut sc = fixture(road, ControllerKind::CarefulDriver, (car(), 50.0, 0.0, 60.0 * KMH, weave()));
         sc.duration = 18.0;
         let r = run(&sc).expect("run");
         assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
@@ -95,13 +111,7 @@ fn careful_driver_keeps_a_weaving_lead() {
 fn careful_driver_ignores_a_car_in_the_next_lane() {
     for road in Road::curves() {
         let tag = format!("{road}");
-        let neighbour = |ahead: f64| {
-            let mut sc = fixture(road, ControllerKind::CarefulDriver, (car(), ahead, LW, 60.0 * KMH, vec![]));
-            sc.lead.phases = vec![Phase::Hold { until_x: None, until_t: Some(1e4), duration: None }.into()];
-            sc.duration = 15.0;
-            run(&sc).expect("run")
-        };
-        let (r, alone) = (neighbour(30.0), neighbour(-60.0));
+        let (r, alone) = (neighbour(road, ControllerKind::CarefulDriver, 30.0), neighbour(road, ControllerKind::CarefulDriver, -60.0));
         assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
         let s = &r.series;
         assert!(s.detected_distance.iter().all(|d| d.is_nan()), "{tag}: the neighbour was taken for the vehicle in front");
@@ -147,19 +157,16 @@ fn passing_clearance(track: &Track, r: &flc_sim::RunResult, object: &VehiclePara
 /// motorbike on the marking is 1.75 - 0.4 - 0.95 = 0.4 m from the body of an ego on the lane
 /// centre): flc-robust never passes one with less than the margin: it stops behind it, touching
 /// nothing, or passes it with at least the margin. Before the swept corridor it passed the
-/// motorbike on the marking with 0.37 m (R = 1000 m) and 0.52 m (R = 250 m) of clearance; before
-/// the lane keeper steered with the ego's own wheelbase (not the motorbike's) it ran 0.9 m wide
-/// on R = 250 m and passed the motorbike on the inner marking with 0.9 m.
+/// motorbike on the marking with 0.37 m (R = 1000 m) and 0.52 m (R = 250 m) of clearance; while
+/// the lane keeper steered with the lead's wheelbase it ran 0.92 m (R = 250 m) and 0.25 m (R =
+/// 1000 m) to the outside of the curve behind a motorbike and passed the one on the inner marking
+/// out of its corridor; with its own wheelbase but the corridor not yet turned into the lane's
+/// frame it passed that motorbike on R = 250 m with 0.27 m.
 #[test]
 fn flc_robust_never_passes_an_in_path_object_within_the_margin() {
     let mut passed = 0;
     for road in Road::curves() {
-        for (what, vehicle, offset) in [
-            ("car on the lane centre", car(), 0.0),
-            ("motorbike on the lane centre", motorbike(), 0.0),
-            ("motorbike on the left marking", motorbike(), LW / 2.0),
-            ("motorbike on the right marking", motorbike(), -LW / 2.0),
-        ] {
+        for (what, vehicle, offset) in standing_objects() {
             let tag = format!("{road}: {what}");
             let r = run(&robust(road, (vehicle, 200.0, offset, 0.0, vec![]))).expect("run");
             assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
@@ -194,11 +201,9 @@ fn flc_robust_never_passes_an_in_path_object_within_the_margin() {
 /// detects it and drives exactly as with the same car starting 60 m behind it.
 #[test]
 fn flc_robust_follows_a_weaving_lead_and_ignores_the_next_lane() {
-    let weave: Vec<Phase> =
-        (0..8).map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { 0.3 } else { -0.3 }), lane: None, duration: 2.0 }).collect();
     for road in Road::curves() {
         let tag = format!("{road}");
-        let mut sc = robust(road, (car(), 50.0, 0.0, 60.0 * KMH, weave.clone()));
+        let mut sc = robust(road, (car(), 50.0, 0.0, 60.0 * KMH, weave()));
         sc.duration = 18.0;
         let r = run(&sc).expect("run");
         assert!(r.collision.is_none(), "{tag}: weave: {:?}", r.collision);
@@ -209,13 +214,7 @@ fn flc_robust_follows_a_weaving_lead_and_ignores_the_next_lane() {
         eprintln!("{tag}: weave: lost in {lost} of {} steps, min gap {min_gap:.1} m", s.len() - first);
         assert!(min_gap > 5.0, "{tag}: weave: min gap {min_gap:.1} m");
 
-        let neighbour = |ahead: f64| {
-            let mut sc = robust(road, (car(), ahead, LW, 60.0 * KMH, vec![]));
-            sc.lead.phases = vec![Phase::Hold { until_x: None, until_t: Some(1e4), duration: None }.into()];
-            sc.duration = 15.0;
-            run(&sc).expect("run")
-        };
-        let (r, alone) = (neighbour(30.0), neighbour(-60.0));
+        let (r, alone) = (neighbour(road, ControllerKind::FlcRobust, 30.0), neighbour(road, ControllerKind::FlcRobust, -60.0));
         assert!(r.collision.is_none(), "{tag}: neighbour: {:?}", r.collision);
         let s = &r.series;
         let seen = s.detected_distance.iter().filter(|d| d.is_finite()).count();
