@@ -642,6 +642,10 @@ impl Sb<'_, '_, '_> {
                 }
             }
             "ActivateControllerAction" => self.activate_controller(file, c, actors).map(Some),
+            "SynchronizeAction" => {
+                moves(self, c)?;
+                self.synchronize(file, c).map(Some)
+            }
             "ControllerAction" => {
                 let mut found = None;
                 for x in xml::elements(c) {
@@ -1164,6 +1168,68 @@ impl Sb<'_, '_, '_> {
                 format!("freespace=\"false\" between `{a}` and `{b}` is measured between box centres (their reference points sit differently in their boxes)"),
             );
         }
+    }
+
+    /// `SynchronizeAction` (esmini's algorithm, `story::Action::Synchronize`): absolute target
+    /// positions, an `AbsoluteSpeed` final speed with an optional steady state, tolerances.
+    fn synchronize(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let master = self.entity(file, node, "masterEntityRef")?;
+        let p = &self.ctx.params;
+        let tolerance = p.num_attr(node, "targetTolerance", file)?.unwrap_or(0.0);
+        let tolerance_master = p.num_attr(node, "targetToleranceMaster", file)?.unwrap_or(0.0);
+        let (mut master_target, mut target, mut final_speed, mut steady_time, mut steady_distance) = (None, None, None, None, None);
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "TargetPositionMaster" => master_target = Some(self.target_s(file, c)?),
+                "TargetPosition" => target = Some(self.target_s(file, c)?),
+                "FinalSpeed" => {
+                    let a = only_child(file, c)?;
+                    if a.tag_name().name() != "AbsoluteSpeed" {
+                        return Err(ImportError::unsupported(file, a));
+                    }
+                    final_speed = Some(self.ctx.params.req_num(a, "value", file)?);
+                    for ss in xml::elements(a) {
+                        match ss.tag_name().name() {
+                            "TargetTimeSteadyState" => steady_time = Some(self.ctx.params.req_num(ss, "time", file)?),
+                            "TargetDistanceSteadyState" => steady_distance = Some(self.ctx.params.req_num(ss, "distance", file)?),
+                            _ => return Err(ImportError::unsupported(file, ss)),
+                        }
+                    }
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let (Some((ms, mdir)), Some((ts, _))) = (master_target, target) else {
+            return Err(ImportError::at(file, node, "give <TargetPositionMaster> and <TargetPosition>"));
+        };
+        // The master is measured by its box centre (`s` of the world view): its target moves by
+        // the centre's offset along the direction the target faces.
+        let master_target = ms + mdir * self.facts(&master).center[0];
+        Ok(Action::Synchronize {
+            master,
+            master_target,
+            target: ts,
+            final_speed,
+            steady_time,
+            steady_distance,
+            tolerance,
+            tolerance_master,
+        })
+    }
+
+    /// The track `s` of an absolute target position (a `TargetPosition...` element holding one
+    /// position) and the direction it faces along the track (+1 or -1).
+    fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+        if position::reference(&self.ctx.params, file, holder)?.is_some() {
+            return Err(ImportError::at(
+                file,
+                holder,
+                "a target position relative to an entity is not supported (it moves with the entity)",
+            ));
+        }
+        let pose = position::resolve(&self.ctx.params, self.geo, file, holder, &|_| None)?;
+        let pr = self.track.project(pose.x, pose.y);
+        Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }))
     }
 
     /// The track position `(s, lateral)` of an absolute `Position` (a relative one is an error:

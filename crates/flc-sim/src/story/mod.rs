@@ -269,6 +269,35 @@ pub enum Action {
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         continuous: bool,
     },
+    /// `SynchronizeAction`, as esmini plays it: the actor's speed is shaped so that it reaches
+    /// `target` (track `s` of its reference point) when entity `master` reaches
+    /// `master_target` (track `s` of its box centre), arriving at `final_speed` (m/s; held
+    /// constant over the last `steady_time` s or `steady_distance` m); without a final speed a
+    /// linear profile. Ends when either arrives (within `tolerance` / `tolerance_master`, m),
+    /// passes its target or the master would arrive within the step.
+    Synchronize {
+        /// The master entity.
+        master: String,
+        /// The master's target, track `s` of its box centre, m.
+        master_target: f64,
+        /// The actor's target, track `s` of its reference point, m.
+        target: f64,
+        /// Final speed, m/s.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        final_speed: Option<f64>,
+        /// Steady state before the target, s at the final speed.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        steady_time: Option<f64>,
+        /// Steady state before the target, m.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        steady_distance: Option<f64>,
+        /// `targetTolerance`, m.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        tolerance: f64,
+        /// `targetToleranceMaster`, m.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        tolerance_master: f64,
+    },
     /// `VariableSetAction`.
     VariableSet {
         /// The variable.
@@ -303,7 +332,7 @@ fn is_zero(v: &f64) -> bool {
 impl Action {
     /// `true` for speed and longitudinal-distance actions.
     pub fn is_longitudinal(&self) -> bool {
-        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. })
+        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. })
     }
 
     /// `true` for lane change and lane offset actions.
@@ -316,6 +345,7 @@ impl Action {
         match self {
             Action::Speed { of, .. } | Action::LaneChange { of, .. } | Action::LaneOffset { of, .. } => of.as_deref(),
             Action::LongitudinalDistance { of, .. } => Some(of),
+            Action::Synchronize { master, .. } => Some(master),
             _ => None,
         }
     }
@@ -349,6 +379,32 @@ impl Action {
                 (None, Some(g)) => check_range("time_gap", *g, 0.0, 1.0e3, "s"),
                 _ => Err(ConfigError::new("distance", "give `distance` (m) or `time_gap` (s)")),
             },
+            Action::Synchronize {
+                master_target, target, final_speed, steady_time, steady_distance, tolerance, tolerance_master, ..
+            } => {
+                check_range("master_target", *master_target, -1.0e7, 1.0e7, "m")?;
+                check_range("target", *target, -1.0e7, 1.0e7, "m")?;
+                check_range("tolerance", *tolerance, 0.0, 1.0e4, "m")?;
+                check_range("tolerance_master", *tolerance_master, 0.0, 1.0e4, "m")?;
+                if let Some(v) = final_speed {
+                    check_range("final_speed", *v, 1.0e-3, 100.0, "m/s")?;
+                }
+                if let Some(t) = steady_time {
+                    check_range("steady_time", *t, 0.0, 1.0e4, "s")?;
+                }
+                if let Some(d) = steady_distance {
+                    check_range("steady_distance", *d, 0.0, 1.0e6, "m")?;
+                }
+                if (steady_time.is_some() || steady_distance.is_some())
+                    && (final_speed.is_none() || steady_time.is_some() == steady_distance.is_some())
+                {
+                    return Err(ConfigError::new(
+                        "steady_time",
+                        "a steady state needs `final_speed` and one of `steady_time`, `steady_distance`",
+                    ));
+                }
+                Ok(())
+            }
             Action::VariableSet { value, .. } => match value {
                 VarValue::Num(v) if !v.is_finite() => Err(ConfigError::new("value", "must be finite")),
                 _ => Ok(()),

@@ -18,7 +18,42 @@ struct Long {
     track: Option<(String, f64, f64)>,
     /// A continuous longitudinal distance kept to another entity.
     keep: Option<Keep>,
+    /// A running `SynchronizeAction`.
+    sync: Option<Sync>,
 }
+
+/// esmini's synchronisation modes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SyncMode {
+    None,
+    NonLinear,
+    Linear,
+    Stopped,
+    StopNow,
+    Waiting,
+    Steady,
+}
+
+/// A running `SynchronizeAction` and its state (esmini's `SynchronizeAction::Step`).
+#[derive(Debug, Clone, PartialEq)]
+struct Sync {
+    master: String,
+    master_target: f64,
+    target: f64,
+    final_speed: Option<f64>,
+    steady: Option<f64>,
+    tolerance: f64,
+    tolerance_master: f64,
+    mode: SyncMode,
+    convex: bool,
+    last: f64,
+    last_master: f64,
+}
+
+const SMALL: f64 = 1.0e-6;
+const LARGE: f64 = 1.0e10;
+/// esmini's `MAX_DECELERATION` of a synchronisation that must stop at once, m/s².
+const SYNC_STOP_DECEL: f64 = -8.0;
 
 /// A continuous `LongitudinalDistanceAction`.
 #[derive(Debug, Clone, PartialEq)]
@@ -172,8 +207,17 @@ impl Motion {
                     (None, None) => (self.speed, None),
                 };
                 let duration = speed_duration(transition, self.speed, target);
-                self.long =
-                    Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track, keep: None });
+                self.long = Some(Long {
+                    action: i,
+                    v0: self.speed,
+                    v1: target,
+                    shape: transition.shape,
+                    duration,
+                    t0: t,
+                    track,
+                    keep: None,
+                    sync: None,
+                });
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
@@ -231,13 +275,185 @@ impl Motion {
                         t0: t,
                         track: None,
                         keep: Some(keep),
+                        sync: None,
                     });
                     return (replaced, false);
                 }
                 (replaced, true)
             }
+            Action::Synchronize {
+                master,
+                master_target,
+                target,
+                final_speed,
+                steady_time,
+                steady_distance,
+                tolerance,
+                tolerance_master,
+            } => {
+                let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
+                // A steady state by time is a distance at the final speed (esmini's Start).
+                let steady = steady_distance.or_else(|| steady_time.zip(*final_speed).map(|(t, v)| t * v));
+                let sync = Sync {
+                    master: master.clone(),
+                    master_target: *master_target,
+                    target: *target,
+                    final_speed: *final_speed,
+                    steady,
+                    tolerance: *tolerance,
+                    tolerance_master: *tolerance_master,
+                    mode: SyncMode::None,
+                    convex: false,
+                    last: LARGE,
+                    last_master: LARGE,
+                };
+                self.long = Some(Long {
+                    action: i,
+                    v0: self.speed,
+                    v1: self.speed,
+                    shape: Shape::Step,
+                    duration: 0.0,
+                    t0: t,
+                    track: None,
+                    keep: None,
+                    sync: Some(sync),
+                });
+                (replaced, false)
+            }
             _ => (None, true),
         }
+    }
+
+    /// One step of a synchronisation (esmini's `SynchronizeAction::Step` on one road: distances
+    /// along the track, speeds along it); `true` when it ends.
+    fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView) -> bool {
+        let Some(m) = world.entity(&y.master) else { return false };
+        let md = y.master_target - m.s;
+        let dir_master = if md < 0.0 { -1.0 } else { 1.0 };
+        let (mut master_dist, mut dist) = (md.abs(), (y.target - self.s).abs());
+        let mut done =
+            dist < y.tolerance + SMALL || master_dist < y.tolerance_master + SMALL || dist > y.last || master_dist > y.last_master;
+        y.last = dist;
+        y.last_master = master_dist;
+        dist = (dist - y.tolerance).max(SMALL);
+        master_dist = (master_dist - y.tolerance_master).max(SMALL);
+        let mut t_master = LARGE;
+        let master_speed = dir_master * m.speed;
+        if master_speed > SMALL {
+            t_master = master_dist / master_speed;
+            if t_master < dt {
+                done = true;
+            }
+        } else if y.mode != SyncMode::Waiting {
+            y.mode = SyncMode::Waiting;
+            self.speed = 0.0;
+        }
+        if done {
+            if let Some(v1) = y.final_speed {
+                self.speed = v1;
+            }
+            return true;
+        }
+        let average = dist / t_master;
+        let mut acc = 0.0;
+        match y.final_speed {
+            Some(v1) => {
+                if let Some(ss) = y.steady.filter(|_| y.mode != SyncMode::Steady) {
+                    let time_to_ss = ss / v1;
+                    if dist - ss < SMALL || t_master - time_to_ss < SMALL {
+                        y.mode = SyncMode::Steady;
+                    } else {
+                        dist -= ss;
+                        t_master -= time_to_ss;
+                    }
+                }
+                match y.mode {
+                    SyncMode::Steady => {
+                        self.speed = v1;
+                        return false;
+                    }
+                    SyncMode::Waiting => {
+                        if t_master >= LARGE {
+                            return false;
+                        }
+                        y.mode = SyncMode::None;
+                    }
+                    SyncMode::StopNow => {
+                        self.speed += SYNC_STOP_DECEL * dt;
+                        if self.speed < 0.0 {
+                            self.speed = 0.0;
+                            y.mode = SyncMode::Waiting;
+                        }
+                        return false;
+                    }
+                    SyncMode::Stopped => {
+                        if t_master < 2.0 * dist / v1 {
+                            y.mode = SyncMode::Linear;
+                        } else {
+                            self.speed = 0.0;
+                            return false;
+                        }
+                    }
+                    _ => {}
+                }
+                if y.mode == SyncMode::Linear {
+                    self.speed = if t_master > LARGE - 1.0 { 0.0 } else { linear_profile_speed(v1.max(0.0), t_master, dist).max(0.0) };
+                    return false;
+                }
+                if y.mode == SyncMode::NonLinear && t_master < LARGE && (self.speed - (2.0 * dist / t_master - v1)).abs() < 0.1 {
+                    // Passed the apex: constant acceleration to the end, this step at the speed.
+                    y.mode = SyncMode::Linear;
+                    return false;
+                }
+                if y.mode == SyncMode::None {
+                    y.mode = SyncMode::NonLinear;
+                    y.convex = (v1 + self.speed) / 2.0 < dist / t_master;
+                }
+                let (sd, t, v0) = (dist, t_master, self.speed);
+                let mut vx = 0.0;
+                if (v1 - v0).abs() < SMALL {
+                    vx = (sd - (t / 2.0) * v0) / (t / 2.0);
+                    acc = (vx - v0) / (t / 2.0);
+                } else {
+                    let root = 2.0_f64.sqrt() * (2.0 * sd * sd - 2.0 * (v1 + v0) * t * sd + (v1 * v1 + v0 * v0) * t * t).sqrt();
+                    let x1 = -(root + 2.0 * sd - 2.0 * v1 * t) / (2.0 * (v1 - v0));
+                    let x2 = -(-root + 2.0 * sd - 2.0 * v1 * t) / (2.0 * (v1 - v0));
+                    if x1 > 0.0 && x1 < t {
+                        vx = (2.0 * sd - root) / (2.0 * t);
+                        acc = (vx - v0) / x1;
+                    } else if x2 > 0.0 && x2 < t {
+                        vx = (2.0 * sd + root) / (2.0 * t);
+                        acc = (vx - v0) / x2;
+                    }
+                }
+                if y.mode == SyncMode::NonLinear && ((!y.convex && acc > 0.0) || (y.convex && acc < 0.0)) {
+                    y.mode = SyncMode::Linear;
+                    acc = 0.0;
+                }
+                if y.mode == SyncMode::NonLinear && vx < 0.0 {
+                    let t1 = 2.0 * v0 * sd / (v0 * v0 + v1 * v1);
+                    acc = if t1.abs() > SMALL { -v0 / t1 } else { 0.0 };
+                    if t1 * v0 / 2.0 > sd / 2.0 {
+                        acc = SYNC_STOP_DECEL;
+                        y.mode = SyncMode::StopNow;
+                    }
+                    if v0 + acc * dt < 0.0 {
+                        self.speed = 0.0;
+                        y.mode = SyncMode::Stopped;
+                        return false;
+                    }
+                }
+            }
+            None => {
+                if master_speed > SMALL {
+                    y.mode = SyncMode::Linear;
+                    let v_final = 2.0 * average - self.speed;
+                    acc = (v_final - self.speed) / t_master;
+                }
+            }
+        }
+        self.speed += acc * dt;
+        false
     }
 
     /// Puts the reference point where `k` wants it from `r` (distances between box centres,
@@ -277,6 +493,15 @@ impl Motion {
             if let Some(r) = world.entity(&k.of) {
                 self.keep_at(&k, &r, r.speed);
                 self.speed = r.speed.max(0.0);
+            }
+        } else if let Some(mut y) = self.long.as_ref().and_then(|l| l.sync.clone()) {
+            let done = self.sync_step(&mut y, dt, world);
+            if let Some(l) = self.long.as_mut() {
+                if done {
+                    out.long_done = Some(l.action);
+                } else {
+                    l.sync = Some(y);
+                }
             }
         } else if let Some(l) = &self.long {
             let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
@@ -347,6 +572,12 @@ impl Motion {
         }
         out
     }
+}
+
+/// esmini's `CalcSpeedForLinearProfile`: the speed now that reaches `v_final` after `time` s
+/// and `dist` m at constant acceleration (0 for a vanishing time or distance).
+fn linear_profile_speed(v_final: f64, time: f64, dist: f64) -> f64 {
+    if time < 0.001 || dist < 0.001 { 0.0 } else { 2.0 * dist / time - v_final }
 }
 
 /// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
