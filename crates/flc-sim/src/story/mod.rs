@@ -162,6 +162,18 @@ pub struct Transition {
     pub value: f64,
 }
 
+/// One `ClothoidSplineSegment`: curvature changing linearly over `length`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothoidSegment {
+    /// Curvature at its start, 1/m (+ left).
+    pub curvature_start: f64,
+    /// Curvature at its end, 1/m (+ left).
+    pub curvature_end: f64,
+    /// Length, m.
+    pub length: f64,
+}
+
 impl Transition {
     fn validate(&self) -> Result<(), ConfigError> {
         if self.shape == Shape::Step {
@@ -298,6 +310,17 @@ pub enum Action {
         #[serde(default, skip_serializing_if = "is_zero")]
         tolerance_master: f64,
     },
+    /// `FollowTrajectoryAction` along a `ClothoidSpline` that starts where the actor is
+    /// (no `PositionStart`), as esmini plays it with `TimeReference/None` and `followingMode
+    /// position`: the spline is laid from the actor's position and heading when the action
+    /// starts, sampled every metre (esmini's polyline), and the actor's reference point moves
+    /// along it at the actor's speed; past its end the rest of the step continues straight
+    /// and the action ends. It holds both domains (it stops a running speed action). On a
+    /// straight road only (the spline is laid in the road's frame).
+    FollowTrajectory {
+        /// The spline's segments, in order.
+        segments: Vec<ClothoidSegment>,
+    },
     /// `VariableSetAction`.
     VariableSet {
         /// The variable.
@@ -337,7 +360,7 @@ impl Action {
 
     /// `true` for lane change and lane offset actions.
     pub fn is_lateral(&self) -> bool {
-        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. })
+        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. })
     }
 
     /// The entities it names (`of`).
@@ -350,7 +373,7 @@ impl Action {
         }
     }
 
-    fn validate(&self) -> Result<(), ConfigError> {
+    pub(crate) fn validate(&self) -> Result<(), ConfigError> {
         match self {
             Action::Speed { speed, of, delta, factor, transition, .. } => {
                 transition.validate_speed()?;
@@ -404,6 +427,19 @@ impl Action {
                     ));
                 }
                 Ok(())
+            }
+            Action::FollowTrajectory { segments } => {
+                if segments.is_empty() || segments.len() > 1000 {
+                    return Err(ConfigError::new("segments", "give 1 to 1000 segments"));
+                }
+                let mut total = 0.0;
+                for (i, g) in segments.iter().enumerate() {
+                    check_range(&format!("segments[{i}].curvature_start"), g.curvature_start, -10.0, 10.0, "1/m")?;
+                    check_range(&format!("segments[{i}].curvature_end"), g.curvature_end, -10.0, 10.0, "1/m")?;
+                    check_range(&format!("segments[{i}].length"), g.length, 1.0e-3, 1.0e5, "m")?;
+                    total += g.length;
+                }
+                check_range("segments", total, 1.0e-3, 1.0e5, "m (total length)")
             }
             Action::VariableSet { value, .. } => match value {
                 VarValue::Num(v) if !v.is_finite() => Err(ConfigError::new("value", "must be finite")),

@@ -1,7 +1,7 @@
 //! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
 //! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
 
-use super::{Action, Dimension, Shape, Transition};
+use super::{Action, ClothoidSegment, Dimension, Shape, Transition};
 use crate::trigger::WorldView;
 
 /// A running longitudinal action.
@@ -82,6 +82,101 @@ struct Lat {
     along_heading: bool,
 }
 
+/// A running `FollowTrajectoryAction`: esmini's polyline of the spline (a vertex every metre
+/// and one at the end), laid in the road's frame from where the action started.
+#[derive(Debug, Clone, PartialEq)]
+struct Traj {
+    action: usize,
+    /// Vertices `(s, offset, heading relative to the road)`; vertex `k` sits at `k` m along the
+    /// polyline's parameter (the last at its whole number of metres, esmini's).
+    pts: Vec<[f64; 3]>,
+    /// The spline's length (the segments' sum), m.
+    length: f64,
+    /// Distance moved along it, m.
+    u: f64,
+}
+
+impl Traj {
+    /// The spline of `segments` from `(s, offset)` facing `heading` (relative to the road),
+    /// sampled as esmini's `ClothoidSplineShape::CalculatePolyLine`.
+    fn new(action: usize, segments: &[ClothoidSegment], s: f64, offset: f64, heading: f64) -> Self {
+        let length: f64 = segments.iter().map(|g| g.length).sum();
+        // Segment start poses in the local frame (x ahead, y left, theta).
+        let mut starts = Vec::with_capacity(segments.len());
+        let mut pose = [0.0, 0.0, 0.0];
+        for g in segments {
+            starts.push(pose);
+            pose = clothoid_at(pose, g, g.length);
+        }
+        let local = |u: f64, j: usize| clothoid_at(starts[j], &segments[j], u);
+        let steps = (length + 1.0e-9).floor() as usize;
+        let (c, sn) = (heading.cos(), heading.sin());
+        let mut pts = Vec::with_capacity(steps + 1);
+        let (mut j, mut sum) = (0usize, 0.0);
+        for k in 0..=steps {
+            let p = if k < steps {
+                let u = k as f64;
+                while j + 1 < segments.len() && u > sum + segments[j].length - 1.0e-9 {
+                    sum += segments[j].length;
+                    j += 1;
+                }
+                local(u - sum, j)
+            } else {
+                let last = segments.len() - 1;
+                let before: f64 = segments[..last].iter().map(|g| g.length).sum();
+                local(length - before, last)
+            };
+            pts.push([s + p[0] * c - p[1] * sn, offset + p[0] * sn + p[1] * c, heading + p[2]]);
+        }
+        Self { action, pts, length, u: 0.0 }
+    }
+
+    /// The pose at `u` m along the polyline (positions linear between vertices, the heading
+    /// turned over 0.5 m either side of a vertex, esmini's corner interpolation).
+    fn at(&self, u: f64) -> [f64; 3] {
+        let n = self.pts.len();
+        let last = (n - 1) as f64;
+        if n == 1 || u > last - 1.0e-9 {
+            return self.pts[n - 1];
+        }
+        let u = u.max(0.0);
+        let i = (u.floor() as usize).min(n - 2);
+        let a = u - i as f64;
+        let (p0, p1) = (self.pts[i], self.pts[i + 1]);
+        let mut h = p0[2];
+        if a < 0.5 && i > 0 {
+            h = self.pts[i - 1][2] + (0.5 + a) * crate::track::wrap(p0[2] - self.pts[i - 1][2]);
+        } else if a > 0.5 {
+            let w = if i + 2 < n { a - 0.5 } else { (a - 0.5) / 0.5 };
+            h = p0[2] + w * crate::track::wrap(p1[2] - p0[2]);
+        }
+        [(1.0 - a) * p0[0] + a * p1[0], (1.0 - a) * p0[1] + a * p1[1], h]
+    }
+}
+
+/// The pose `u` m along a clothoid segment `g` from `start` (`[x, y, theta]`, local frame):
+/// theta integrates the linear curvature exactly, x and y by Gauss-Legendre quadrature over
+/// pieces of at most 0.25 m.
+fn clothoid_at(start: [f64; 3], g: &ClothoidSegment, u: f64) -> [f64; 3] {
+    let rate = (g.curvature_end - g.curvature_start) / g.length;
+    let theta = |v: f64| start[2] + g.curvature_start * v + 0.5 * rate * v * v;
+    let n = ((u / 0.25).ceil() as usize).max(1);
+    let h = u / n as f64;
+    // 3-point Gauss-Legendre nodes and weights on [-1, 1].
+    const X: [f64; 3] = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
+    const W: [f64; 3] = [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0];
+    let (mut x, mut y) = (start[0], start[1]);
+    for k in 0..n {
+        let mid = (k as f64 + 0.5) * h;
+        for q in 0..3 {
+            let th = theta(mid + 0.5 * h * X[q]);
+            x += 0.5 * h * W[q] * th.cos();
+            y += 0.5 * h * W[q] * th.sin();
+        }
+    }
+    [x, y, theta(u)]
+}
+
 /// What one step of a [`Motion`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MotionStep {
@@ -118,6 +213,7 @@ pub struct Motion {
     reference: [f64; 2],
     long: Option<Long>,
     lat: Option<Lat>,
+    traj: Option<Traj>,
 }
 
 impl Motion {
@@ -137,6 +233,7 @@ impl Motion {
             reference: [0.0, 0.0],
             long: None,
             lat: None,
+            traj: None,
         }
     }
 
@@ -177,6 +274,10 @@ impl Motion {
             self.lat = None;
             hit = true;
         }
+        if self.traj.as_ref().is_some_and(|l| l.action == i) {
+            self.traj = None;
+            hit = true;
+        }
         hit
     }
 
@@ -186,9 +287,27 @@ impl Motion {
     }
 
     /// Starts action `i` (`action`) at time `t`, reading reference entities from `world`.
-    /// Returns the action of the same domain it replaces (to be ended as stopped), and whether
+    /// Returns the actions of the same domains it replaces (to be ended as stopped), and whether
     /// the action already ended (a step transition, a placement). Non-motion actions do nothing.
-    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
+    /// A trajectory holds both domains (esmini): any motion action replaces it, and it
+    /// replaces both the longitudinal and the lateral action.
+    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
+        let mut replaced = Vec::new();
+        if action.is_longitudinal() || action.is_lateral() {
+            replaced.extend(self.traj.take().map(|l| l.action).filter(|&a| a != i));
+        }
+        if let Action::FollowTrajectory { segments } = action {
+            replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+            replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+            self.traj = Some(Traj::new(i, segments, self.s, self.offset, self.heading));
+            return (replaced, false);
+        }
+        let (r, done) = self.start_one(i, action, t, world);
+        replaced.extend(r);
+        (replaced, done)
+    }
+
+    fn start_one(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
         match action {
             Action::Speed { speed, of, delta, factor, continuous, transition } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
@@ -294,7 +413,7 @@ impl Motion {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
                 // A steady state by time is a distance at the final speed (esmini's Start).
                 let steady = steady_distance.or_else(|| steady_time.zip(*final_speed).map(|(t, v)| t * v));
-                let sync = Sync {
+                let mut sync = Sync {
                     master: master.clone(),
                     master_target: *master_target,
                     target: *target,
@@ -307,6 +426,15 @@ impl Motion {
                     last: LARGE,
                     last_master: LARGE,
                 };
+                // An action started with the storyboard (t = 0) gets esmini's first frame, a
+                // step of 0 s in which the master has no velocity yet: it waits, at speed 0.
+                let mut done = false;
+                if t <= 0.0 {
+                    done = self.sync_step(&mut sync, 0.0, world, true);
+                }
+                if done {
+                    return (replaced, true);
+                }
                 self.long = Some(Long {
                     action: i,
                     v0: self.speed,
@@ -326,7 +454,9 @@ impl Motion {
 
     /// One step of a synchronisation (esmini's `SynchronizeAction::Step` on one road: distances
     /// along the track, speeds along it); `true` when it ends.
-    fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView) -> bool {
+    /// `still`: the master's velocity is taken as 0 (esmini's first frame, at t = 0 with a
+    /// step of 0: no entity has moved yet, so none has a velocity).
+    fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView, still: bool) -> bool {
         let Some(m) = world.entity(&y.master) else { return false };
         let md = y.master_target - m.s;
         let dir_master = if md < 0.0 { -1.0 } else { 1.0 };
@@ -338,7 +468,7 @@ impl Motion {
         dist = (dist - y.tolerance).max(SMALL);
         master_dist = (master_dist - y.tolerance_master).max(SMALL);
         let mut t_master = LARGE;
-        let master_speed = dir_master * m.speed;
+        let master_speed = if still { 0.0 } else { dir_master * m.speed };
         if master_speed > SMALL {
             t_master = master_dist / master_speed;
             if t_master < dt {
@@ -495,7 +625,7 @@ impl Motion {
                 self.speed = r.speed.max(0.0);
             }
         } else if let Some(mut y) = self.long.as_ref().and_then(|l| l.sync.clone()) {
-            let done = self.sync_step(&mut y, dt, world);
+            let done = self.sync_step(&mut y, dt, world, false);
             if let Some(l) = self.long.as_mut() {
                 if done {
                     out.long_done = Some(l.action);
@@ -523,6 +653,29 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+        if let Some(tr) = self.traj.as_mut() {
+            // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
+            // rest of the step straight on along its last heading, and the action ends.
+            let step_len = self.speed * dt;
+            let u_prev = tr.u.min(tr.length);
+            tr.u += step_len;
+            let mut p = tr.at(tr.u);
+            if tr.u > tr.length - 1.0e-9 {
+                let rest = (step_len - (tr.length - u_prev)).max(0.0);
+                p[0] += rest * p[2].cos();
+                p[1] += rest * p[2].sin();
+                out.lat_done = Some(tr.action);
+            }
+            self.s = p[0];
+            self.offset = p[1];
+            self.heading = crate::track::wrap(p[2]);
+            self.traveled += step_len;
+            if out.lat_done.is_some() {
+                self.traj = None;
+                self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
+            }
+            return out;
+        }
         let mut step_len = self.speed * dt;
         let offset_prev = self.offset;
         if let Some(l) = &self.lat {
