@@ -757,3 +757,40 @@ fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(k0: f64, k1: f64, length: f64) -> ClothoidSegment {
+        ClothoidSegment { curvature_start: k0, curvature_end: k1, length }
+    }
+
+    #[test]
+    fn a_clothoid_segment_of_constant_curvature_is_a_circular_arc() {
+        // A quarter circle of radius 100 m from the origin facing +x ends at (100, 100), facing +y.
+        let r = 100.0;
+        let p = clothoid_at([0.0, 0.0, 0.0], &seg(1.0 / r, 1.0 / r, r * std::f64::consts::FRAC_PI_2), r * std::f64::consts::FRAC_PI_2);
+        assert!((p[0] - r).abs() < 1e-9 && (p[1] - r).abs() < 1e-9, "{p:?}");
+        assert!((p[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{p:?}");
+        // A clothoid from 0 to k over L turns by k L / 2.
+        let q = clothoid_at([0.0, 0.0, 0.0], &seg(0.0, 0.02, 50.0), 50.0);
+        assert!((q[2] - 0.5).abs() < 1e-12, "{q:?}");
+    }
+
+    #[test]
+    fn a_trajectory_is_laid_from_the_actor_and_sampled_every_metre() {
+        // An oncoming actor (heading pi) at s = 100, offset 1.75 turning left (curvature +) moves to
+        // -s and to smaller offsets; the polyline has a vertex per metre and one at the end.
+        let tr = Traj::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
+        assert_eq!(tr.pts.len(), 11);
+        let end = tr.pts[10];
+        let (dx, dy) = (100.0 * (0.105f64).sin(), 100.0 * (1.0 - (0.105f64).cos()));
+        assert!((end[0] - (100.0 - dx)).abs() < 1e-9 && (end[1] - (1.75 - dy)).abs() < 1e-9, "{end:?}");
+        // Between vertices: linear; past the last vertex's parameter: the end.
+        let mid = tr.at(2.5);
+        let (a, b) = (tr.pts[2], tr.pts[3]);
+        assert!((mid[0] - 0.5 * (a[0] + b[0])).abs() < 1e-12 && (mid[1] - 0.5 * (a[1] + b[1])).abs() < 1e-12);
+        assert_eq!(tr.at(10.2), end);
+    }
+}
