@@ -1339,6 +1339,31 @@ mod tests {
     }
 
     #[test]
+    fn an_element_state_condition_names_the_element_of_its_type() {
+        // Euro NCAP CCFhol waits for the maneuver `GVT_Synchronize` of a maneuver group of the same
+        // name. synchronize.xosc with its group renamed so: the turn must still start when the
+        // maneuver (not the group, which holds the turn too and so never completes first) ends.
+        let d = tmp("typed");
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc"))
+            .expect("fixture")
+            .replacen("<ManeuverGroup name=\"TargetGroup\"", "<ManeuverGroup name=\"TargetSync\"", 1)
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()))
+            .replace("filepath=\"roads/", &format!("filepath=\"{}/", fixtures().join("roads").display()));
+        assert!(text.contains("<ManeuverGroup name=\"TargetSync\""));
+        let imp = import(&write(&d, "typed.xosc", &text), &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() })
+            .unwrap_or_else(|e| panic!("{e}"));
+        let run = &imp.runs[0];
+        let target = run.entities.iter().find(|e| e.osc_name == "Target").map(|e| e.flc_name.clone()).expect("Target");
+        let mut sim = crate::Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+        for _ in 0..1200 {
+            assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+        }
+        // t = 12 s: the turn (from t = 8 s) has moved Target from y = 1.75 into lane -1.
+        let y = sim.scripted_state(&target).map_or(f64::NAN, |st| st.y);
+        assert!((y + 1.2467).abs() < 1e-3, "Target at y = {y} (esmini: -1.246668)");
+    }
+
+    #[test]
     fn synchronize_and_trajectory_refuse_bad_input_naming_the_element() {
         let d = tmp("sync");
         assert_eq!(synchronize_with(&d, "ok.xosc", "author=\"flc\"", "author=\"flc\""), None, "the fixture imports");
