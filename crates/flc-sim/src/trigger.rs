@@ -194,6 +194,24 @@ pub enum VarValue {
 
 /// OpenSCENARIO `StoryboardElementState` of an `element_state` condition. Transitions hold from
 /// the moment they happen until the element's next transition (an event that runs again starts
+/// The kind of a storyboard element (`storyboardElementType`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ElementKind {
+    /// A story.
+    Story,
+    /// An act.
+    Act,
+    /// A maneuver group.
+    ManeuverGroup,
+    /// A maneuver.
+    Maneuver,
+    /// An event.
+    Event,
+    /// An action.
+    Action,
+}
+
 /// over); states hold while the element is in them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -432,6 +450,10 @@ pub enum ConditionKind {
         element: String,
         /// The state or transition waited for.
         state: ElementEvent,
+        /// Its kind (`storyboardElementType`): among elements of the same name, the one of
+        /// this kind (default: the first of that name, outermost first).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        element_type: Option<ElementKind>,
     },
     /// `ByValueCondition/StoryboardElementStateCondition` on a phase: phase `phase` (index in
     /// the entity's phase list, from 0) of `entity` has started / ended.
@@ -524,6 +546,11 @@ pub trait WorldView {
     /// The status of storyboard element `name` (default: none; its conditions do not hold).
     fn element(&self, _name: &str) -> Option<ElementStatus> {
         None
+    }
+    /// The status of storyboard element `name` of kind `kind` (default: [`WorldView::element`]).
+    fn element_of(&self, name: &str, kind: Option<ElementKind>) -> Option<ElementStatus> {
+        let _ = kind;
+        self.element(name)
     }
     /// The value of story variable `name` (default: none).
     fn variable(&self, _name: &str) -> Option<VarValue> {
@@ -648,7 +675,9 @@ impl ConditionKind {
             }
             ConditionKind::Collision { entity, with } => world.collided(entity, with.as_deref()),
             ConditionKind::Variable { variable, value, rule } => world.variable(variable).is_some_and(|v| compare_values(&v, value, *rule)),
-            ConditionKind::ElementState { element, state } => world.element(element).is_some_and(|e| e.holds(*state)),
+            ConditionKind::ElementState { element, state, element_type } => {
+                world.element_of(element, *element_type).is_some_and(|e| e.holds(*state))
+            }
             ConditionKind::ReachPosition { tolerance, .. } => {
                 self.measure(world, t).is_some_and(|d| Rule::LessOrEqual.holds(d, *tolerance, None))
             }

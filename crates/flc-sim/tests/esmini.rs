@@ -33,6 +33,7 @@ const FIXTURES: &[(&str, bool)] = &[
     ("lane_leave_reveal", false),
     ("oncoming", false),
     ("long_distance_continuous", false),
+    ("synchronize", false),
     ("lane_change_rate", false),
     ("pedestrians", false),
     ("distribution_2x2", false),

@@ -1250,7 +1250,7 @@ mod tests {
         assert_eq!(ego_stop[0].len(), 2);
         assert!(matches!(&ego_stop[0][0].kind, ConditionKind::Ttc { .. }));
         assert!(
-            matches!(&ego_stop[0][1].kind, ConditionKind::ElementState { element, state: ElementEvent::RunningState } if element == "LeadStop")
+            matches!(&ego_stop[0][1].kind, ConditionKind::ElementState { element, state: ElementEvent::RunningState, .. } if element == "LeadStop")
         );
         assert!(matches!(&only("LeadGo")[0][0].kind, ConditionKind::StandStill { duration, .. } if *duration == 1.0));
         let resume = only("EgoResume");
@@ -1325,6 +1325,113 @@ mod tests {
         assert!(st.acts.iter().flat_map(|a| &a.groups).flat_map(|g| &g.maneuvers).flat_map(|m| &m.events).any(|e| e.max_executions == 2));
     }
 
+    /// synchronize.xosc with `from` replaced by `to` (once), written into `dir` (its catalog and
+    /// road by absolute path); the import's error text, or `None` if it imports.
+    fn synchronize_with(dir: &Path, name: &str, from: &str, to: &str) -> Option<String> {
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc")).expect("fixture");
+        assert!(text.contains(from), "{name}: `{from}` is not in the fixture");
+        let text = text
+            .replacen(from, to, 1)
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()))
+            .replace("filepath=\"roads/", &format!("filepath=\"{}/", fixtures().join("roads").display()));
+        let p = write(dir, name, &text);
+        import(&p, &ImportOptions::default()).err().map(|e| e.to_string())
+    }
+
+    #[test]
+    fn an_element_state_condition_names_the_element_of_its_type() {
+        // Euro NCAP CCFhol waits for the maneuver `GVT_Synchronize` of a maneuver group of the same
+        // name. synchronize.xosc with its group renamed so: the turn must still start when the
+        // maneuver (not the group, which holds the turn too and so never completes first) ends.
+        let d = tmp("typed");
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc"))
+            .expect("fixture")
+            .replacen("<ManeuverGroup name=\"TargetGroup\"", "<ManeuverGroup name=\"TargetSync\"", 1)
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()))
+            .replace("filepath=\"roads/", &format!("filepath=\"{}/", fixtures().join("roads").display()));
+        assert!(text.contains("<ManeuverGroup name=\"TargetSync\""));
+        let imp = import(&write(&d, "typed.xosc", &text), &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() })
+            .unwrap_or_else(|e| panic!("{e}"));
+        let run = &imp.runs[0];
+        let target = run.entities.iter().find(|e| e.osc_name == "Target").map(|e| e.flc_name.clone()).expect("Target");
+        let mut sim = crate::Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+        for _ in 0..1200 {
+            assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+        }
+        // t = 12 s: the turn (from t = 8 s) has moved Target from y = 1.75 into lane -1.
+        let y = sim.scripted_state(&target).map_or(f64::NAN, |st| st.y);
+        assert!((y + 1.2467).abs() < 1e-3, "Target at y = {y} (esmini: -1.246668)");
+    }
+
+    #[test]
+    fn synchronize_and_trajectory_refuse_bad_input_naming_the_element() {
+        let d = tmp("sync");
+        assert_eq!(synchronize_with(&d, "ok.xosc", "author=\"flc\"", "author=\"flc\""), None, "the fixture imports");
+        let cases = [
+            ("master.xosc", "masterEntityRef=\"Ego\">", "masterEntityRef=\"Nobody\">", "Nobody"),
+            ("tolnan.xosc", "targetTolerance=\"2.0\"", "targetTolerance=\"NaN\"", "targetTolerance"),
+            ("tolneg.xosc", "targetToleranceMaster=\"2.0\"", "targetToleranceMaster=\"-1\"", "tolerance_master"),
+            ("speedinf.xosc", "<AbsoluteSpeed value=\"15.0\">", "<AbsoluteSpeed value=\"inf\">", "value"),
+            ("steadynan.xosc", "TargetTimeSteadyState time=\"2.0\"", "TargetTimeSteadyState time=\"NaN\"", "time"),
+            (
+                "notarget.xosc",
+                "<TargetPosition>\n                      <LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"200.0\"/>\n                    </TargetPosition>",
+                "",
+                "TargetPosition",
+            ),
+            (
+                "relspeed.xosc",
+                "<AbsoluteSpeed value=\"15.0\">",
+                "<RelativeSpeedToMaster value=\"1\" speedTargetValueType=\"delta\"><X/></RelativeSpeedToMaster><AbsoluteSpeed value=\"15.0\">",
+                "FinalSpeed",
+            ),
+            ("badlane.xosc", "laneId=\"1\" offset=\"0.0\" s=\"200.0\"", "laneId=\"7\" offset=\"0.0\" s=\"200.0\"", "lane 7"),
+            ("seglen.xosc", "curvatureEnd=\"0.0\" length=\"50.0\"", "curvatureEnd=\"0.0\" length=\"-50.0\"", "length"),
+            ("segnan.xosc", "curvatureStart=\"0.005\"", "curvatureStart=\"NaN\"", "curvatureStart"),
+            ("seginf.xosc", "curvatureEnd=\"0.005\"", "curvatureEnd=\"1e999\"", "curvatureEnd"),
+            (
+                "segstart.xosc",
+                "<ClothoidSplineSegment curvatureStart=\"0.005\" curvatureEnd=\"0.005\" length=\"20.0\"/>",
+                "<ClothoidSplineSegment curvatureStart=\"0.005\" curvatureEnd=\"0.005\" length=\"20.0\"><PositionStart><WorldPosition x=\"0\" y=\"0\"/></PositionStart></ClothoidSplineSegment>",
+                "PositionStart",
+            ),
+            ("follow.xosc", "followingMode=\"position\"", "followingMode=\"follow\"", "followingMode"),
+            ("timing.xosc", "<None/>", "<Timing domainAbsoluteRelative=\"absolute\" scale=\"1\" offset=\"0\"/>", "TimeReference"),
+            ("closed.xosc", "closed=\"false\"", "closed=\"true\"", "closed"),
+            (
+                "polyline.xosc",
+                "<ClothoidSpline>",
+                "<Polyline><Vertex><Position><WorldPosition x=\"0\" y=\"0\"/></Position></Vertex></Polyline><ClothoidSpline>",
+                "Shape",
+            ),
+            (
+                "noshape.xosc",
+                "<ClothoidSplineSegment curvatureStart=\"0.0\" curvatureEnd=\"0.0\" length=\"10.0\"/>",
+                "<ClothoidSplineSegment curvatureStart=\"0.0\" curvatureEnd=\"0.0\" length=\"1e6\"/>",
+                "length",
+            ),
+            (
+                "catalog.xosc",
+                "<Trajectory name=\"TurnLeft\" closed=\"false\">",
+                "<CatalogReference catalogName=\"Nope\" entryName=\"x\"/><Trajectory name=\"TurnLeft\" closed=\"false\">",
+                "TrajectoryRef",
+            ),
+            ("elemtype.xosc", "storyboardElementType=\"maneuver\"", "storyboardElementType=\"scene\"", "storyboardElementType"),
+        ];
+        for (name, from, to, needle) in cases {
+            let e = synchronize_with(&d, name, from, to).unwrap_or_else(|| panic!("{name}: imported"));
+            assert!(e.contains(name) && e.contains(needle), "{name}: `{e}` should name the file and `{needle}`");
+        }
+        // A trajectory on a curved road: refused (flc lays it in the road's frame).
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc"))
+            .expect("fixture")
+            .replace("laneId=\"1\"", "laneId=\"-1\"")
+            .replace("filepath=\"roads/two_way.xodr", &format!("filepath=\"{}", fixtures().join("roads/arc.xodr").display()))
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()));
+        let e = import(&write(&d, "curved.xosc", &text), &ImportOptions::default()).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("curved.xosc") && e.contains("curved road"), "{e}");
+    }
+
     #[test]
     fn unsupported_elements_name_file_line_and_element() {
         let d = tmp("unsupported");
@@ -1334,7 +1441,8 @@ mod tests {
         let text = xosc("", &ents, &init, &story("T", routing, &at_time(1.0)));
         let p = write(&d, "u.xosc", &text);
         let e = import(&p, &ImportOptions::default()).expect_err("routing");
-        let want = format!("{}:{}: <RoutingAction>:", p.display(), line_of(&text, "<RoutingAction>"));
+        // A RoutingAction other than FollowTrajectoryAction: the element named is the action.
+        let want = format!("{}:{}: <AssignRouteAction>:", p.display(), line_of(&text, "<AssignRouteAction/>"));
         assert!(e.to_string().starts_with(&want), "{e} vs {want}");
         assert!(e.to_string().contains("unsupported"), "{e}");
         // A teleport outside Init, an EndOfRoadCondition, a DynamicConstraints: errors too (a

@@ -185,7 +185,11 @@ pub fn resolve(
                 .ok_or_else(|| ImportError::at(file, p, format!("lane {lane} does not exist at s = {s} m of road `{}`", geo.road.id)))?;
             // The offset is to the left of the lane's driving direction.
             let sign = if lane > 0 { -1.0 } else { 1.0 };
-            Ok(on_road(s, centre + sign * offset, None))
+            // The heading follows lane `laneId`'s driving direction even where the offset
+            // puts the point in another lane (esmini: Euro NCAP CCFhol's target, lane -1
+            // offset 3.5 m, `h = pi` relative, faces -s).
+            let lane_h = geo.lane_heading(s, centre);
+            Ok(on_road(s, centre + sign * offset, Some(heading(lane_h, lane_h))))
         }
         "RoadPosition" => {
             geo.check_road(file, p, &params.req_str(p, "roadId", file)?)?;

@@ -11,10 +11,11 @@ use super::position::{self, Geo};
 use super::road::LaneMap;
 use super::xml;
 use crate::story::{
-    Act, Action, Dimension, EgoMode, Event, MAX_ELEMENTS, Maneuver, ManeuverGroup, Priority, Shape, StoryAction, Transition,
+    Act, Action, ClothoidSegment, Dimension, EgoMode, Event, MAX_ELEMENTS, Maneuver, ManeuverGroup, Priority, Shape, StoryAction,
+    Transition,
 };
 use crate::track::Track;
-use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, Rule, Trigger, VarValue};
+use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, ElementKind, Rule, Trigger, VarValue};
 
 type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
 
@@ -642,6 +643,18 @@ impl Sb<'_, '_, '_> {
                 }
             }
             "ActivateControllerAction" => self.activate_controller(file, c, actors).map(Some),
+            "RoutingAction" => {
+                let x = one(c)?;
+                moves(self, x)?;
+                match x.tag_name().name() {
+                    "FollowTrajectoryAction" => self.follow_trajectory(file, x).map(Some),
+                    _ => Err(ImportError::unsupported(file, x)),
+                }
+            }
+            "SynchronizeAction" => {
+                moves(self, c)?;
+                self.synchronize(file, c).map(Some)
+            }
             "ControllerAction" => {
                 let mut found = None;
                 for x in xml::elements(c) {
@@ -1052,7 +1065,17 @@ impl Sb<'_, '_, '_> {
             }
             "StoryboardElementStateCondition" => {
                 let p = &self.ctx.params;
-                p.req_enum(node, "storyboardElementType", file, &["story", "act", "maneuver", "maneuverGroup", "event", "action"])?;
+                let kind = match p
+                    .req_enum(node, "storyboardElementType", file, &["story", "act", "maneuver", "maneuverGroup", "event", "action"])?
+                    .as_str()
+                {
+                    "story" => ElementKind::Story,
+                    "act" => ElementKind::Act,
+                    "maneuverGroup" => ElementKind::ManeuverGroup,
+                    "maneuver" => ElementKind::Maneuver,
+                    "event" => ElementKind::Event,
+                    _ => ElementKind::Action,
+                };
                 let raw = p.req_str(node, "storyboardElementRef", file)?;
                 let element = raw.rsplit("::").next().unwrap_or(&raw).to_string();
                 let state = match p
@@ -1080,7 +1103,7 @@ impl Sb<'_, '_, '_> {
                     "runningState" => ElementEvent::RunningState,
                     _ => ElementEvent::StandbyState,
                 };
-                Ok(ConditionKind::ElementState { element, state })
+                Ok(ConditionKind::ElementState { element, state, element_type: Some(kind) })
             }
             "ParameterCondition" | "VariableCondition" => {
                 let (variable, like) = self.variable_of(file, node)?;
@@ -1164,6 +1187,190 @@ impl Sb<'_, '_, '_> {
                 format!("freespace=\"false\" between `{a}` and `{b}` is measured between box centres (their reference points sit differently in their boxes)"),
             );
         }
+    }
+
+    /// `FollowTrajectoryAction` with `TimeReference/None`, `followingMode="position"` and a
+    /// `ClothoidSpline` that starts at the actor (story::Action::FollowTrajectory), given inline
+    /// or from a `TrajectoryCatalog`; on a straight road.
+    fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
+            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
+        }
+        let (mut traj, mut timing, mut mode) = (None, None, None);
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "TrajectoryRef" => traj = Some(only_child(file, c)?),
+                "Trajectory" | "CatalogReference" => traj = Some(c),
+                "TimeReference" => timing = Some(only_child(file, c)?),
+                "TrajectoryFollowingMode" => mode = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let traj = traj.ok_or_else(|| ImportError::at(file, node, "<TrajectoryRef> is missing"))?;
+        let timing = timing.ok_or_else(|| ImportError::at(file, node, "<TimeReference> is missing"))?;
+        if timing.tag_name().name() != "None" {
+            return Err(ImportError::at(file, timing, "only <TimeReference><None/> is supported (the actor keeps its own speed)"));
+        }
+        let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
+        let m = self.ctx.params.req_enum(mode, "followingMode", file, &["position", "follow"])?;
+        if m != "position" {
+            return Err(ImportError::at(file, mode, "followingMode=\"follow\" is not supported (only \"position\")"));
+        }
+        if !self.straight_track() {
+            return Err(ImportError::at(file, node, "a trajectory on a curved road is not supported (flc lays it in the road's frame)"));
+        }
+        match traj.tag_name().name() {
+            "Trajectory" => {
+                self.ctx.params.push_scope();
+                let r = self.ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| self.trajectory(file, traj));
+                self.ctx.params.pop_scope();
+                r
+            }
+            "CatalogReference" => {
+                let cats = self.ctx.cats;
+                let catalog = self.ctx.params.req_str(traj, "catalogName", file)?;
+                let entry = self.ctx.params.req_str(traj, "entryName", file)?;
+                let (efile, enode) = match cats.find(&["TrajectoryCatalog"], &catalog, &entry)? {
+                    Some(x) => x,
+                    None => return Err(ImportError::at(file, traj, cats.not_found(&catalog, &entry))),
+                };
+                if enode.tag_name().name() != "Trajectory" {
+                    return Err(ImportError::at(&efile, enode, "expected a <Trajectory> entry"));
+                }
+                self.ctx.enter_catalog(file, traj, &catalog, &entry)?;
+                let overrides = super::catalog::assignments(&self.ctx.params, traj, file);
+                let r = overrides.and_then(|o| {
+                    self.ctx.params.push_scope();
+                    let r = self.ctx.params.declare_in(enode, &efile, &o).and_then(|()| self.trajectory(&efile, enode));
+                    self.ctx.params.pop_scope();
+                    r
+                });
+                self.ctx.leave_catalog();
+                r
+            }
+            _ => Err(ImportError::unsupported(file, traj)),
+        }
+    }
+
+    /// `true` when the track has no curvature anywhere (a trajectory is laid in its frame).
+    fn straight_track(&self) -> bool {
+        let len = self.track.length();
+        let n = (len / 0.5).ceil().clamp(1.0, 1.0e6) as usize;
+        (0..=n).all(|k| self.track.curvature_at(len * k as f64 / n as f64).abs() < 1.0e-9)
+    }
+
+    /// A `Trajectory` element: an open `ClothoidSpline` whose first segment starts at the actor.
+    fn trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        if p.req_bool(node, "closed", file)? {
+            return Err(ImportError::at(file, node, "closed=\"true\" is not supported"));
+        }
+        let mut shape = None;
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "ParameterDeclarations" => {}
+                "Shape" => shape = Some(only_child(file, c)?),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let shape = shape.ok_or_else(|| ImportError::at(file, node, "<Shape> is missing"))?;
+        if shape.tag_name().name() != "ClothoidSpline" {
+            return Err(ImportError::at(
+                file,
+                shape,
+                format!("<{}>: only a <ClothoidSpline> trajectory is supported", shape.tag_name().name()),
+            ));
+        }
+        let mut segments = Vec::new();
+        for g in xml::elements(shape) {
+            if g.tag_name().name() != "ClothoidSplineSegment" {
+                return Err(ImportError::unsupported(file, g));
+            }
+            if let Some(c) = xml::elements(g).next() {
+                // esmini starts a segment there; flc lays the spline from the actor only.
+                return Err(ImportError::at(file, c, "a segment's <PositionStart> is not supported (the spline starts at the actor)"));
+            }
+            if p.num_attr(g, "hOffset", file)?.is_some_and(|h| h != 0.0) {
+                return Err(ImportError::at(file, g, "hOffset other than 0 is not supported"));
+            }
+            p.num_attr(g, "timeStart", file)?;
+            let seg = ClothoidSegment {
+                curvature_start: p.req_num(g, "curvatureStart", file)?,
+                curvature_end: p.req_num(g, "curvatureEnd", file)?,
+                length: p.req_num(g, "length", file)?,
+            };
+            if segments.len() == 1000 {
+                return Err(ImportError::at(file, g, "more than 1000 segments"));
+            }
+            segments.push(seg);
+        }
+        p.num_attr(shape, "timeEnd", file)?;
+        let a = Action::FollowTrajectory { segments };
+        a.validate().map_err(|e| ImportError::at(file, shape, e.to_string()))?;
+        Ok(a)
+    }
+
+    /// `SynchronizeAction` (esmini's algorithm, `story::Action::Synchronize`): absolute target
+    /// positions, an `AbsoluteSpeed` final speed with an optional steady state, tolerances.
+    fn synchronize(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let master = self.entity(file, node, "masterEntityRef")?;
+        let p = &self.ctx.params;
+        let tolerance = p.num_attr(node, "targetTolerance", file)?.unwrap_or(0.0);
+        let tolerance_master = p.num_attr(node, "targetToleranceMaster", file)?.unwrap_or(0.0);
+        let (mut master_target, mut target, mut final_speed, mut steady_time, mut steady_distance) = (None, None, None, None, None);
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "TargetPositionMaster" => master_target = Some(self.target_s(file, c)?),
+                "TargetPosition" => target = Some(self.target_s(file, c)?),
+                "FinalSpeed" => {
+                    let a = only_child(file, c)?;
+                    if a.tag_name().name() != "AbsoluteSpeed" {
+                        return Err(ImportError::unsupported(file, a));
+                    }
+                    final_speed = Some(self.ctx.params.req_num(a, "value", file)?);
+                    for ss in xml::elements(a) {
+                        match ss.tag_name().name() {
+                            "TargetTimeSteadyState" => steady_time = Some(self.ctx.params.req_num(ss, "time", file)?),
+                            "TargetDistanceSteadyState" => steady_distance = Some(self.ctx.params.req_num(ss, "distance", file)?),
+                            _ => return Err(ImportError::unsupported(file, ss)),
+                        }
+                    }
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let (Some((ms, mdir)), Some((ts, _))) = (master_target, target) else {
+            return Err(ImportError::at(file, node, "give <TargetPositionMaster> and <TargetPosition>"));
+        };
+        // The master is measured by its box centre (`s` of the world view): its target moves by
+        // the centre's offset along the direction the target faces.
+        let master_target = ms + mdir * self.facts(&master).center[0];
+        Ok(Action::Synchronize {
+            master,
+            master_target,
+            target: ts,
+            final_speed,
+            steady_time,
+            steady_distance,
+            tolerance,
+            tolerance_master,
+        })
+    }
+
+    /// The track `s` of an absolute target position (a `TargetPosition...` element holding one
+    /// position) and the direction it faces along the track (+1 or -1).
+    fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+        if position::reference(&self.ctx.params, file, holder)?.is_some() {
+            return Err(ImportError::at(
+                file,
+                holder,
+                "a target position relative to an entity is not supported (it moves with the entity)",
+            ));
+        }
+        let pose = position::resolve(&self.ctx.params, self.geo, file, holder, &|_| None)?;
+        let pr = self.track.project(pose.x, pose.y);
+        Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }))
     }
 
     /// The track position `(s, lateral)` of an absolute `Position` (a relative one is an error:

@@ -135,7 +135,7 @@ impl StoryRun {
                 let Some(m) = self.motions.get_mut(j) else { continue };
                 moved.push(j);
                 let (replaced, done) = m.start(i, action, t, world);
-                if let Some(r) = replaced {
+                for r in replaced {
                     self.state.end_action(r, true);
                 }
                 if done {

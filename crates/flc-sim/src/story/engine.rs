@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use super::{Action, Priority, Story};
-use crate::trigger::{ElementEvent, ElementStatus, EntityState, PhaseStatus, TriggerState, VarValue, WorldView};
+use crate::trigger::{ElementEvent, ElementKind, ElementStatus, EntityState, PhaseStatus, TriggerState, VarValue, WorldView};
 
 /// An action the story started this step: run it on every actor of its maneuver group.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,10 +44,12 @@ struct Elements {
     /// Story name -> its acts.
     stories: Vec<(String, Vec<usize>)>,
     names: HashMap<String, (Level, usize)>,
+    /// The first element of each name at each level.
+    typed: HashMap<(Level, String), usize>,
     variables: Vec<(String, VarValue)>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 enum Level {
     Story,
     Act,
@@ -60,6 +62,23 @@ enum Level {
 impl Elements {
     fn status(&self, name: &str) -> Option<ElementStatus> {
         let (level, i) = *self.names.get(name)?;
+        self.status_at(level, i)
+    }
+
+    fn status_of(&self, name: &str, kind: ElementKind) -> Option<ElementStatus> {
+        let level = match kind {
+            ElementKind::Story => Level::Story,
+            ElementKind::Act => Level::Act,
+            ElementKind::ManeuverGroup => Level::Group,
+            ElementKind::Maneuver => Level::Maneuver,
+            ElementKind::Event => Level::Event,
+            ElementKind::Action => Level::Action,
+        };
+        let i = *self.typed.get(&(level, name.to_string()))?;
+        self.status_at(level, i)
+    }
+
+    fn status_at(&self, level: Level, i: usize) -> Option<ElementStatus> {
         match level {
             Level::Act => self.acts.get(i).copied(),
             Level::Group => self.groups.get(i).copied(),
@@ -101,6 +120,12 @@ impl WorldView for View<'_> {
     }
     fn element(&self, name: &str) -> Option<ElementStatus> {
         self.elements.status(name)
+    }
+    fn element_of(&self, name: &str, kind: Option<ElementKind>) -> Option<ElementStatus> {
+        match kind {
+            Some(k) => self.elements.status_of(name, k),
+            None => self.elements.status(name),
+        }
     }
     fn variable(&self, name: &str) -> Option<VarValue> {
         self.elements.variables.iter().find(|(n, _)| n == name).map(|(_, v)| v.clone())
@@ -166,13 +191,16 @@ impl StoryState {
             actions: Vec::new(),
             stories: Vec::new(),
             names: HashMap::new(),
+            typed: HashMap::new(),
             variables: story.variables.iter().map(|v| (v.name.clone(), v.value.clone())).collect(),
         };
         let (mut event_maneuver, mut action_path, mut event_actions) = (Vec::new(), Vec::new(), Vec::new());
         let (mut act_groups, mut group_maneuvers, mut maneuver_events, mut action_event, mut max_exec) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let name = |names: &mut HashMap<String, (Level, usize)>, n: &str, level: Level, i: usize| {
+        let mut typed = HashMap::new();
+        let mut name = |names: &mut HashMap<String, (Level, usize)>, n: &str, level: Level, i: usize| {
             names.entry(n.to_string()).or_insert((level, i));
+            typed.entry((level, n.to_string())).or_insert(i);
         };
         for (ai, a) in story.acts.iter().enumerate() {
             if !a.story.is_empty() {
@@ -218,6 +246,7 @@ impl StoryState {
             }
             act_groups.push(g0..e.groups.len());
         }
+        e.typed = typed;
         let n_acts = e.acts.len();
         let n_events = e.events.len();
         let n_actions = e.actions.len();

@@ -162,6 +162,18 @@ pub struct Transition {
     pub value: f64,
 }
 
+/// One `ClothoidSplineSegment`: curvature changing linearly over `length`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothoidSegment {
+    /// Curvature at its start, 1/m (+ left).
+    pub curvature_start: f64,
+    /// Curvature at its end, 1/m (+ left).
+    pub curvature_end: f64,
+    /// Length, m.
+    pub length: f64,
+}
+
 impl Transition {
     fn validate(&self) -> Result<(), ConfigError> {
         if self.shape == Shape::Step {
@@ -269,6 +281,46 @@ pub enum Action {
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         continuous: bool,
     },
+    /// `SynchronizeAction`, as esmini plays it: the actor's speed is shaped so that it reaches
+    /// `target` (track `s` of its reference point) when entity `master` reaches
+    /// `master_target` (track `s` of its box centre), arriving at `final_speed` (m/s; held
+    /// constant over the last `steady_time` s or `steady_distance` m); without a final speed a
+    /// linear profile. Ends when either arrives (within `tolerance` / `tolerance_master`, m),
+    /// passes its target or the master would arrive within the step.
+    Synchronize {
+        /// The master entity.
+        master: String,
+        /// The master's target, track `s` of its box centre, m.
+        master_target: f64,
+        /// The actor's target, track `s` of its reference point, m.
+        target: f64,
+        /// Final speed, m/s.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        final_speed: Option<f64>,
+        /// Steady state before the target, s at the final speed.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        steady_time: Option<f64>,
+        /// Steady state before the target, m.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        steady_distance: Option<f64>,
+        /// `targetTolerance`, m.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        tolerance: f64,
+        /// `targetToleranceMaster`, m.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        tolerance_master: f64,
+    },
+    /// `FollowTrajectoryAction` along a `ClothoidSpline` that starts where the actor is
+    /// (no `PositionStart`), as esmini plays it with `TimeReference/None` and `followingMode
+    /// position`: the spline is laid from the actor's position and heading when the action
+    /// starts, sampled every metre (esmini's polyline), and the actor's reference point moves
+    /// along it at the actor's speed; past its end the rest of the step continues straight
+    /// and the action ends. It holds both domains (it stops a running speed action). On a
+    /// straight road only (the spline is laid in the road's frame).
+    FollowTrajectory {
+        /// The spline's segments, in order.
+        segments: Vec<ClothoidSegment>,
+    },
     /// `VariableSetAction`.
     VariableSet {
         /// The variable.
@@ -303,12 +355,12 @@ fn is_zero(v: &f64) -> bool {
 impl Action {
     /// `true` for speed and longitudinal-distance actions.
     pub fn is_longitudinal(&self) -> bool {
-        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. })
+        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. })
     }
 
     /// `true` for lane change and lane offset actions.
     pub fn is_lateral(&self) -> bool {
-        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. })
+        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. })
     }
 
     /// The entities it names (`of`).
@@ -316,11 +368,12 @@ impl Action {
         match self {
             Action::Speed { of, .. } | Action::LaneChange { of, .. } | Action::LaneOffset { of, .. } => of.as_deref(),
             Action::LongitudinalDistance { of, .. } => Some(of),
+            Action::Synchronize { master, .. } => Some(master),
             _ => None,
         }
     }
 
-    fn validate(&self) -> Result<(), ConfigError> {
+    pub(crate) fn validate(&self) -> Result<(), ConfigError> {
         match self {
             Action::Speed { speed, of, delta, factor, transition, .. } => {
                 transition.validate_speed()?;
@@ -349,6 +402,45 @@ impl Action {
                 (None, Some(g)) => check_range("time_gap", *g, 0.0, 1.0e3, "s"),
                 _ => Err(ConfigError::new("distance", "give `distance` (m) or `time_gap` (s)")),
             },
+            Action::Synchronize {
+                master_target, target, final_speed, steady_time, steady_distance, tolerance, tolerance_master, ..
+            } => {
+                check_range("master_target", *master_target, -1.0e7, 1.0e7, "m")?;
+                check_range("target", *target, -1.0e7, 1.0e7, "m")?;
+                check_range("tolerance", *tolerance, 0.0, 1.0e4, "m")?;
+                check_range("tolerance_master", *tolerance_master, 0.0, 1.0e4, "m")?;
+                if let Some(v) = final_speed {
+                    check_range("final_speed", *v, 1.0e-3, 100.0, "m/s")?;
+                }
+                if let Some(t) = steady_time {
+                    check_range("steady_time", *t, 0.0, 1.0e4, "s")?;
+                }
+                if let Some(d) = steady_distance {
+                    check_range("steady_distance", *d, 0.0, 1.0e6, "m")?;
+                }
+                if (steady_time.is_some() || steady_distance.is_some())
+                    && (final_speed.is_none() || steady_time.is_some() == steady_distance.is_some())
+                {
+                    return Err(ConfigError::new(
+                        "steady_time",
+                        "a steady state needs `final_speed` and one of `steady_time`, `steady_distance`",
+                    ));
+                }
+                Ok(())
+            }
+            Action::FollowTrajectory { segments } => {
+                if segments.is_empty() || segments.len() > 1000 {
+                    return Err(ConfigError::new("segments", "give 1 to 1000 segments"));
+                }
+                let mut total = 0.0;
+                for (i, g) in segments.iter().enumerate() {
+                    check_range(&format!("segments[{i}].curvature_start"), g.curvature_start, -10.0, 10.0, "1/m")?;
+                    check_range(&format!("segments[{i}].curvature_end"), g.curvature_end, -10.0, 10.0, "1/m")?;
+                    check_range(&format!("segments[{i}].length"), g.length, 1.0e-3, 1.0e5, "m")?;
+                    total += g.length;
+                }
+                check_range("segments", total, 1.0e-3, 1.0e5, "m (total length)")
+            }
             Action::VariableSet { value, .. } => match value {
                 VarValue::Num(v) if !v.is_finite() => Err(ConfigError::new("value", "must be finite")),
                 _ => Ok(()),

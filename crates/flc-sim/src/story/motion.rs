@@ -1,7 +1,7 @@
 //! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
 //! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
 
-use super::{Action, Dimension, Shape, Transition};
+use super::{Action, ClothoidSegment, Dimension, Shape, Transition};
 use crate::trigger::WorldView;
 
 /// A running longitudinal action.
@@ -18,7 +18,42 @@ struct Long {
     track: Option<(String, f64, f64)>,
     /// A continuous longitudinal distance kept to another entity.
     keep: Option<Keep>,
+    /// A running `SynchronizeAction`.
+    sync: Option<Sync>,
 }
+
+/// esmini's synchronisation modes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SyncMode {
+    None,
+    NonLinear,
+    Linear,
+    Stopped,
+    StopNow,
+    Waiting,
+    Steady,
+}
+
+/// A running `SynchronizeAction` and its state (esmini's `SynchronizeAction::Step`).
+#[derive(Debug, Clone, PartialEq)]
+struct Sync {
+    master: String,
+    master_target: f64,
+    target: f64,
+    final_speed: Option<f64>,
+    steady: Option<f64>,
+    tolerance: f64,
+    tolerance_master: f64,
+    mode: SyncMode,
+    convex: bool,
+    last: f64,
+    last_master: f64,
+}
+
+const SMALL: f64 = 1.0e-6;
+const LARGE: f64 = 1.0e10;
+/// esmini's `MAX_DECELERATION` of a synchronisation that must stop at once, m/s².
+const SYNC_STOP_DECEL: f64 = -8.0;
 
 /// A continuous `LongitudinalDistanceAction`.
 #[derive(Debug, Clone, PartialEq)]
@@ -45,6 +80,101 @@ struct Lat {
     /// A lane change: the entity moves at its speed along its heading, so the lateral motion
     /// takes from its progress along the road (esmini); a lane offset does not.
     along_heading: bool,
+}
+
+/// A running `FollowTrajectoryAction`: esmini's polyline of the spline (a vertex every metre
+/// and one at the end), laid in the road's frame from where the action started.
+#[derive(Debug, Clone, PartialEq)]
+struct Traj {
+    action: usize,
+    /// Vertices `(s, offset, heading relative to the road)`; vertex `k` sits at `k` m along the
+    /// polyline's parameter (the last at its whole number of metres, esmini's).
+    pts: Vec<[f64; 3]>,
+    /// The spline's length (the segments' sum), m.
+    length: f64,
+    /// Distance moved along it, m.
+    u: f64,
+}
+
+impl Traj {
+    /// The spline of `segments` from `(s, offset)` facing `heading` (relative to the road),
+    /// sampled as esmini's `ClothoidSplineShape::CalculatePolyLine`.
+    fn new(action: usize, segments: &[ClothoidSegment], s: f64, offset: f64, heading: f64) -> Self {
+        let length: f64 = segments.iter().map(|g| g.length).sum();
+        // Segment start poses in the local frame (x ahead, y left, theta).
+        let mut starts = Vec::with_capacity(segments.len());
+        let mut pose = [0.0, 0.0, 0.0];
+        for g in segments {
+            starts.push(pose);
+            pose = clothoid_at(pose, g, g.length);
+        }
+        let local = |u: f64, j: usize| clothoid_at(starts[j], &segments[j], u);
+        let steps = (length + 1.0e-9).floor() as usize;
+        let (c, sn) = (heading.cos(), heading.sin());
+        let mut pts = Vec::with_capacity(steps + 1);
+        let (mut j, mut sum) = (0usize, 0.0);
+        for k in 0..=steps {
+            let p = if k < steps {
+                let u = k as f64;
+                while j + 1 < segments.len() && u > sum + segments[j].length - 1.0e-9 {
+                    sum += segments[j].length;
+                    j += 1;
+                }
+                local(u - sum, j)
+            } else {
+                let last = segments.len() - 1;
+                let before: f64 = segments[..last].iter().map(|g| g.length).sum();
+                local(length - before, last)
+            };
+            pts.push([s + p[0] * c - p[1] * sn, offset + p[0] * sn + p[1] * c, heading + p[2]]);
+        }
+        Self { action, pts, length, u: 0.0 }
+    }
+
+    /// The pose at `u` m along the polyline (positions linear between vertices, the heading
+    /// turned over 0.5 m either side of a vertex, esmini's corner interpolation).
+    fn at(&self, u: f64) -> [f64; 3] {
+        let n = self.pts.len();
+        let last = (n - 1) as f64;
+        if n == 1 || u > last - 1.0e-9 {
+            return self.pts[n - 1];
+        }
+        let u = u.max(0.0);
+        let i = (u.floor() as usize).min(n - 2);
+        let a = u - i as f64;
+        let (p0, p1) = (self.pts[i], self.pts[i + 1]);
+        let mut h = p0[2];
+        if a < 0.5 && i > 0 {
+            h = self.pts[i - 1][2] + (0.5 + a) * crate::track::wrap(p0[2] - self.pts[i - 1][2]);
+        } else if a > 0.5 {
+            let w = if i + 2 < n { a - 0.5 } else { (a - 0.5) / 0.5 };
+            h = p0[2] + w * crate::track::wrap(p1[2] - p0[2]);
+        }
+        [(1.0 - a) * p0[0] + a * p1[0], (1.0 - a) * p0[1] + a * p1[1], h]
+    }
+}
+
+/// The pose `u` m along a clothoid segment `g` from `start` (`[x, y, theta]`, local frame):
+/// theta integrates the linear curvature exactly, x and y by Gauss-Legendre quadrature over
+/// pieces of at most 0.25 m.
+fn clothoid_at(start: [f64; 3], g: &ClothoidSegment, u: f64) -> [f64; 3] {
+    let rate = (g.curvature_end - g.curvature_start) / g.length;
+    let theta = |v: f64| start[2] + g.curvature_start * v + 0.5 * rate * v * v;
+    let n = ((u / 0.25).ceil() as usize).max(1);
+    let h = u / n as f64;
+    // 3-point Gauss-Legendre nodes and weights on [-1, 1].
+    const X: [f64; 3] = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
+    const W: [f64; 3] = [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0];
+    let (mut x, mut y) = (start[0], start[1]);
+    for k in 0..n {
+        let mid = (k as f64 + 0.5) * h;
+        for q in 0..3 {
+            let th = theta(mid + 0.5 * h * X[q]);
+            x += 0.5 * h * W[q] * th.cos();
+            y += 0.5 * h * W[q] * th.sin();
+        }
+    }
+    [x, y, theta(u)]
 }
 
 /// What one step of a [`Motion`] did.
@@ -83,6 +213,7 @@ pub struct Motion {
     reference: [f64; 2],
     long: Option<Long>,
     lat: Option<Lat>,
+    traj: Option<Traj>,
 }
 
 impl Motion {
@@ -102,6 +233,7 @@ impl Motion {
             reference: [0.0, 0.0],
             long: None,
             lat: None,
+            traj: None,
         }
     }
 
@@ -142,6 +274,10 @@ impl Motion {
             self.lat = None;
             hit = true;
         }
+        if self.traj.as_ref().is_some_and(|l| l.action == i) {
+            self.traj = None;
+            hit = true;
+        }
         hit
     }
 
@@ -151,9 +287,27 @@ impl Motion {
     }
 
     /// Starts action `i` (`action`) at time `t`, reading reference entities from `world`.
-    /// Returns the action of the same domain it replaces (to be ended as stopped), and whether
+    /// Returns the actions of the same domains it replaces (to be ended as stopped), and whether
     /// the action already ended (a step transition, a placement). Non-motion actions do nothing.
-    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
+    /// A trajectory holds both domains (esmini): any motion action replaces it, and it
+    /// replaces both the longitudinal and the lateral action.
+    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
+        let mut replaced = Vec::new();
+        if action.is_longitudinal() || action.is_lateral() {
+            replaced.extend(self.traj.take().map(|l| l.action).filter(|&a| a != i));
+        }
+        if let Action::FollowTrajectory { segments } = action {
+            replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+            replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+            self.traj = Some(Traj::new(i, segments, self.s, self.offset, self.heading));
+            return (replaced, false);
+        }
+        let (r, done) = self.start_one(i, action, t, world);
+        replaced.extend(r);
+        (replaced, done)
+    }
+
+    fn start_one(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
         match action {
             Action::Speed { speed, of, delta, factor, continuous, transition } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
@@ -172,8 +326,17 @@ impl Motion {
                     (None, None) => (self.speed, None),
                 };
                 let duration = speed_duration(transition, self.speed, target);
-                self.long =
-                    Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track, keep: None });
+                self.long = Some(Long {
+                    action: i,
+                    v0: self.speed,
+                    v1: target,
+                    shape: transition.shape,
+                    duration,
+                    t0: t,
+                    track,
+                    keep: None,
+                    sync: None,
+                });
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
@@ -231,13 +394,196 @@ impl Motion {
                         t0: t,
                         track: None,
                         keep: Some(keep),
+                        sync: None,
                     });
                     return (replaced, false);
                 }
                 (replaced, true)
             }
+            Action::Synchronize {
+                master,
+                master_target,
+                target,
+                final_speed,
+                steady_time,
+                steady_distance,
+                tolerance,
+                tolerance_master,
+            } => {
+                let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
+                // A steady state by time is a distance at the final speed (esmini's Start).
+                let steady = steady_distance.or_else(|| steady_time.zip(*final_speed).map(|(t, v)| t * v));
+                let mut sync = Sync {
+                    master: master.clone(),
+                    master_target: *master_target,
+                    target: *target,
+                    final_speed: *final_speed,
+                    steady,
+                    tolerance: *tolerance,
+                    tolerance_master: *tolerance_master,
+                    mode: SyncMode::None,
+                    convex: false,
+                    last: LARGE,
+                    last_master: LARGE,
+                };
+                // An action started with the storyboard (t = 0) gets esmini's first frame, a
+                // step of 0 s in which the master has no velocity yet: it waits, at speed 0.
+                let mut done = false;
+                if t <= 0.0 {
+                    done = self.sync_step(&mut sync, 0.0, world, true);
+                }
+                if done {
+                    return (replaced, true);
+                }
+                self.long = Some(Long {
+                    action: i,
+                    v0: self.speed,
+                    v1: self.speed,
+                    shape: Shape::Step,
+                    duration: 0.0,
+                    t0: t,
+                    track: None,
+                    keep: None,
+                    sync: Some(sync),
+                });
+                (replaced, false)
+            }
             _ => (None, true),
         }
+    }
+
+    /// One step of a synchronisation (esmini's `SynchronizeAction::Step` on one road: distances
+    /// along the track, speeds along it); `true` when it ends.
+    /// `still`: the master's velocity is taken as 0 (esmini's first frame, at t = 0 with a
+    /// step of 0: no entity has moved yet, so none has a velocity).
+    fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView, still: bool) -> bool {
+        let Some(m) = world.entity(&y.master) else { return false };
+        let md = y.master_target - m.s;
+        let dir_master = if md < 0.0 { -1.0 } else { 1.0 };
+        let (mut master_dist, mut dist) = (md.abs(), (y.target - self.s).abs());
+        let mut done =
+            dist < y.tolerance + SMALL || master_dist < y.tolerance_master + SMALL || dist > y.last || master_dist > y.last_master;
+        y.last = dist;
+        y.last_master = master_dist;
+        dist = (dist - y.tolerance).max(SMALL);
+        master_dist = (master_dist - y.tolerance_master).max(SMALL);
+        let mut t_master = LARGE;
+        let master_speed = if still { 0.0 } else { dir_master * m.speed };
+        if master_speed > SMALL {
+            t_master = master_dist / master_speed;
+            if t_master < dt {
+                done = true;
+            }
+        } else if y.mode != SyncMode::Waiting {
+            y.mode = SyncMode::Waiting;
+            self.speed = 0.0;
+        }
+        if done {
+            if let Some(v1) = y.final_speed {
+                self.speed = v1;
+            }
+            return true;
+        }
+        let average = dist / t_master;
+        let mut acc = 0.0;
+        match y.final_speed {
+            Some(v1) => {
+                if let Some(ss) = y.steady.filter(|_| y.mode != SyncMode::Steady) {
+                    let time_to_ss = ss / v1;
+                    if dist - ss < SMALL || t_master - time_to_ss < SMALL {
+                        y.mode = SyncMode::Steady;
+                    } else {
+                        dist -= ss;
+                        t_master -= time_to_ss;
+                    }
+                }
+                match y.mode {
+                    SyncMode::Steady => {
+                        self.speed = v1;
+                        return false;
+                    }
+                    SyncMode::Waiting => {
+                        if t_master >= LARGE {
+                            return false;
+                        }
+                        y.mode = SyncMode::None;
+                    }
+                    SyncMode::StopNow => {
+                        self.speed += SYNC_STOP_DECEL * dt;
+                        if self.speed < 0.0 {
+                            self.speed = 0.0;
+                            y.mode = SyncMode::Waiting;
+                        }
+                        return false;
+                    }
+                    SyncMode::Stopped => {
+                        if t_master < 2.0 * dist / v1 {
+                            y.mode = SyncMode::Linear;
+                        } else {
+                            self.speed = 0.0;
+                            return false;
+                        }
+                    }
+                    _ => {}
+                }
+                if y.mode == SyncMode::Linear {
+                    self.speed = if t_master > LARGE - 1.0 { 0.0 } else { linear_profile_speed(v1.max(0.0), t_master, dist).max(0.0) };
+                    return false;
+                }
+                if y.mode == SyncMode::NonLinear && t_master < LARGE && (self.speed - (2.0 * dist / t_master - v1)).abs() < 0.1 {
+                    // Passed the apex: constant acceleration to the end, this step at the speed.
+                    y.mode = SyncMode::Linear;
+                    return false;
+                }
+                if y.mode == SyncMode::None {
+                    y.mode = SyncMode::NonLinear;
+                    y.convex = (v1 + self.speed) / 2.0 < dist / t_master;
+                }
+                let (sd, t, v0) = (dist, t_master, self.speed);
+                let mut vx = 0.0;
+                if (v1 - v0).abs() < SMALL {
+                    vx = (sd - (t / 2.0) * v0) / (t / 2.0);
+                    acc = (vx - v0) / (t / 2.0);
+                } else {
+                    let root = 2.0_f64.sqrt() * (2.0 * sd * sd - 2.0 * (v1 + v0) * t * sd + (v1 * v1 + v0 * v0) * t * t).sqrt();
+                    let x1 = -(root + 2.0 * sd - 2.0 * v1 * t) / (2.0 * (v1 - v0));
+                    let x2 = -(-root + 2.0 * sd - 2.0 * v1 * t) / (2.0 * (v1 - v0));
+                    if x1 > 0.0 && x1 < t {
+                        vx = (2.0 * sd - root) / (2.0 * t);
+                        acc = (vx - v0) / x1;
+                    } else if x2 > 0.0 && x2 < t {
+                        vx = (2.0 * sd + root) / (2.0 * t);
+                        acc = (vx - v0) / x2;
+                    }
+                }
+                if y.mode == SyncMode::NonLinear && ((!y.convex && acc > 0.0) || (y.convex && acc < 0.0)) {
+                    y.mode = SyncMode::Linear;
+                    acc = 0.0;
+                }
+                if y.mode == SyncMode::NonLinear && vx < 0.0 {
+                    let t1 = 2.0 * v0 * sd / (v0 * v0 + v1 * v1);
+                    acc = if t1.abs() > SMALL { -v0 / t1 } else { 0.0 };
+                    if t1 * v0 / 2.0 > sd / 2.0 {
+                        acc = SYNC_STOP_DECEL;
+                        y.mode = SyncMode::StopNow;
+                    }
+                    if v0 + acc * dt < 0.0 {
+                        self.speed = 0.0;
+                        y.mode = SyncMode::Stopped;
+                        return false;
+                    }
+                }
+            }
+            None => {
+                if master_speed > SMALL {
+                    y.mode = SyncMode::Linear;
+                    let v_final = 2.0 * average - self.speed;
+                    acc = (v_final - self.speed) / t_master;
+                }
+            }
+        }
+        self.speed += acc * dt;
+        false
     }
 
     /// Puts the reference point where `k` wants it from `r` (distances between box centres,
@@ -278,6 +624,15 @@ impl Motion {
                 self.keep_at(&k, &r, r.speed);
                 self.speed = r.speed.max(0.0);
             }
+        } else if let Some(mut y) = self.long.as_ref().and_then(|l| l.sync.clone()) {
+            let done = self.sync_step(&mut y, dt, world, false);
+            if let Some(l) = self.long.as_mut() {
+                if done {
+                    out.long_done = Some(l.action);
+                } else {
+                    l.sync = Some(y);
+                }
+            }
         } else if let Some(l) = &self.long {
             let p = if l.duration > 0.0 { (t1 - l.t0) / l.duration } else { 1.0 };
             let mut v = l.v0 + (l.v1 - l.v0) * l.shape.at(p);
@@ -298,6 +653,29 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+        if let Some(tr) = self.traj.as_mut() {
+            // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
+            // rest of the step straight on along its last heading, and the action ends.
+            let step_len = self.speed * dt;
+            let u_prev = tr.u.min(tr.length);
+            tr.u += step_len;
+            let mut p = tr.at(tr.u);
+            if tr.u > tr.length - 1.0e-9 {
+                let rest = (step_len - (tr.length - u_prev)).max(0.0);
+                p[0] += rest * p[2].cos();
+                p[1] += rest * p[2].sin();
+                out.lat_done = Some(tr.action);
+            }
+            self.s = p[0];
+            self.offset = p[1];
+            self.heading = crate::track::wrap(p[2]);
+            self.traveled += step_len;
+            if out.lat_done.is_some() {
+                self.traj = None;
+                self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
+            }
+            return out;
+        }
         let mut step_len = self.speed * dt;
         let offset_prev = self.offset;
         if let Some(l) = &self.lat {
@@ -349,6 +727,12 @@ impl Motion {
     }
 }
 
+/// esmini's `CalcSpeedForLinearProfile`: the speed now that reaches `v_final` after `time` s
+/// and `dist` m at constant acceleration (0 for a vanishing time or distance).
+fn linear_profile_speed(v_final: f64, time: f64, dist: f64) -> f64 {
+    if time < 0.001 || dist < 0.001 { 0.0 } else { 2.0 * dist / time - v_final }
+}
+
 /// Duration of a speed transition from `v0` to `v1`: `time` as given, `rate` = `|v1 - v0| /
 /// rate` (infinite for a rate of 0 and a change), `distance` = the time that covers the distance at the mean speed `(v0 + v1) / 2`
 /// (every shape is symmetric); 0 for a step.
@@ -371,5 +755,42 @@ fn speed_duration(tr: &Transition, v0: f64, v1: f64) -> f64 {
             let mean = 0.5 * (v0 + v1);
             if mean > 1e-9 { tr.value / mean } else { 0.0 }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(k0: f64, k1: f64, length: f64) -> ClothoidSegment {
+        ClothoidSegment { curvature_start: k0, curvature_end: k1, length }
+    }
+
+    #[test]
+    fn a_clothoid_segment_of_constant_curvature_is_a_circular_arc() {
+        // A quarter circle of radius 100 m from the origin facing +x ends at (100, 100), facing +y.
+        let r = 100.0;
+        let p = clothoid_at([0.0, 0.0, 0.0], &seg(1.0 / r, 1.0 / r, r * std::f64::consts::FRAC_PI_2), r * std::f64::consts::FRAC_PI_2);
+        assert!((p[0] - r).abs() < 1e-9 && (p[1] - r).abs() < 1e-9, "{p:?}");
+        assert!((p[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{p:?}");
+        // A clothoid from 0 to k over L turns by k L / 2.
+        let q = clothoid_at([0.0, 0.0, 0.0], &seg(0.0, 0.02, 50.0), 50.0);
+        assert!((q[2] - 0.5).abs() < 1e-12, "{q:?}");
+    }
+
+    #[test]
+    fn a_trajectory_is_laid_from_the_actor_and_sampled_every_metre() {
+        // An oncoming actor (heading pi) at s = 100, offset 1.75 turning left (curvature +) moves to
+        // -s and to smaller offsets; the polyline has a vertex per metre and one at the end.
+        let tr = Traj::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
+        assert_eq!(tr.pts.len(), 11);
+        let end = tr.pts[10];
+        let (dx, dy) = (100.0 * (0.105f64).sin(), 100.0 * (1.0 - (0.105f64).cos()));
+        assert!((end[0] - (100.0 - dx)).abs() < 1e-9 && (end[1] - (1.75 - dy)).abs() < 1e-9, "{end:?}");
+        // Between vertices: linear; past the last vertex's parameter: the end.
+        let mid = tr.at(2.5);
+        let (a, b) = (tr.pts[2], tr.pts[3]);
+        assert!((mid[0] - 0.5 * (a[0] + b[0])).abs() < 1e-12 && (mid[1] - 0.5 * (a[1] + b[1])).abs() < 1e-12);
+        assert_eq!(tr.at(10.2), end);
     }
 }
