@@ -26,6 +26,7 @@ pub mod distribution;
 mod entities;
 pub mod error;
 pub mod expr;
+pub mod junction;
 mod options;
 pub mod params;
 mod position;
