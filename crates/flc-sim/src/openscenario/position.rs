@@ -212,7 +212,11 @@ pub fn resolve(
         }
         "RoadPosition" => {
             let s = geo.road_s(file, p, &params.req_str(p, "roadId", file)?, req("s")?)?;
-            Ok(on_road(s, req("t")?, None))
+            let t = req("t")?;
+            // The heading (and a relative Orientation) is the reference line's, whatever lane `t`
+            // falls in (esmini 3.6.0: `t` = 1.75 in lane 1 faces +s; `h = -pi` faces -s).
+            let road_h = geo.road.world(s, t).2;
+            Ok(on_road(s, t, Some(heading(road_h, road_h))))
         }
         "RelativeRoadPosition" => {
             let r = reference(p)?;
@@ -376,5 +380,24 @@ mod tests {
         let e = at(&geo, "<Position><LanePosition roadId=\"7\" laneId=\"-1\" s=\"10\"/></Position>", &none).expect_err("road");
         assert!(e.to_string().contains("only one road"), "{e}");
         assert!(at(&geo, "<Position><LanePosition roadId=\"straight\" laneId=\"-1\" s=\"10\"/></Position>", &none).is_ok());
+    }
+
+    #[test]
+    fn road_position_heading_is_the_reference_lines() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/openscenario/roads/two_way.xodr");
+        let net = road::load(&path).expect("two-way road");
+        let geo = Geo { road: net.roads[0].clone(), any_road: false, route: None };
+        let none = |_: &str| None;
+        // t = 1.75 is lane 1 (driven in -s): a RoadPosition still faces +s, and a relative
+        // Orientation turns from +s (esmini 3.6.0); a LanePosition in lane 1 faces -s.
+        close(at(&geo, "<Position><RoadPosition roadId=\"1\" s=\"160\" t=\"1.75\"/></Position>", &none).expect("road"), 160.0, 1.75, 0.0);
+        let h = at(
+            &geo,
+            "<Position><RoadPosition roadId=\"1\" s=\"160\" t=\"1.75\"><Orientation type=\"relative\" h=\"-3\"/></RoadPosition></Position>",
+            &none,
+        );
+        close(h.expect("road+h"), 160.0, 1.75, -3.0);
+        let lane = at(&geo, "<Position><LanePosition roadId=\"1\" laneId=\"1\" s=\"160\"/></Position>", &none).expect("lane");
+        close(lane, 160.0, 1.75, std::f64::consts::PI);
     }
 }
