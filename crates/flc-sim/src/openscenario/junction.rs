@@ -371,7 +371,7 @@ mod tests {
         )
     }
 
-    fn road_xml(id: &str, junction: &str, len: f64, x: f64, y: f64, hdg: f64, shape: &str, link: &str, ids: &[i32]) -> String {
+    fn road_xml(id: &str, junction: &str, len: f64, [x, y, hdg]: [f64; 3], shape: &str, link: &str, ids: &[i32]) -> String {
         format!(
             "<road id=\"{id}\" junction=\"{junction}\" length=\"{len}\"><link>{link}</link><planView><geometry s=\"0\" x=\"{x}\" y=\"{y}\" hdg=\"{hdg}\" length=\"{len}\">{shape}</geometry></planView>{}</road>",
             lanes(ids, "")
@@ -390,16 +390,14 @@ mod tests {
              <connection id=\"0\" incomingRoad=\"1\" connectingRoad=\"11\" contactPoint=\"start\"><laneLink from=\"-1\" to=\"-1\"/></connection>\
              <connection id=\"1\" incomingRoad=\"1\" connectingRoad=\"10\" contactPoint=\"start\"><laneLink from=\"-1\" to=\"-1\"/></connection>{conn_extra}\
              </junction></OpenDRIVE>",
-            road_xml("1", "-1", 100.0, 0.0, 0.0, 0.0, "<line/>", j, &[1, -1]),
-            road_xml("2", "-1", 100.0, 120.0, 0.0, 0.0, "<line/>", jp, &[1, -1]),
-            road_xml("3", "-1", 100.0, 110.0, 10.0, half_pi, "<line/>", jp, &[1, -1]),
+            road_xml("1", "-1", 100.0, [0.0, 0.0, 0.0], "<line/>", j, &[1, -1]),
+            road_xml("2", "-1", 100.0, [120.0, 0.0, 0.0], "<line/>", jp, &[1, -1]),
+            road_xml("3", "-1", 100.0, [110.0, 10.0, half_pi], "<line/>", jp, &[1, -1]),
             road_xml(
                 "10",
                 "9",
                 20.0,
-                100.0,
-                0.0,
-                0.0,
+                [100.0, 0.0, 0.0],
                 "<line/>",
                 "<predecessor elementType=\"road\" elementId=\"1\" contactPoint=\"end\"/><successor elementType=\"road\" elementId=\"2\" contactPoint=\"start\"/>",
                 &[1, -1]
@@ -408,9 +406,7 @@ mod tests {
                 "11",
                 "9",
                 arc_len,
-                100.0,
-                0.0,
-                0.0,
+                [100.0, 0.0, 0.0],
                 "<arc curvature=\"0.1\"/>",
                 "<predecessor elementType=\"road\" elementId=\"1\" contactPoint=\"end\"/><successor elementType=\"road\" elementId=\"3\" contactPoint=\"start\"/>",
                 &[-1]
@@ -476,9 +472,7 @@ mod tests {
             "1",
             "-1",
             100.0,
-            0.0,
-            0.0,
-            0.0,
+            [0.0, 0.0, 0.0],
             "<line/>",
             "<predecessor elementType=\"road\" elementId=\"2\" contactPoint=\"end\"/><successor elementType=\"road\" elementId=\"2\" contactPoint=\"start\"/>",
             &[-1],
@@ -487,9 +481,7 @@ mod tests {
             "2",
             "-1",
             100.0,
-            100.0,
-            0.0,
-            0.0,
+            [100.0, 0.0, 0.0],
             "<line/>",
             "<predecessor elementType=\"road\" elementId=\"1\" contactPoint=\"end\"/><successor elementType=\"road\" elementId=\"1\" contactPoint=\"start\"/>",
             &[-1],
