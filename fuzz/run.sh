@@ -7,7 +7,7 @@
 #   fuzz/run.sh build                 build only
 #
 # Corpora grow in fuzz/corpus/TARGET (the scenario corpus is seeded with scenarios/*.toml, the osc
-# corpus with the repository's *.xosc files and a few expressions), crashes
+# corpus with the repository's *.xosc and *.xodr files and a few expressions), crashes
 # land in fuzz/artifacts/TARGET/. Reproduce one: fuzz/target/<host>/release/TARGET ARTIFACT
 # (binaries go to $CARGO_TARGET_DIR instead of fuzz/target when that is set).
 # The run lengths and results of the documented campaign are in docs/firmware.md.
@@ -27,10 +27,10 @@ cargo build --release --target "$host" --bins
 bin="${CARGO_TARGET_DIR:-target}/$host/release"
 [ "$what" = build ] && exit 0
 
-# Seeds of the osc target: the repository's OpenSCENARIO files (if any) and a few expressions.
+# Seeds of the osc target: the repository's OpenSCENARIO and OpenDRIVE files (if any) and a few expressions.
 seed_osc() {
   local dir="$1" i=0
-  find .. -path ../fuzz -prune -o -path ../target -prune -o -name '*.xosc' -print 2>/dev/null | while read -r f; do
+  find .. -path ../fuzz -prune -o -path ../target -prune -o \( -name '*.xosc' -o -name '*.xodr' \) -print 2>/dev/null | while read -r f; do
     cp -n "$f" "$dir/$(basename "$f")" 2>/dev/null || true
   done
   for e in '1 + 2 * 3' '-$a + 1' 'not $t and $a > 2 or false' 'max(min($a, 2), pow(2, 0.5))' 'round(2.5) % 2' '${$a / 3.6}'; do

@@ -1,16 +1,16 @@
 #!/usr/bin/env python3
-"""Writes eight of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
-from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority, standing_car and
-target_brakes, with the project's XML
+"""Writes nine of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
+from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority, standing_car,
+target_brakes and through_junction, with the project's XML
 writer `tools/osc_writer.py` (as `tools/suite_cases.py` writes the standard suites).
 
-    python3 tools/fixture_cases.py      # rewrites the eight files (same bytes on every run)
+    python3 tools/fixture_cases.py      # rewrites the nine files (same bytes on every run)
     python3 tools/fixture_cases.py --out DIR   # writes them into DIR (tools/asam_qc.py compares)
 
 After a change, regenerate esmini's reference trajectories of them (tests/data/esmini/README.md):
 
     python3 tools/esmini_reference.py from_catalogs lane_leave_reveal merge_in parameters positions_arc \\
-        priority standing_car target_brakes distribution_2x2 distribution_multi
+        priority standing_car target_brakes through_junction distribution_2x2 distribution_multi
 
 Every entity is the 4.5 x 1.8 x 1.5 m car (reference point on the rear axle, box centre 1.4 m
 ahead: front 3.65 m ahead of the reference point, rear 0.85 m behind), inline (osc_writer.car) or
@@ -324,6 +324,34 @@ def target_brakes():
                     STRAIGHT, X("Entities", catalog_object("Ego", "car"), car("Lead", "lead")), storyboard(init, stories, stops))
 
 
+def through_junction():
+    ego_s, ego_v, lead_s, lead_v, on_s, on_v = 60.0, 15.0, 5.0, 5.0, 40.0, 10.0
+    lead_joined = 150.0 + lead_s
+    gap0 = lead_joined - REAR - (ego_s + FRONT)
+    t_hit = gap0 / (ego_v - lead_v)
+    comment = header(
+        "through_junction", "several roads and a junction: the ego's route through it, entities on other roads of it",
+        "roads/x_junction.xodr: four arms of 150 m meet in junction 100 at (160, 0); from road 1 (west arm)",
+        "the junction connects straight on (road 10, 20 m) to road 2 and left (road 11) to road 4; a",
+        "player without an assigned route takes the straightest connection: 1 -> 10 -> 2 along y = -1.75.",
+        f"Ego (the VehicleCatalog `car`): road 1, lane -1, s {ego_s:g}, {ego_v:g} m/s. Lead (inline car): on the",
+        f"connecting road 10, lane -1, s {lead_s:g} (x = {lead_joined:g}), {lead_v:g} m/s.",
+        f"Oncoming (inline car): RoadPosition road 2, s {on_s:g}, t 1.75 (lane 1, x = {170 + on_s:g}) with a relative Orientation",
+        "h = pi (from the reference line: it faces -x), {on_v:g} m/s: it drives through the junction on the".format(on_v=on_v),
+        f"connecting road 10 (lane 1) onto road 1, at x = {170 + on_s - on_v * t_hit:.2f} when the run ends.",
+        f"Free gap {gap0:.2f} m closing at {ego_v - lead_v:g} m/s: without braking Ego hits Lead at t = {t_hit:.2f} s",
+        f"on road 2 (Ego's reference point at x = {ego_s + ego_v * t_hit:.2f}); the run ends on that collision or at 14 s.",
+    )
+    init = [place_at("Ego", lane_position(-1, f"{ego_s}", road="1"), f"{ego_v}"),
+            place_at("Lead", lane_position(-1, f"{lead_s}", road="10"), f"{lead_v}"),
+            place_at("Oncoming", X("RoadPosition", X("Orientation", type="relative", h="3.141592653589793"),
+                                   roadId="2", s=f"{on_s}", t="1.75"), f"{on_v}")]
+    stops = [[condition("EgoHitsLead", collides("Ego", "Lead"))], [condition("FourteenSeconds", after("14.0"))]]
+    return document(comment, 2, "through_junction: Ego follows Lead through an X junction", params(), catalog_locations(vehicle="catalogs"),
+                    road_network("roads/x_junction.xodr"), X("Entities", catalog_object("Ego", "car"), car("Lead", "lead"), car("Oncoming", "oncoming")),
+                    storyboard(init, [], stops))
+
+
 FIXTURES = {
     "from_catalogs.xosc": from_catalogs,
     "lane_leave_reveal.xosc": lane_leave_reveal,
@@ -333,6 +361,7 @@ FIXTURES = {
     "priority.xosc": priority,
     "standing_car.xosc": standing_car,
     "target_brakes.xosc": target_brakes,
+    "through_junction.xosc": through_junction,
 }
 
 

@@ -1,15 +1,18 @@
 //! The OpenSCENARIO importer's input layer on arbitrary bytes (as UTF-8, lossily): the safe XML
 //! reader (`openscenario::xml::parse`), the `${}` expression evaluator (inputs up to 4 KiB, with
 //! a fixed set of parameters) and `Params::declare` on a small document whose parameter value is
-//! the input, for every parameter type, followed by the typed attribute getters on it. Nothing
-//! may panic; an accepted value must satisfy its type.
+//! the input, for every parameter type, followed by the typed attribute getters on it; the
+//! OpenDRIVE reader (`openscenario::road::from_str`) and, on a network it accepts, the route of
+//! lane -1 from each of its first roads through links and junctions (`junction::route`, `join`).
+//! Nothing may panic; an accepted value must satisfy its type; a route names roads of the file
+//! once each, in increasing positions, and its joined road is as long as its roads.
 #![no_main]
 
 use std::collections::BTreeMap;
 
 use flc_sim::openscenario::expr::{self, Value};
 use flc_sim::openscenario::params::{ParamType, Params};
-use flc_sim::openscenario::{distribution, xml};
+use flc_sim::openscenario::{distribution, junction, road, xml};
 use libfuzzer_sys::fuzz_target;
 
 const TYPES: [&str; 7] = ["double", "integer", "unsignedInt", "unsignedShort", "boolean", "string", "dateTime"];
@@ -48,6 +51,25 @@ fuzz_target!(|data: &[u8]| {
         if distribution::is_distribution(&doc) {
             if let Ok(d) = distribution::read(&doc, std::path::Path::new("fuzz.xosc")) {
                 assert!(d.len() as u64 <= distribution::MAX_RUNS);
+            }
+        }
+    }
+
+    // 1b. The OpenDRIVE reader and the junction route on anything it accepts.
+    if let Ok(net) = road::from_str(&text, "fuzz.xodr") {
+        for r in net.roads.iter().take(8) {
+            let Ok(route) = junction::route(&net, r, -1) else { continue };
+            assert!(route.roads.len() <= junction::MAX_ROUTE_ROADS && route.roads.len() == route.starts.len());
+            assert!(route.roads.iter().all(|id| net.road(id).is_some()), "a route names roads of the file");
+            let mut ids: Vec<&String> = route.roads.iter().collect();
+            ids.sort();
+            ids.dedup();
+            assert_eq!(ids.len(), route.roads.len(), "each road once");
+            assert!(route.starts.windows(2).all(|w| w[0] < w[1]), "{:?}", route.starts);
+            if let Ok(joined) = junction::join(&net, &route, -1) {
+                let total: f64 = route.roads.iter().filter_map(|id| net.road(id)).map(|r| r.length).sum();
+                assert!((joined.length - total).abs() <= 1e-6 * total.max(1.0));
+                let _ = joined.world(0.5 * joined.length, -1.0);
             }
         }
     }

@@ -42,6 +42,7 @@ const FIXTURES: &[(&str, bool)] = &[
     ("spiral_road", true),
     ("poly_road", true),
     ("positions_arc", true),
+    ("through_junction", false),
 ];
 
 /// One reference row: `(x, y, speed)` of an entity at step `k`.

@@ -404,3 +404,76 @@ fn lane_changes_by_rate_last_the_shapes_peak_slope_times_the_change_over_the_rat
         assert!((t1 - t0 - expected).abs() <= 0.011, "{action}: {t0} -> {t1}, expected {expected}");
     }
 }
+
+/// `through_junction.xosc` on a copy of `roads/x_junction.xodr` with `road_from` replaced by
+/// `road_to`, and the scenario's `from` by `to`, written into `dir` (exit code, stderr).
+fn junction_case(dir: &Path, name: &str, road_from: &str, road_to: &str, from: &str, to: &str) -> (i32, String) {
+    let road = std::fs::read_to_string(data().join("roads/x_junction.xodr")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(road.contains(road_from), "road lacks {road_from}");
+    let road_file = dir.join(format!("{name}.xodr"));
+    std::fs::write(&road_file, road.replacen(road_from, road_to, 1)).unwrap_or_else(|e| panic!("{e}"));
+    let text = std::fs::read_to_string(data().join("through_junction.xosc")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(text.contains(from), "fixture lacks {from}");
+    let text = text
+        .replacen(from, to, 1)
+        .replace("roads/x_junction.xodr", &road_file.display().to_string())
+        .replace(r#"<Directory path="catalogs"/>"#, &format!(r#"<Directory path="{}"/>"#, data().join("catalogs").display()));
+    cli(dir, name, &text, &[])
+}
+
+#[test]
+fn junction_routes_and_hostile_road_networks() {
+    let dir = tempdir("junction");
+    let lead = r#"roadId="10""#;
+    // The fixture runs, and names the route it takes.
+    let (code, err) = junction_case(&dir, "ok.xosc", "<OpenDRIVE>", "<OpenDRIVE>", lead, lead);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("the ego's route through the road file's 8 roads: 1 -> 10 -> 2"), "{err}");
+    // The lead on road 2, beyond the junction (its s 5).
+    let (code, err) = junction_case(&dir, "onroad2.xosc", "<OpenDRIVE>", "<OpenDRIVE>", lead, r#"roadId="2""#);
+    assert_eq!(code, 0, "{err}");
+    let cases: [(&str, &str, &str, &str, &str); 6] = [
+        // An entity on a road off the route (the north arm).
+        ("offroute.xosc", "<OpenDRIVE>", "<OpenDRIVE>", r#"roadId="4""#, "road `4` is not on the ego's route (1 -> 10 -> 2)"),
+        // The connection names a connecting road that is not in the file.
+        ("noconn.xosc", r#"connectingRoad="10""#, r#"connectingRoad="99""#, lead, "connecting road `99` is not in the file"),
+        // A link to a junction that is not in the file.
+        (
+            "nojunction.xosc",
+            r#"<successor elementType="junction" elementId="100"/>"#,
+            r#"<successor elementType="junction" elementId="7"/>"#,
+            lead,
+            "junction `7`",
+        ),
+        // The straight connecting road is moved 2 m off the arms' ends.
+        (
+            "gap.xosc",
+            r#"x="150.0" y="0.0" hdg="0.0" length="20.0""#,
+            r#"x="150.0" y="2.0" hdg="0.0" length="20.0""#,
+            lead,
+            "starts 2.000 m from its end",
+        ),
+        // A malformed contact point.
+        ("contact.xosc", r#"elementId="2" contactPoint="start""#, r#"elementId="2" contactPoint="middle""#, lead, "contactPoint"),
+        // A loop: road 2 leads back into road 1 (the route stops before closing it), so a lead on
+        // the connecting road is found; then a lead on road 3 is off the route.
+        (
+            "loop.xosc",
+            r#"<predecessor elementType="junction" elementId="100"/></link>"#,
+            r#"<predecessor elementType="junction" elementId="100"/><successor elementType="road" elementId="1" contactPoint="start"/></link>"#,
+            r#"roadId="10""#,
+            "",
+        ),
+    ];
+    for (name, road_from, road_to, to, needle) in cases {
+        let (code, err) = junction_case(&dir, name, road_from, road_to, lead, to);
+        if needle.is_empty() {
+            assert_eq!(code, 0, "{name}: {err}");
+            continue;
+        }
+        assert_eq!(code, 2, "{name}: exit {code}, stderr {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(lines.len(), 1, "{name}: one error line: {err}");
+        assert!(lines[0].contains(needle), "{name}: `{}` should say `{needle}`", lines[0]);
+    }
+}

@@ -26,6 +26,7 @@ pub mod distribution;
 mod entities;
 pub mod error;
 pub mod expr;
+pub mod junction;
 mod options;
 pub mod params;
 mod position;
@@ -471,6 +472,46 @@ fn road_hint(
     Ok(None)
 }
 
+/// The road positions refer to: `road` alone, or, in a network of several roads, the ego's
+/// route through it from `road` ([`junction::route`], joined into one road). The route follows
+/// the ego's lane, found from its Init position (`position`, resolved on `road` alone; lane -1
+/// if that position is relative to another entity); a lane with a positive id keeps the one road.
+fn ego_route(
+    ctx: &mut Ctx<'_, '_>,
+    file: &str,
+    net: &road::Network,
+    road: &road::Road,
+    position: Option<roxmltree::Node<'_, '_>>,
+) -> Result<Geo, ImportError> {
+    let alone = Geo { road: road.clone(), any_road: false, route: None };
+    if net.roads.len() < 2 {
+        return Ok(alone);
+    }
+    let none = |_: &str| None;
+    let lane = position
+        .and_then(|p| position::resolve(&ctx.params, &alone, file, p, &none).ok())
+        .and_then(|pose| {
+            let (s, t) = road.to_local(pose.x, pose.y);
+            road.lane_at(s, t)
+        })
+        .unwrap_or(-1);
+    if lane > 0 {
+        ctx.warn.line("roads", format!("{file}: only road `{}` of the road file's {} roads is used", road.id, net.roads.len()));
+        return Ok(alone);
+    }
+    let route = junction::route(net, road, lane)?;
+    let joined = junction::join(net, &route, lane)?;
+    ctx.warn.line(
+        "roads",
+        format!(
+            "{file}: the ego's route through the road file's {} roads: {} (other roads are not used)",
+            net.roads.len(),
+            route.describe()
+        ),
+    );
+    Ok(Geo { road: joined, any_road: false, route: Some(route) })
+}
+
 /// Translates one scenario document (`doc`, read from `path`) with parameter values `values`.
 fn import_doc(
     doc: &roxmltree::Document<'_>,
@@ -622,10 +663,7 @@ fn translate(
                 })?,
                 None => n.roads.first().ok_or_else(|| ImportError::at(file, root, "the road file has no road"))?,
             };
-            if n.roads.len() > 1 {
-                ctx.warn.line("roads", format!("{file}: only road `{}` of the road file's {} roads is used", road.id, n.roads.len()));
-            }
-            Geo { road: road.clone(), any_road: false }
+            ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?
         }
     };
     let poses = place_all(ctx, file, &geo, &defs, &init_states, &osc_names)?;

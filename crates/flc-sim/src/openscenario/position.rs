@@ -1,5 +1,5 @@
-//! OpenSCENARIO `Position`s -> world poses of an entity's reference point, on the one road the
-//! importer supports ([`Geo`]).
+//! OpenSCENARIO `Position`s -> world poses of an entity's reference point, on the ego's road or
+//! the roads of its route through a network ([`Geo`]).
 //!
 //! Supported: `WorldPosition`, `LanePosition`, `RoadPosition`, `RelativeLanePosition`,
 //! `RelativeRoadPosition`, `RelativeObjectPosition`, `RelativeWorldPosition` (each with an
@@ -9,6 +9,7 @@
 //! heading. `dsLane` of a `RelativeLanePosition` is taken as `ds` (equal on straight roads).
 
 use super::error::ImportError;
+use super::junction::Route;
 use super::params::Params;
 use super::road::{self, Road};
 use super::xml;
@@ -45,6 +46,9 @@ pub struct Geo {
     /// The road is the stand-in straight road (`--road straight` or no `LogicFile`): any
     /// `roadId` names it.
     pub any_road: bool,
+    /// The ego's route through a network of several roads: `road` is its roads joined
+    /// ([`super::junction::join`]) and a `roadId` of any of them is a position on it.
+    pub route: Option<Route>,
 }
 
 impl Geo {
@@ -62,19 +66,40 @@ impl Geo {
         );
         let net = road::from_str(&text, "(straight road)")?;
         let road = net.roads.into_iter().next().ok_or_else(|| ImportError::file("(straight road)", "no road"))?;
-        Ok(Self { road, any_road: true })
+        Ok(Self { road, any_road: true, route: None })
     }
 
-    /// Checks that `id` (a `roadId` of `node`) names the road: only one road is supported.
-    pub fn check_road(&self, file: &str, node: Node<'_, '_>, id: &str) -> Result<(), ImportError> {
-        if self.any_road || id.trim() == self.road.id {
-            Ok(())
-        } else {
-            Err(ImportError::at(
+    /// The position on [`Geo::road`] of `s` on road `id` (a `roadId` of `node`): the road
+    /// itself, or a road of the ego's route; `s` must lie on that road.
+    pub fn road_s(&self, file: &str, node: Node<'_, '_>, id: &str, s: f64) -> Result<f64, ImportError> {
+        let id = id.trim();
+        if self.any_road || (self.route.is_none() && id == self.road.id) {
+            self.check_s(file, node, s)?;
+            return Ok(s);
+        }
+        let Some(route) = &self.route else {
+            return Err(ImportError::at(
                 file,
                 node,
                 format!("road `{id}`: only one road is supported, the ego's road `{}` (give every entity a position on it)", self.road.id),
-            ))
+            ));
+        };
+        let Some(i) = route.roads.iter().position(|r| r == id) else {
+            return Err(ImportError::at(
+                file,
+                node,
+                format!(
+                    "road `{id}` is not on the ego's route ({}): positions on roads the ego's route does not pass are not supported",
+                    route.describe()
+                ),
+            ));
+        };
+        let start = route.starts.get(i).copied().unwrap_or(0.0);
+        let len = route.starts.get(i + 1).copied().unwrap_or(self.road.length) - start;
+        if s >= -1e-6 && s <= len + 1e-6 {
+            Ok(start + s)
+        } else {
+            Err(ImportError::at(file, node, format!("s = {s} m is outside road `{id}` (0 to {len} m)")))
         }
     }
 
@@ -174,10 +199,8 @@ pub fn resolve(
             Ok(Pose { x: req("x")?, y: req("y")?, h })
         }
         "LanePosition" => {
-            geo.check_road(file, p, &params.req_str(p, "roadId", file)?)?;
             let lane = lane_id(params, file, p, "laneId")?;
-            let s = req("s")?;
-            geo.check_s(file, p, s)?;
+            let s = geo.road_s(file, p, &params.req_str(p, "roadId", file)?, req("s")?)?;
             let offset = num("offset")?.unwrap_or(0.0);
             let centre = geo
                 .road
@@ -192,10 +215,12 @@ pub fn resolve(
             Ok(on_road(s, centre + sign * offset, Some(heading(lane_h, lane_h))))
         }
         "RoadPosition" => {
-            geo.check_road(file, p, &params.req_str(p, "roadId", file)?)?;
-            let s = req("s")?;
-            geo.check_s(file, p, s)?;
-            Ok(on_road(s, req("t")?, None))
+            let s = geo.road_s(file, p, &params.req_str(p, "roadId", file)?, req("s")?)?;
+            let t = req("t")?;
+            // The heading (and a relative Orientation) is the reference line's, whatever lane `t`
+            // falls in (esmini 3.6.0: `t` = 1.75 in lane 1 faces +s; `h = -pi` faces -s).
+            let road_h = geo.road.world(s, t).2;
+            Ok(on_road(s, t, Some(heading(road_h, road_h))))
         }
         "RelativeRoadPosition" => {
             let r = reference(p)?;
@@ -359,5 +384,24 @@ mod tests {
         let e = at(&geo, "<Position><LanePosition roadId=\"7\" laneId=\"-1\" s=\"10\"/></Position>", &none).expect_err("road");
         assert!(e.to_string().contains("only one road"), "{e}");
         assert!(at(&geo, "<Position><LanePosition roadId=\"straight\" laneId=\"-1\" s=\"10\"/></Position>", &none).is_ok());
+    }
+
+    #[test]
+    fn road_position_heading_is_the_reference_lines() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/openscenario/roads/two_way.xodr");
+        let net = road::load(&path).expect("two-way road");
+        let geo = Geo { road: net.roads[0].clone(), any_road: false, route: None };
+        let none = |_: &str| None;
+        // t = 1.75 is lane 1 (driven in -s): a RoadPosition still faces +s, and a relative
+        // Orientation turns from +s (esmini 3.6.0); a LanePosition in lane 1 faces -s.
+        close(at(&geo, "<Position><RoadPosition roadId=\"1\" s=\"160\" t=\"1.75\"/></Position>", &none).expect("road"), 160.0, 1.75, 0.0);
+        let h = at(
+            &geo,
+            "<Position><RoadPosition roadId=\"1\" s=\"160\" t=\"1.75\"><Orientation type=\"relative\" h=\"-3\"/></RoadPosition></Position>",
+            &none,
+        );
+        close(h.expect("road+h"), 160.0, 1.75, -3.0);
+        let lane = at(&geo, "<Position><LanePosition roadId=\"1\" laneId=\"1\" s=\"160\"/></Position>", &none).expect("lane");
+        close(lane, 160.0, 1.75, std::f64::consts::PI);
     }
 }

@@ -5,10 +5,11 @@
 //! `laneOffset` records and `laneSection`s (`left`/`center`/`right` lanes with `id`, `type` and
 //! `width` records). Skipped (they change neither the plan view nor lane widths; their tag names
 //! are collected in [`Network::skipped`]): `elevationProfile`, `lateralProfile`, `objects`,
-//! `signals`, `link`, `type`, `roadMark`, `speed`, `junction`, `controller`, `userData`, ... and
+//! `signals`, `type`, `roadMark`, `speed`, `controller`, `userData`, ... and
 //! any other element outside the plan view and the lane widths (the file's `header` is metadata
 //! and not reported). Refused as unsupported: lane `border` records, `laneSection
-//! singleSide="true"`, unknown geometry shapes.
+//! singleSide="true"`, unknown geometry shapes. Road and lane links and `junction`s are read
+//! for the route through a network ([`super::junction`]).
 //!
 //! Numerics (all deterministic, no randomness, fixed evaluation order):
 //! - `line`, `arc`: closed forms (the arc through `sin(x)/x`, exact also for tiny curvatures);
@@ -29,6 +30,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use super::error::ImportError;
+use super::junction::{Connection, Contact, Element, Junction, Link};
 use super::xml;
 use crate::track::{Track, wrap};
 
@@ -75,6 +77,8 @@ pub fn is_driving_type(kind: &str) -> bool {
 pub struct Network {
     /// The roads, in file order (ids unique).
     pub roads: Vec<Road>,
+    /// The junctions, in file order (ids unique).
+    pub junctions: Vec<Junction>,
     /// Tag names of the elements that were skipped because they do not change 2-D motion
     /// (one warning per kind).
     pub skipped: BTreeSet<String>,
@@ -84,6 +88,11 @@ impl Network {
     /// The road with id `id`.
     pub fn road(&self, id: &str) -> Option<&Road> {
         self.roads.iter().find(|r| r.id == id)
+    }
+
+    /// The junction with id `id`.
+    pub fn junction(&self, id: &str) -> Option<&Junction> {
+        self.junctions.iter().find(|j| j.id == id)
     }
 }
 
@@ -608,6 +617,10 @@ pub struct Lane {
     pub kind: String,
     /// `width` records, `s` = `sOffset` from the section start, sorted.
     pub widths: Vec<Cubic>,
+    /// `link/predecessor@id`: the lane of the previous road or section it continues.
+    pub predecessor: Option<i32>,
+    /// `link/successor@id`.
+    pub successor: Option<i32>,
 }
 
 impl Lane {
@@ -656,6 +669,12 @@ pub struct Road {
     pub lane_sections: Vec<LaneSection>,
     /// `rule="LHT"`: left-hand traffic (lanes with positive ids run along the reference line).
     pub left_hand_traffic: bool,
+    /// The `junction` attribute: the junction a connecting road belongs to, `-1` for none.
+    pub junction: String,
+    /// `link/predecessor`.
+    pub predecessor: Option<Link>,
+    /// `link/successor`.
+    pub successor: Option<Link>,
     /// The file the road was read from (for errors).
     pub file: String,
     /// Line of its `<road>` element (for errors).
@@ -823,6 +842,7 @@ pub fn from_str(text: &str, origin: &str) -> Result<Network, ImportError> {
     }
     let mut p = Reader { file: origin, skipped: BTreeSet::new(), geometries: 0, panels: MAX_PANELS };
     let mut roads: Vec<Road> = Vec::new();
+    let mut junctions: Vec<Junction> = Vec::new();
     let mut ids = BTreeSet::new();
     for el in xml::elements(root) {
         match el.tag_name().name() {
@@ -836,12 +856,22 @@ pub fn from_str(text: &str, origin: &str) -> Result<Network, ImportError> {
                 }
                 roads.push(road);
             }
+            "junction" => {
+                if junctions.len() >= MAX_ROADS {
+                    return Err(ImportError::at(origin, el, format!("more than {MAX_ROADS} junctions")));
+                }
+                let j = p.junction(el)?;
+                if junctions.iter().any(|o| o.id == j.id) {
+                    return Err(p.attr_err(el, "id", format!("junction id \"{}\" is used twice", j.id)));
+                }
+                junctions.push(j);
+            }
             // Metadata only (name, version, geo reference): its numbers must still be numbers.
             "header" => p.unused_numbers(el, &["revMajor", "revMinor", "north", "south", "east", "west", "version"])?,
             other => p.skip(other),
         }
     }
-    Ok(Network { roads, skipped: p.skipped })
+    Ok(Network { roads, junctions, skipped: p.skipped })
 }
 
 /// Parsing state: the file, the skipped kinds and the file-wide limits.
@@ -926,10 +956,21 @@ impl Reader<'_> {
             Some("LHT") => true,
             Some(other) => return Err(self.attr_err(el, "rule", format!("`rule` must be RHT or LHT, got \"{other}\""))),
         };
+        let junction = el.attribute("junction").unwrap_or("-1").trim().to_string();
         let mut plan = None;
         let mut lanes = None;
+        let (mut predecessor, mut successor) = (None, None);
         for c in xml::elements(el) {
             match c.tag_name().name() {
+                "link" => {
+                    for l in xml::elements(c) {
+                        match l.tag_name().name() {
+                            "predecessor" => predecessor = Some(self.link(l)?),
+                            "successor" => successor = Some(self.link(l)?),
+                            other => self.skip(other),
+                        }
+                    }
+                }
                 "planView" => {
                     if plan.replace(c).is_some() {
                         return Err(self.err(c, "a road has one <planView>"));
@@ -956,6 +997,9 @@ impl Reader<'_> {
             lane_offsets,
             lane_sections,
             left_hand_traffic,
+            junction,
+            predecessor,
+            successor,
             file: self.file.to_string(),
             line: xml::line(el),
         })
@@ -1120,8 +1164,18 @@ impl Reader<'_> {
             .ok_or_else(|| self.attr_err(el, "id", format!("`id` must be an integer in [-1000, 1000], got \"{raw}\"")))?;
         let kind = self.attr_str(el, "type")?.to_string();
         let mut widths: Vec<Cubic> = Vec::new();
+        let (mut predecessor, mut successor) = (None, None);
         for c in xml::elements(el) {
             match c.tag_name().name() {
+                "link" => {
+                    for l in xml::elements(c) {
+                        match l.tag_name().name() {
+                            "predecessor" => predecessor = Some(self.lane_id(l, "id")?),
+                            "successor" => successor = Some(self.lane_id(l, "id")?),
+                            other => self.skip(other),
+                        }
+                    }
+                }
                 "width" => {
                     let w = self.cubic(c, "sOffset")?;
                     if widths.last().is_some_and(|p| w.s < p.s) {
@@ -1139,7 +1193,65 @@ impl Reader<'_> {
                 }
             }
         }
-        Ok(Lane { id, kind, widths })
+        Ok(Lane { id, kind, widths, predecessor, successor })
+    }
+
+    /// A lane id attribute: an integer in [-1000, 1000].
+    fn lane_id(&self, el: Node<'_, '_>, attr: &str) -> Result<i32, ImportError> {
+        let raw = self.attr_str(el, attr)?;
+        raw.trim()
+            .parse()
+            .ok()
+            .filter(|v: &i32| v.unsigned_abs() <= 1000)
+            .ok_or_else(|| self.attr_err(el, attr, format!("`{attr}` must be an integer in [-1000, 1000], got \"{raw}\"")))
+    }
+
+    /// A `contactPoint` attribute (`start` / `end`).
+    fn contact(&self, el: Node<'_, '_>) -> Result<Option<Contact>, ImportError> {
+        match el.attribute("contactPoint") {
+            None => Ok(None),
+            Some("start") => Ok(Some(Contact::Start)),
+            Some("end") => Ok(Some(Contact::End)),
+            Some(other) => Err(self.attr_err(el, "contactPoint", format!("`contactPoint` must be start or end, got \"{other}\""))),
+        }
+    }
+
+    /// A road's `predecessor` / `successor` link.
+    fn link(&self, el: Node<'_, '_>) -> Result<Link, ImportError> {
+        let element = match el.attribute("elementType").unwrap_or("road") {
+            "road" => Element::Road,
+            "junction" => Element::Junction,
+            other => return Err(self.attr_err(el, "elementType", format!("`elementType` must be road or junction, got \"{other}\""))),
+        };
+        let id = self.attr_str(el, "elementId")?.trim().to_string();
+        let contact = self.contact(el)?;
+        Ok(Link { element, id, contact, line: xml::line(el) })
+    }
+
+    /// A `junction` with its `connection`s (other children: skipped).
+    fn junction(&mut self, el: Node<'_, '_>) -> Result<Junction, ImportError> {
+        let id = self.attr_str(el, "id")?.trim().to_string();
+        let mut connections = Vec::new();
+        for c in xml::elements(el) {
+            if c.tag_name().name() != "connection" {
+                self.skip(c.tag_name().name());
+                continue;
+            }
+            let incoming = self.attr_str(c, "incomingRoad")?.trim().to_string();
+            let connecting = self.attr_str(c, "connectingRoad")?.trim().to_string();
+            let contact = self.contact(c)?.ok_or_else(|| self.attr_err(c, "contactPoint", "missing attribute `contactPoint`"))?;
+            let mut lane_links = Vec::new();
+            for l in xml::elements(c) {
+                if l.tag_name().name() == "laneLink" {
+                    lane_links.push((self.lane_id(l, "from")?, self.lane_id(l, "to")?));
+                } else {
+                    self.skip(l.tag_name().name());
+                }
+            }
+            let cid = c.attribute("id").unwrap_or("").to_string();
+            connections.push(Connection { id: cid, incoming, connecting, contact, lane_links, line: xml::line(c) });
+        }
+        Ok(Junction { id, connections, line: xml::line(el) })
     }
 }
 
@@ -1832,7 +1944,7 @@ mod tests {
         let text = xodr(100.0, r#"<geometry s="0" x="0" y="0" hdg="0" length="100"><line/></geometry>"#, LANES_2X2);
         let n = from_str(&text, "t.xodr").expect("parse");
         let skipped: Vec<&str> = n.skipped.iter().map(String::as_str).collect();
-        assert_eq!(skipped, ["elevationProfile", "junction", "lateralProfile", "link", "objects", "roadMark", "signals", "type"]);
+        assert_eq!(skipped, ["elevationProfile", "lateralProfile", "objects", "roadMark", "signals", "type"]);
         assert_eq!(from_str(&text, "t.xodr").expect("again"), n);
         assert_eq!(n.road("r1").map(|r| r.line), Some(4));
         assert!(n.road("nope").is_none());
@@ -1929,7 +2041,13 @@ mod tests {
 
     #[test]
     fn hand_built_roads_never_panic() {
-        let lane = |id: i32, w: f64| Lane { id, kind: "driving".into(), widths: vec![Cubic { s: 0.0, a: w, b: 0.0, c: 0.0, d: 0.0 }] };
+        let lane = |id: i32, w: f64| Lane {
+            id,
+            kind: "driving".into(),
+            widths: vec![Cubic { s: 0.0, a: w, b: 0.0, c: 0.0, d: 0.0 }],
+            predecessor: None,
+            successor: None,
+        };
         let weird = LaneSection {
             s: f64::NAN,
             left: vec![lane(i32::MIN, f64::NAN), lane(3, 1e308)],
@@ -1942,6 +2060,9 @@ mod tests {
             lane_offsets: vec![Cubic { s: f64::INFINITY, a: 1.0, b: 0.0, c: 0.0, d: 0.0 }],
             lane_sections: vec![weird.clone(), LaneSection { s: 0.0, left: vec![], right: vec![] }],
             left_hand_traffic: false,
+            junction: "-1".into(),
+            predecessor: None,
+            successor: None,
             file: String::new(),
             line: 0,
         };
