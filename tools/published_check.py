@@ -294,6 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", default=str(ROOT / "docs" / "openscenario" / "published.json"))
     ap.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per esmini or flc run (a cut run is reported as a timeout)")
     ap.add_argument("--asam-qc", metavar="PYTHON", help="also record ASAM's checker findings (a python with tools/asam_qc-requirements.txt)")
+    ap.add_argument("--only", metavar="SUBSTRING", help="check only the files whose path contains SUBSTRING")
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.paths]
     if args.pub:
@@ -315,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     tools = {"flc": flc, "esmini": esmini, "dat2csv": dat2csv, "features": flc_features(flc), "timeout": args.timeout}
     bins = file_hash(flc) + file_hash(esmini.resolve()) + Path(__file__).read_bytes() + str(args.timeout).encode()
-    files = discover(paths)
+    files = [f for f in discover(paths) if args.only is None or args.only in str(f)]
     colls: dict[str, dict] = {}
     entries, tasks = [], []
     for file in files:

@@ -41,10 +41,11 @@ pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
     let (c, s) = (st.yaw.cos(), st.yaw.sin());
     let [rx, ry] = b.reference;
     let p = track.project(st.x - c * rx + s * ry, st.y - s * rx - c * ry);
-    Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
+    let m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
         .with_length(b.length)
         .with_reference(b.reference)
-        .with_heading(crate::track::wrap(st.yaw - p.heading))
+        .with_heading(crate::track::wrap(st.yaw - p.heading));
+    if b.pedestrian { m.holding_heading() } else { m }
 }
 
 /// The pose a motion puts its vehicle's box centre in.
@@ -135,7 +136,7 @@ impl StoryRun {
                 let Some(m) = self.motions.get_mut(j) else { continue };
                 moved.push(j);
                 let (replaced, done) = m.start(i, action, t, world);
-                if let Some(r) = replaced {
+                for r in replaced {
                     self.state.end_action(r, true);
                 }
                 if done {

@@ -1,7 +1,7 @@
 //! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
 //! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
 
-use super::{Action, Dimension, Shape, Transition};
+use super::{Action, Dimension, Shape, Transition, Vertex};
 use crate::trigger::WorldView;
 
 /// A running longitudinal action.
@@ -47,6 +47,46 @@ struct Lat {
     along_heading: bool,
 }
 
+/// A running trajectory ([`Action::Trajectory`]).
+#[derive(Debug, Clone, PartialEq)]
+struct Traj {
+    action: usize,
+    /// Time of vertex times' zero, s (0 for absolute times).
+    t0: f64,
+    vertices: Vec<Vertex>,
+}
+
+impl Traj {
+    /// `(s, offset, heading, speed, ended)` at time `t`: linear between the vertices, the
+    /// first before it, the last after it; the speed of the segment in effect (its length in
+    /// centreline coordinates over its time).
+    fn at(&self, t: f64) -> (f64, f64, f64, f64, bool) {
+        let tau = t - self.t0;
+        let seg_speed = |a: &Vertex, b: &Vertex| {
+            let dt = b.t - a.t;
+            if dt > 0.0 { (b.s - a.s).hypot(b.offset - a.offset) / dt } else { 0.0 }
+        };
+        let n = self.vertices.len();
+        let k = self.vertices.partition_point(|v| v.t <= tau);
+        match (k.checked_sub(1).and_then(|i| self.vertices.get(i)), self.vertices.get(k)) {
+            (Some(a), Some(b)) => {
+                let p = if b.t > a.t { ((tau - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 1.0 };
+                let lerp = |x: f64, y: f64| x + (y - x) * p;
+                (lerp(a.s, b.s), lerp(a.offset, b.offset), lerp(a.heading, b.heading), seg_speed(a, b), false)
+            }
+            (None, Some(b)) => (b.s, b.offset, b.heading, 0.0, false),
+            (Some(a), None) => {
+                let v = match (n.checked_sub(2).and_then(|i| self.vertices.get(i)), self.vertices.last()) {
+                    (Some(x), Some(y)) => seg_speed(x, y),
+                    _ => 0.0,
+                };
+                (a.s, a.offset, a.heading, v, true)
+            }
+            (None, None) => (0.0, 0.0, 0.0, 0.0, true),
+        }
+    }
+}
+
 /// What one step of a [`Motion`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MotionStep {
@@ -83,6 +123,10 @@ pub struct Motion {
     reference: [f64; 2],
     long: Option<Long>,
     lat: Option<Lat>,
+    traj: Option<Traj>,
+    /// The heading is kept (after a trajectory, until a lateral action starts) instead of
+    /// following the lateral motion.
+    hold_heading: bool,
 }
 
 impl Motion {
@@ -102,6 +146,8 @@ impl Motion {
             reference: [0.0, 0.0],
             long: None,
             lat: None,
+            traj: None,
+            hold_heading: false,
         }
     }
 
@@ -126,6 +172,13 @@ impl Motion {
         self
     }
 
+    /// This motion keeping its heading relative to the road while no lateral action runs (a
+    /// pedestrian: esmini turns neither its box nor its walking direction with the road).
+    pub fn holding_heading(mut self) -> Self {
+        self.hold_heading = true;
+        self
+    }
+
     /// The box centre's position from the moved point, entity frame, m.
     pub fn reference(&self) -> [f64; 2] {
         self.reference
@@ -142,6 +195,10 @@ impl Motion {
             self.lat = None;
             hit = true;
         }
+        if self.traj.as_ref().is_some_and(|l| l.action == i) {
+            self.traj = None;
+            hit = true;
+        }
         hit
     }
 
@@ -153,7 +210,27 @@ impl Motion {
     /// Starts action `i` (`action`) at time `t`, reading reference entities from `world`.
     /// Returns the action of the same domain it replaces (to be ended as stopped), and whether
     /// the action already ended (a step transition, a placement). Non-motion actions do nothing.
-    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
+    pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
+        // A motion action ends a running trajectory (it holds both domains).
+        let mut replaced: Vec<usize> = Vec::new();
+        if action.is_longitudinal() || action.is_lateral() {
+            replaced.extend(self.traj.take().map(|x| x.action).filter(|&a| a != i));
+        }
+        if action.is_lateral() {
+            self.hold_heading = false;
+        }
+        if let Action::Trajectory { absolute, vertices } = action {
+            replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+            replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+            self.traj = Some(Traj { action: i, t0: if *absolute { 0.0 } else { t }, vertices: vertices.clone() });
+            return (replaced, false);
+        }
+        let (other, done) = self.start_one(i, action, t, world);
+        replaced.extend(other);
+        (replaced, done)
+    }
+
+    fn start_one(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Option<usize>, bool) {
         match action {
             Action::Speed { speed, of, delta, factor, continuous, transition } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
@@ -270,6 +347,21 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
+        if let Some(tr) = &self.traj {
+            let (s, offset, heading, speed, ended) = tr.at(t1);
+            self.traveled += (s - self.s).hypot(offset - self.offset);
+            (self.s, self.offset, self.heading, self.speed) = (s, offset, heading, speed);
+            self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+            if ended {
+                // esmini's default controller takes over: on along the road at that speed, in
+                // the direction the heading faces, the heading kept.
+                out.long_done = Some(tr.action);
+                self.traj = None;
+                self.hold_heading = true;
+                self.reversed = crate::track::wrap(heading).abs() > std::f64::consts::FRAC_PI_2;
+            }
+            return out;
+        }
         let long_action = self.long.as_ref().map(|l| l.action);
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
@@ -340,10 +432,14 @@ impl Motion {
         self.traveled += along;
         if self.reversed {
             self.s -= ds;
-            self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            if !self.hold_heading {
+                self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            }
         } else {
             self.s += ds;
-            self.heading = lateral;
+            if !self.hold_heading {
+                self.heading = lateral;
+            }
         }
         out
     }
