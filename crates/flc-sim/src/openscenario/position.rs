@@ -183,9 +183,9 @@ pub fn resolve(
                 .road
                 .lane_center_t(lane, s)
                 .ok_or_else(|| ImportError::at(file, p, format!("lane {lane} does not exist at s = {s} m of road `{}`", geo.road.id)))?;
-            // The offset is to the left of the lane's driving direction.
-            let sign = if lane > 0 { -1.0 } else { 1.0 };
-            Ok(on_road(s, centre + sign * offset, None))
+            // The offset is along the road's t (left of the reference line) on either side, as
+            // esmini places it (lane 4 at t = 8 m with offset -5: t = 3 m).
+            Ok(on_road(s, centre + offset, None))
         }
         "RoadPosition" => {
             geo.check_road(file, p, &params.req_str(p, "roadId", file)?)?;

@@ -157,7 +157,9 @@ impl StoryRun {
             }
             let m = &mut self.motions[j];
             let kappa = track.curvature_at(m.s);
+            let s_before = m.s;
             let out = m.step(t, dt, kappa, world);
+            m.end_of_road(s_before, track.length(), dt);
             if let Some(i) = out.long_done {
                 self.state.end_action(i, false);
             }

@@ -127,6 +127,8 @@ pub struct Motion {
     /// The heading is kept (after a trajectory, until a lateral action starts) instead of
     /// following the lateral motion.
     hold_heading: bool,
+    /// It reached an end of the road ([`Motion::end_of_road`]).
+    at_end: bool,
 }
 
 impl Motion {
@@ -148,6 +150,31 @@ impl Motion {
             lat: None,
             traj: None,
             hold_heading: false,
+            at_end: false,
+        }
+    }
+
+    /// Keeps the entity on a road `length` m long, as esmini's default controller does at a
+    /// road's end: a step that would leave `[0, length]` stops it at the end; a step that
+    /// starts there (`s_before`, within 1 µm) and would leave again marks the end reached (its
+    /// speed still reported), and from the next step on it stands there (speed 0) whatever its
+    /// actions. A running trajectory places the entity itself.
+    pub fn end_of_road(&mut self, s_before: f64, length: f64, dt: f64) {
+        const EPS: f64 = 1e-6;
+        if self.traj.is_some() || !(length > 0.0) {
+            return;
+        }
+        if self.at_end {
+            let v = self.speed;
+            self.speed = 0.0;
+            self.accel = if dt > 0.0 { -v / dt } else { 0.0 };
+        }
+        if self.s > length {
+            self.s = length;
+            self.at_end |= s_before >= length - EPS;
+        } else if self.s < 0.0 {
+            self.s = 0.0;
+            self.at_end |= s_before <= EPS;
         }
     }
 
