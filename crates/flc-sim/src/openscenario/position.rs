@@ -256,7 +256,9 @@ pub fn lane_id(params: &Params, file: &str, node: Node<'_, '_>, attr: &str) -> R
     Ok(v as i32)
 }
 
-/// The `Orientation` child of a position: `(absolute, h)`; `type` defaults to relative.
+/// The `Orientation` child of a position: `(absolute, h)`. Without `type`: absolute in a file
+/// of OpenSCENARIO 1.0-1.2 (its `FileHeader`), relative otherwise, as esmini 3.6.0 reads it
+/// ("No orientation type specified - using absolute (default for OSC version <= 1.2)").
 fn orientation(params: &Params, file: &str, p: Node<'_, '_>) -> Result<Option<(bool, f64)>, ImportError> {
     for c in xml::elements(p) {
         if c.tag_name().name() != "Orientation" {
@@ -264,8 +266,20 @@ fn orientation(params: &Params, file: &str, p: Node<'_, '_>) -> Result<Option<(b
         }
     }
     let Some(o) = xml::child(p, "Orientation") else { return Ok(None) };
-    let absolute = params.enum_attr(o, "type", file, &["relative", "absolute"])?.is_some_and(|t| t == "absolute");
+    let absolute = match params.enum_attr(o, "type", file, &["relative", "absolute"])? {
+        Some(t) => t == "absolute",
+        None => up_to_1_2(p),
+    };
     Ok(Some((absolute, params.num_attr(o, "h", file)?.unwrap_or(0.0))))
+}
+
+/// Whether the document of `node` declares OpenSCENARIO 1.0-1.2 in its `FileHeader` (a file
+/// without a readable header: no).
+fn up_to_1_2(node: Node<'_, '_>) -> bool {
+    let root = node.document().root_element();
+    let Some(h) = xml::child(root, "FileHeader") else { return false };
+    let num = |a: &str| h.attribute(a).and_then(|v| v.trim().parse::<u32>().ok());
+    matches!((num("revMajor"), num("revMinor")), (Some(1), Some(m)) if m <= 2)
 }
 
 #[cfg(test)]
