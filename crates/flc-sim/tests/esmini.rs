@@ -35,6 +35,7 @@ const FIXTURES: &[(&str, bool)] = &[
     ("long_distance_continuous", false),
     ("lane_change_rate", false),
     ("pedestrians", false),
+    ("crossing", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

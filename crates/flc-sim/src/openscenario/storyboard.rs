@@ -886,7 +886,8 @@ impl Sb<'_, '_, '_> {
 
     /// `FollowTrajectoryAction` with an inline `Polyline` trajectory (in `TrajectoryRef`, or
     /// directly as in 1.0), `position` following mode and a `TimeReference/Timing`: the
-    /// vertices' positions (absolute ones) on the track, their times `scale * time + offset`.
+    /// vertices' positions (absolute ones) on the track, each reached `(time - offset) / scale`
+    /// after the action's start (`absolute`: at that simulation time), as esmini plays it.
     fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
         let p = &self.ctx.params;
         if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
@@ -970,7 +971,9 @@ impl Sb<'_, '_, '_> {
             let time = self.ctx.params.num_attr(v, "time", file)?.ok_or_else(|| {
                 ImportError::at(file, v, "a vertex without `time` is not supported (flc moves the entity by the vertices' times)")
             })?;
-            let t = scale * time + offset;
+            // esmini's reading: the trajectory's clock reads `offset + scale * t` at time `t`
+            // into the action (absolute: simulation time).
+            let t = (time - offset) / scale;
             if !t.is_finite() || vertices.last().is_some_and(|w: &Vertex| t < w.t) {
                 return Err(ImportError::at(file, v, format!("time = {time}: vertex times must be finite and must not decrease")));
             }

@@ -315,7 +315,8 @@ pub enum Action {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Vertex {
-    /// Time, s (`scale * time + offset` of the file's `Timing`).
+    /// When it is reached, s from the action's start (or simulation time): the file's
+    /// `(time - offset) / scale`.
     pub t: f64,
     /// Position of the reference point along the centreline, m.
     pub s: f64,

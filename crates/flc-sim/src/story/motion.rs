@@ -61,7 +61,8 @@ impl Traj {
     /// first before it, the last after it; the speed of the segment in effect (its length in
     /// centreline coordinates over its time).
     fn at(&self, t: f64) -> (f64, f64, f64, f64, bool) {
-        let tau = t - self.t0;
+        // Within a nanosecond of a vertex counts as reached (sums of steps are inexact).
+        let tau = t - self.t0 + 1e-9;
         let seg_speed = |a: &Vertex, b: &Vertex| {
             let dt = b.t - a.t;
             if dt > 0.0 { (b.s - a.s).hypot(b.offset - a.offset) / dt } else { 0.0 }
@@ -375,8 +376,12 @@ impl Motion {
         let t1 = t + dt;
         let v_prev = self.speed;
         if let Some(tr) = &self.traj {
-            let (s, offset, heading, speed, ended) = tr.at(t1);
-            self.traveled += (s - self.s).hypot(offset - self.offset);
+            let (s, offset, heading, seg_speed, ended) = tr.at(t1);
+            // The speed is the step's displacement over the step (esmini: also a jump to where a
+            // time offset puts the entity at the start), the segment's speed once it ends.
+            let moved = (s - self.s).hypot(offset - self.offset);
+            self.traveled += moved;
+            let speed = if ended || dt <= 0.0 { seg_speed } else { moved / dt };
             (self.s, self.offset, self.heading, self.speed) = (s, offset, heading, speed);
             self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
             if ended {
