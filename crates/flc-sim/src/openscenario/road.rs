@@ -1988,14 +1988,31 @@ mod tests {
     }
 
     #[test]
+    fn a_lane_with_a_positive_id_is_driven_against_the_reference_line() {
+        let r = road_of(&xodr(100.0, r#"<geometry s="0" x="0" y="0" hdg="0" length="100"><line/></geometry>"#, LANES_2X2));
+        let (track, map) = to_track(&r, 1, "t").expect("lane 1");
+        // From the road's end to its start, along lane 1's centre (t = 1.75).
+        assert_eq!(track.centerline, vec![[100.0, 1.75], [0.0, 1.75]]);
+        assert!(map.reversed && close(track.length(), 100.0, 1e-9));
+        // The left driving lanes, rightmost first in the driving direction: 2 (outer), then 1.
+        assert_eq!((map.lane_ids.clone(), track.lanes, track.ego_lane), (vec![2, 1], 2, 1));
+        // Offsets + left of the driving direction: lane 2 to the right, lane -1 to the left.
+        assert!(close(map.offset_of(2, 30.0).expect("2"), -3.5, 1e-12) && close(map.offset_of(-1, 30.0).expect("-1"), 3.5, 1e-12));
+        assert!(close(map.track_s(30.0), 70.0, 1e-9) && close(map.track_s(100.0), 0.0, 1e-9));
+        // A negative lane: unchanged, along the reference line.
+        let (fwd, m) = to_track(&r, -1, "t").expect("lane -1");
+        assert_eq!(fwd.centerline, vec![[0.0, -1.75], [100.0, -1.75]]);
+        assert!(!m.reversed && close(m.track_s(30.0), 30.0, 1e-9) && close(m.offset_of(-2, 30.0).expect("-2"), -3.5, 1e-12));
+    }
+
+    #[test]
     fn to_track_refuses_what_it_cannot_model() {
         let straight =
             |len: f64| road_of(&xodr(len, &format!(r#"<geometry s="0" x="0" y="0" hdg="0" length="{len}"><line/></geometry>"#), LANES_2X2));
         let r = straight(100.0);
-        let e = to_track(&r, 1, "t").expect_err("positive");
-        assert!(e.message.contains("lanes with positive ids (driving against the reference line) are not supported"), "{e}");
+        let e = to_track(&r, 0, "t").expect_err("centre");
+        assert!(e.message.contains("centre lane"), "{e}");
         assert_eq!((e.file.as_str(), e.line, e.element.as_str()), ("t.xodr", 4, "road"));
-        assert!(to_track(&r, 0, "t").expect_err("centre").message.contains("centre lane"));
         assert!(to_track(&r, -7, "t").expect_err("missing").message.contains("does not exist"));
         // The shoulder is 1 m wide: unusual, but a positive width (the importer warns).
         assert_eq!(to_track(&r, -3, "t").expect("narrow").0.lane_width, 1.0);
