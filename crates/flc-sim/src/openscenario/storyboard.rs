@@ -935,7 +935,7 @@ impl Sb<'_, '_, '_> {
         let absolute = p.req_enum(timing, "domainAbsoluteRelative", file, &["absolute", "relative"])? == "absolute";
         let scale = p.req_num(timing, "scale", file)?;
         let offset = p.req_num(timing, "offset", file)?;
-        if !(scale > 0.0 && scale.is_finite()) || !offset.is_finite() {
+        if !(scale > 0.0 && scale.is_finite() && offset.is_finite()) {
             return Err(ImportError::at(
                 file,
                 timing,

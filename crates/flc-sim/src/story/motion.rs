@@ -162,7 +162,7 @@ impl Motion {
     /// actions. A running trajectory places the entity itself.
     pub fn end_of_road(&mut self, s_before: f64, length: f64, dt: f64) {
         const EPS: f64 = 1e-6;
-        if self.traj.is_some() || !(length > 0.0) {
+        if self.traj.is_some() || length.is_nan() || length <= 0.0 {
             return;
         }
         if self.at_end {
