@@ -199,7 +199,7 @@ fn unsupported_elements_and_hostile_inputs_exit_2_naming_file_line_and_element()
     let routing = r#"<Init><Actions><Private entityRef="Ego"><PrivateAction><RoutingAction><AssignRouteAction><Route name="r" closed="false"/></AssignRouteAction></RoutingAction></PrivateAction></Private>"#;
     let cases: Vec<(&str, String, &str)> = vec![
         // Unsupported elements that would change motion.
-        ("routing.xosc", target_brakes_with("<Init>\n      <Actions>", routing), "<RoutingAction>: unsupported"),
+        ("routing.xosc", target_brakes_with("<Init>\n      <Actions>", routing), "<AssignRouteAction>: unsupported"),
         // A pedestrian outside its box range, of an unknown category, or with a NaN mass.
         ("pedestrian.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"pedestrian\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"40\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "pedestrian range"),
         ("pedcategory.xosc", target_replaced_by("<Pedestrian name=\"walker\" mass=\"80\" pedestrianCategory=\"robot\"><BoundingBox><Center x=\"0\" y=\"0\" z=\"0.9\"/><Dimensions width=\"0.5\" length=\"0.5\" height=\"1.8\"/></BoundingBox><Properties/></Pedestrian>"), "pedestrianCategory"),
