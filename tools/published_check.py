@@ -295,6 +295,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per esmini or flc run (a cut run is reported as a timeout)")
     ap.add_argument("--only", metavar="SUBSTRING", help="check only the files whose path contains SUBSTRING (e.g. CCFtap)")
     ap.add_argument("--asam-qc", metavar="PYTHON", help="also record ASAM's checker findings (a python with tools/asam_qc-requirements.txt)")
+    ap.add_argument("--only", metavar="SUBSTRING", help="check only the files whose path contains SUBSTRING")
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.paths]
     if args.pub:

@@ -36,6 +36,7 @@ const FIXTURES: &[(&str, bool)] = &[
     ("synchronize", false),
     ("lane_change_rate", false),
     ("pedestrians", false),
+    ("crossing", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
     ("arc_road", true),

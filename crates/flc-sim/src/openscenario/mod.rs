@@ -1470,6 +1470,90 @@ mod tests {
         assert!(e.contains("curved.xosc") && e.contains("curved road"), "{e}");
     }
 
+    /// A `RoutingAction/FollowTrajectoryAction` on `T`: a polyline of `vertices`, then `rest`
+    /// (TimeReference, following mode) inside the action; `closed` on the trajectory.
+    fn trajectory(vertices: &str, rest: &str, closed: &str) -> String {
+        format!(
+            "<Action name=\"R\"><PrivateAction><RoutingAction><FollowTrajectoryAction><TrajectoryRef>\
+             <Trajectory name=\"Tr\" closed=\"{closed}\"><Shape><Polyline>{vertices}</Polyline></Shape></Trajectory></TrajectoryRef>\n\
+             {rest}</FollowTrajectoryAction></RoutingAction></PrivateAction></Action>"
+        )
+    }
+
+    fn vertex(time: &str, x: f64, y: f64) -> String {
+        format!("<Vertex time=\"{time}\"><Position><WorldPosition x=\"{x}\" y=\"{y}\" h=\"0.2\"/></Position></Vertex>\n")
+    }
+
+    const TIMING: &str = "<TimeReference><Timing domainAbsoluteRelative=\"relative\" scale=\"2\" offset=\"1\"/></TimeReference>\
+                          <TrajectoryFollowingMode followingMode=\"position\"/>";
+
+    #[test]
+    fn polyline_trajectories_are_read_and_bad_ones_refused() {
+        let d = tmp("trajectory");
+        let ents = format!("{}{}", car("Ego"), car("T"));
+        let init = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 0.0));
+        let good = format!("{}{}", vertex("0", 60.0, -1.75), vertex("2", 80.0, 0.25));
+        let text = xosc("", &ents, &init, &story("T", &trajectory(&good, TIMING, "false"), &at_time(1.0)));
+        let imp = import(&write(&d, "good.xosc", &text), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        // The stand-in straight road: the track is lane -1's centre (t = -1.75) along +x. The
+        // clock reads offset + scale * t (esmini): vertex times (time - 1) / 2.
+        match find_action(story_of(&imp), "R") {
+            Action::Trajectory { absolute, vertices } => {
+                assert!(!absolute);
+                let want = [(-0.5, 60.0, 0.0), (0.5, 80.0, 2.0)];
+                assert_eq!(vertices.len(), 2);
+                for (v, (t, s, off)) in vertices.iter().zip(want) {
+                    assert!((v.t - t).abs() < 1e-12 && (v.s - s).abs() < 1e-9 && (v.offset - off).abs() < 1e-9, "{v:?}");
+                    assert!((v.heading - 0.2).abs() < 1e-12, "{v:?}");
+                }
+            }
+            other => panic!("{other:?}"),
+        }
+        let follow = TIMING.replace("\"position\"", "\"follow\"");
+        let clothoid = "<Clothoid curvature=\"0\" curvatureDot=\"0\" length=\"10\"/>";
+        let relative = "<Vertex time=\"0\"><Position><RelativeObjectPosition entityRef=\"Ego\" dx=\"5\" dy=\"0\"/></Position></Vertex>";
+        let none = "<TimeReference><None/></TimeReference><TrajectoryFollowingMode followingMode=\"position\"/>";
+        let cases: Vec<(String, &str, &str)> = vec![
+            (trajectory(&good, &follow, "false"), "<TrajectoryFollowingMode", "followingMode=\"follow\" is not supported"),
+            (
+                trajectory(&good, "<TrajectoryFollowingMode followingMode=\"position\"/>", "false"),
+                "<FollowTrajectoryAction",
+                "<TimeReference> is missing",
+            ),
+            (trajectory(&good, none, "false"), "<None", "without timing"),
+            (trajectory(&good, TIMING, "true"), "<Trajectory ", "closed=\"true\""),
+            (trajectory(&good, &TIMING.replace("scale=\"2\"", "scale=\"0\""), "false"), "<Timing", "the scale must be positive"),
+            (
+                trajectory(&format!("{}{}", vertex("2", 60.0, -1.75), vertex("1", 80.0, 0.0)), TIMING, "false"),
+                "<Vertex time=\"1\"",
+                "must not decrease",
+            ),
+            (trajectory(&vertex("NaN", 60.0, -1.75), TIMING, "false"), "<Vertex", "time"),
+            (trajectory("", TIMING, "false"), "<Polyline", "at least one vertex"),
+            (trajectory(relative, TIMING, "false"), "<RelativeObjectPosition", "relative to an entity"),
+            (
+                trajectory(&good, TIMING, "false").replace("<Shape><Polyline>", &format!("<Shape>{clothoid}<Polyline>")),
+                "<Shape>",
+                "exactly one",
+            ),
+            (trajectory(&good, TIMING, "false").replace(&format!("<Polyline>{good}</Polyline>"), clothoid), "<Clothoid", "unsupported"),
+        ];
+        for (i, (action, at, msg)) in cases.iter().enumerate() {
+            let text = xosc("", &ents, &init, &story("T", action, &at_time(1.0)));
+            let p = write(&d, &format!("bad{i}.xosc"), &text);
+            let e = import(&p, &ImportOptions::default()).expect_err(msg);
+            let want = format!("{}:{}:", p.display(), line_of(&text, at));
+            assert!(e.to_string().starts_with(&want) && e.to_string().contains(msg), "case {i}: {e} (want {want} ... {msg})");
+        }
+        // A MiscObject cannot follow one.
+        let misc = "<ScenarioObject name=\"T\"><MiscObject name=\"b\" miscObjectCategory=\"obstacle\" mass=\"10\"><BoundingBox>\
+                    <Center x=\"0\" y=\"0\" z=\"0.5\"/><Dimensions width=\"1\" length=\"1\" height=\"1\"/></BoundingBox></MiscObject></ScenarioObject>";
+        let init0 = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 0.0));
+        let text = xosc("", &format!("{}{misc}", car("Ego")), &init0, &story("T", &trajectory(&good, TIMING, "false"), &at_time(1.0)));
+        let e = import(&write(&d, "misc.xosc", &text), &ImportOptions::default()).expect_err("misc");
+        assert!(e.to_string().contains("MiscObject"), "{e}");
+    }
+
     #[test]
     fn unsupported_elements_name_file_line_and_element() {
         let d = tmp("unsupported");
@@ -1480,7 +1564,7 @@ mod tests {
         let p = write(&d, "u.xosc", &text);
         let e = import(&p, &ImportOptions::default()).expect_err("routing");
         // A RoutingAction other than FollowTrajectoryAction: the element named is the action.
-        let want = format!("{}:{}: <AssignRouteAction>:", p.display(), line_of(&text, "<AssignRouteAction/>"));
+        let want = format!("{}:{}: <AssignRouteAction>:", p.display(), line_of(&text, "<AssignRouteAction"));
         assert!(e.to_string().starts_with(&want), "{e} vs {want}");
         assert!(e.to_string().contains("unsupported"), "{e}");
         // A teleport outside Init, an EndOfRoadCondition, a DynamicConstraints: errors too (a

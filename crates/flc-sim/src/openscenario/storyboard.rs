@@ -11,8 +11,8 @@ use super::position::{self, Geo};
 use super::road::LaneMap;
 use super::xml;
 use crate::story::{
-    Act, Action, ClothoidSegment, Dimension, EgoMode, Event, MAX_ELEMENTS, Maneuver, ManeuverGroup, Priority, Shape, StoryAction,
-    Transition,
+    Act, Action, ClothoidSegment, Dimension, EgoMode, Event, MAX_ELEMENTS, MAX_VERTICES, Maneuver, ManeuverGroup, Priority, Shape,
+    StoryAction, Transition, Vertex,
 };
 use crate::track::Track;
 use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, ElementKind, Rule, Trigger, VarValue};
@@ -888,6 +888,130 @@ impl Sb<'_, '_, '_> {
         }
     }
 
+    /// `FollowTrajectoryAction`: a `ClothoidSpline` trajectory ([`Self::follow_spline`]), else
+    /// an inline `Polyline` ([`Self::follow_polyline`], which names any other shape).
+    fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let inline = xml::elements(node).find_map(|c| match c.tag_name().name() {
+            "Trajectory" => Some(c),
+            "TrajectoryRef" => xml::elements(c).find(|t| t.tag_name().name() == "Trajectory"),
+            _ => None,
+        });
+        let catalog = xml::elements(node).any(|c| {
+            c.tag_name().name() == "CatalogReference" || (c.tag_name().name() == "TrajectoryRef" && xml::elements(c).any(|t| t.tag_name().name() == "CatalogReference"))
+        });
+        let first_shape = inline
+            .and_then(|t| xml::elements(t).find(|c| c.tag_name().name() == "Shape"))
+            .and_then(|sh| xml::elements(sh).next())
+            .map(|x| x.tag_name().name());
+        if catalog || first_shape == Some("ClothoidSpline") { self.follow_spline(file, node) } else { self.follow_polyline(file, node) }
+    }
+
+    /// `FollowTrajectoryAction` with an inline `Polyline` trajectory (in `TrajectoryRef`, or
+    /// directly as in 1.0), `position` following mode and a `TimeReference/Timing`: the
+    /// vertices' positions (absolute ones) on the track, each reached `(time - offset) / scale`
+    /// after the action's start (`absolute`: at that simulation time), as esmini plays it.
+    fn follow_polyline(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
+            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
+        }
+        let (mut trajectory, mut timing, mut mode) = (None, None, None);
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "Trajectory" => trajectory = Some(c),
+                "TrajectoryRef" => {
+                    let t = only_child(file, c)?;
+                    if t.tag_name().name() != "Trajectory" {
+                        return Err(ImportError::unsupported(file, t));
+                    }
+                    trajectory = Some(t);
+                }
+                "CatalogReference" => return Err(ImportError::unsupported(file, c)),
+                "TimeReference" => {
+                    let t = only_child(file, c)?;
+                    match t.tag_name().name() {
+                        "Timing" => timing = Some(t),
+                        _ => {
+                            return Err(ImportError::at(
+                                file,
+                                t,
+                                "a trajectory without timing is not supported (give <Timing>: flc moves the entity by the vertices' times)",
+                            ));
+                        }
+                    }
+                }
+                "TrajectoryFollowingMode" => mode = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let traj = trajectory.ok_or_else(|| ImportError::at(file, node, "<TrajectoryRef> is missing"))?;
+        let timing = timing.ok_or_else(|| ImportError::at(file, node, "<TimeReference> is missing"))?;
+        let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
+        if p.req_enum(mode, "followingMode", file, &["position", "follow"])? != "position" {
+            return Err(ImportError::at(
+                file,
+                mode,
+                "followingMode=\"follow\" is not supported (only \"position\", as esmini's default controller plays it)",
+            ));
+        }
+        let absolute = p.req_enum(timing, "domainAbsoluteRelative", file, &["absolute", "relative"])? == "absolute";
+        let scale = p.req_num(timing, "scale", file)?;
+        let offset = p.req_num(timing, "offset", file)?;
+        if !(scale > 0.0 && scale.is_finite() && offset.is_finite()) {
+            return Err(ImportError::at(
+                file,
+                timing,
+                format!("scale = {scale}, offset = {offset}: the scale must be positive, both finite"),
+            ));
+        }
+        if p.bool_attr(traj, "closed", file)? == Some(true) {
+            return Err(ImportError::at(file, traj, "closed=\"true\" is not supported"));
+        }
+        let mut polyline = None;
+        for c in xml::elements(traj) {
+            match c.tag_name().name() {
+                "Shape" => {
+                    let sh = only_child(file, c)?;
+                    if sh.tag_name().name() != "Polyline" {
+                        return Err(ImportError::unsupported(file, sh));
+                    }
+                    polyline = Some(sh);
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let polyline = polyline.ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+        let mut vertices = Vec::new();
+        for v in xml::elements(polyline) {
+            if v.tag_name().name() != "Vertex" {
+                return Err(ImportError::unsupported(file, v));
+            }
+            if vertices.len() >= MAX_VERTICES {
+                return Err(ImportError::at(file, v, format!("more than {MAX_VERTICES} vertices")));
+            }
+            self.count(file, v)?;
+            let time = self.ctx.params.num_attr(v, "time", file)?.ok_or_else(|| {
+                ImportError::at(file, v, "a vertex without `time` is not supported (flc moves the entity by the vertices' times)")
+            })?;
+            // esmini's reading: the trajectory's clock reads `offset + scale * t` at time `t`
+            // into the action (absolute: simulation time).
+            let t = (time - offset) / scale;
+            if !t.is_finite() || vertices.last().is_some_and(|w: &Vertex| t < w.t) {
+                return Err(ImportError::at(file, v, format!("time = {time}: vertex times must be finite and must not decrease")));
+            }
+            let pos = only_child(file, v)?;
+            if pos.tag_name().name() != "Position" {
+                return Err(ImportError::unsupported(file, pos));
+            }
+            let (s, lateral, heading) = self.track_pose(file, pos)?;
+            vertices.push(Vertex { t, s, offset: lateral, heading });
+        }
+        if vertices.is_empty() {
+            return Err(ImportError::at(file, polyline, "a polyline needs at least one vertex"));
+        }
+        Ok(Action::Trajectory { absolute, vertices })
+    }
+
     /// The story variable of an OpenSCENARIO parameter (registered with its value).
     fn param_var(&mut self, file: &str, node: Node<'_, '_>, name: &str) -> Result<(String, VarValue), ImportError> {
         let name = name.trim().trim_start_matches('$');
@@ -1192,7 +1316,7 @@ impl Sb<'_, '_, '_> {
     /// `FollowTrajectoryAction` with `TimeReference/None`, `followingMode="position"` and a
     /// `ClothoidSpline` that starts at the actor (story::Action::FollowTrajectory), given inline
     /// or from a `TrajectoryCatalog`; on a straight road.
-    fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+    fn follow_spline(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
         let p = &self.ctx.params;
         if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
             return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
@@ -1387,6 +1511,15 @@ impl Sb<'_, '_, '_> {
         let pose = position::resolve(&self.ctx.params, self.geo, file, position, &|_| None)?;
         let pr = self.track.project(pose.x, pose.y);
         Ok((pr.s, pr.lateral_offset))
+    }
+
+    /// The track position and heading relative to the track `(s, lateral, heading)` of an
+    /// absolute `Position` (a relative one is an error: its reference moves).
+    fn track_pose(&mut self, file: &str, position: Node<'_, '_>) -> Result<(f64, f64, f64), ImportError> {
+        let (s, lateral) = self.track_position(file, position)?;
+        let pose = position::resolve(&self.ctx.params, self.geo, file, position, &|_| None)?;
+        let pr = self.track.project(pose.x, pose.y);
+        Ok((s, lateral, crate::track::wrap(pose.h - pr.heading)))
     }
 
     fn entity_condition(&mut self, file: &str, node: Node<'_, '_>, entity: &str) -> Result<ConditionKind, ImportError> {

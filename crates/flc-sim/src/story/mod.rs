@@ -321,6 +321,21 @@ pub enum Action {
         /// The spline's segments, in order.
         segments: Vec<ClothoidSegment>,
     },
+    /// `RoutingAction/FollowTrajectoryAction` with a polyline in `position` following mode
+    /// (esmini's default controller): the actor is put on the polyline at each step, linearly
+    /// between its vertices in time, in centreline coordinates (exact for vertices at one `s`,
+    /// as a crossing pedestrian's, and on straight roads); its speed is the segment's length
+    /// over its time, its heading (relative to the road) interpolated between the vertices'.
+    /// After the last vertex it keeps that speed and heading and moves on along the road, in
+    /// the direction its heading faces (esmini's default controller). Replaces both the
+    /// running longitudinal and lateral actions.
+    Trajectory {
+        /// `time`: vertex times are simulation times (`absolute`) or from the action's start.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        absolute: bool,
+        /// The vertices, times non-decreasing.
+        vertices: Vec<Vertex>,
+    },
     /// `VariableSetAction`.
     VariableSet {
         /// The variable.
@@ -348,6 +363,24 @@ pub enum Action {
     },
 }
 
+/// A vertex of a [`Action::Trajectory`] (`[[...actions.vertices]]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vertex {
+    /// When it is reached, s from the action's start (or simulation time): the file's
+    /// `(time - offset) / scale`.
+    pub t: f64,
+    /// Position of the reference point along the centreline, m.
+    pub s: f64,
+    /// Its lateral offset from the centreline, m (+ left).
+    pub offset: f64,
+    /// Heading relative to the road, rad.
+    pub heading: f64,
+}
+
+/// At most this many vertices in a trajectory.
+pub const MAX_VERTICES: usize = 10_000;
+
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
@@ -355,12 +388,12 @@ fn is_zero(v: &f64) -> bool {
 impl Action {
     /// `true` for speed and longitudinal-distance actions.
     pub fn is_longitudinal(&self) -> bool {
-        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. })
+        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. } | Action::Trajectory { .. })
     }
 
     /// `true` for lane change and lane offset actions.
     pub fn is_lateral(&self) -> bool {
-        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. })
+        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. } | Action::Trajectory { .. })
     }
 
     /// The entities it names (`of`).
@@ -451,6 +484,24 @@ impl Action {
                 _ => Err(ConfigError::new("add", "give `add` or `multiply`")),
             },
             Action::Controller { .. } => Ok(()),
+            Action::Trajectory { vertices, .. } => {
+                if vertices.is_empty() || vertices.len() > MAX_VERTICES {
+                    return Err(ConfigError::new("vertices", format!("give 1 to {MAX_VERTICES} vertices")));
+                }
+                let mut prev = f64::NEG_INFINITY;
+                for (i, v) in vertices.iter().enumerate() {
+                    let at = |k: &str| format!("vertices[{i}].{k}");
+                    check_range(&at("t"), v.t, -1.0e6, 1.0e6, "s")?;
+                    check_range(&at("s"), v.s, -1.0e6, 1.0e6, "m")?;
+                    check_range(&at("offset"), v.offset, -100.0, 100.0, "m")?;
+                    check_range(&at("heading"), v.heading, -10.0, 10.0, "rad")?;
+                    if v.t < prev {
+                        return Err(ConfigError::new(at("t"), "vertex times must not decrease"));
+                    }
+                    prev = v.t;
+                }
+                Ok(())
+            }
         }
     }
 }

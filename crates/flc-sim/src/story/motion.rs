@@ -1,7 +1,7 @@
 //! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
 //! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
 
-use super::{Action, ClothoidSegment, Dimension, Shape, Transition};
+use super::{Action, ClothoidSegment, Dimension, Shape, Transition, Vertex};
 use crate::trigger::WorldView;
 
 /// A running longitudinal action.
@@ -82,10 +82,10 @@ struct Lat {
     along_heading: bool,
 }
 
-/// A running `FollowTrajectoryAction`: esmini's polyline of the spline (a vertex every metre
+/// A running `FollowTrajectoryAction` along a spline: esmini's polyline of the spline (a vertex every metre
 /// and one at the end), laid in the road's frame from where the action started.
 #[derive(Debug, Clone, PartialEq)]
-struct Traj {
+struct Spline {
     action: usize,
     /// Vertices `(s, offset, heading relative to the road)`; vertex `k` sits at `k` m along the
     /// polyline's parameter (the last at its whole number of metres, esmini's).
@@ -96,7 +96,7 @@ struct Traj {
     u: f64,
 }
 
-impl Traj {
+impl Spline {
     /// The spline of `segments` from `(s, offset)` facing `heading` (relative to the road),
     /// sampled as esmini's `ClothoidSplineShape::CalculatePolyLine`.
     fn new(action: usize, segments: &[ClothoidSegment], s: f64, offset: f64, heading: f64) -> Self {
@@ -177,6 +177,47 @@ fn clothoid_at(start: [f64; 3], g: &ClothoidSegment, u: f64) -> [f64; 3] {
     [x, y, theta(u)]
 }
 
+/// A running trajectory ([`Action::Trajectory`]).
+#[derive(Debug, Clone, PartialEq)]
+struct Traj {
+    action: usize,
+    /// Time of vertex times' zero, s (0 for absolute times).
+    t0: f64,
+    vertices: Vec<Vertex>,
+}
+
+impl Traj {
+    /// `(s, offset, heading, speed, ended)` at time `t`: linear between the vertices, the
+    /// first before it, the last after it; the speed of the segment in effect (its length in
+    /// centreline coordinates over its time).
+    fn at(&self, t: f64) -> (f64, f64, f64, f64, bool) {
+        // Within a nanosecond of a vertex counts as reached (sums of steps are inexact).
+        let tau = t - self.t0 + 1e-9;
+        let seg_speed = |a: &Vertex, b: &Vertex| {
+            let dt = b.t - a.t;
+            if dt > 0.0 { (b.s - a.s).hypot(b.offset - a.offset) / dt } else { 0.0 }
+        };
+        let n = self.vertices.len();
+        let k = self.vertices.partition_point(|v| v.t <= tau);
+        match (k.checked_sub(1).and_then(|i| self.vertices.get(i)), self.vertices.get(k)) {
+            (Some(a), Some(b)) => {
+                let p = if b.t > a.t { ((tau - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 1.0 };
+                let lerp = |x: f64, y: f64| x + (y - x) * p;
+                (lerp(a.s, b.s), lerp(a.offset, b.offset), lerp(a.heading, b.heading), seg_speed(a, b), false)
+            }
+            (None, Some(b)) => (b.s, b.offset, b.heading, 0.0, false),
+            (Some(a), None) => {
+                let v = match (n.checked_sub(2).and_then(|i| self.vertices.get(i)), self.vertices.last()) {
+                    (Some(x), Some(y)) => seg_speed(x, y),
+                    _ => 0.0,
+                };
+                (a.s, a.offset, a.heading, v, true)
+            }
+            (None, None) => (0.0, 0.0, 0.0, 0.0, true),
+        }
+    }
+}
+
 /// What one step of a [`Motion`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MotionStep {
@@ -214,6 +255,12 @@ pub struct Motion {
     long: Option<Long>,
     lat: Option<Lat>,
     traj: Option<Traj>,
+    spline: Option<Spline>,
+    /// The heading is kept (after a trajectory, until a lateral action starts) instead of
+    /// following the lateral motion.
+    hold_heading: bool,
+    /// It reached an end of the road ([`Motion::end_of_road`]).
+    at_end: bool,
 }
 
 impl Motion {
@@ -234,6 +281,33 @@ impl Motion {
             long: None,
             lat: None,
             traj: None,
+            spline: None,
+            hold_heading: false,
+            at_end: false,
+        }
+    }
+
+    /// Keeps the entity on a road `length` m long, as esmini's default controller does at a
+    /// road's end: a step that would leave `[0, length]` stops it at the end; a step that
+    /// starts there (`s_before`, within 1 µm) and would leave again marks the end reached (its
+    /// speed still reported), and from the next step on it stands there (speed 0) whatever its
+    /// actions. A running trajectory places the entity itself.
+    pub fn end_of_road(&mut self, s_before: f64, length: f64, dt: f64) {
+        const EPS: f64 = 1e-6;
+        if self.traj.is_some() || self.spline.is_some() || length.is_nan() || length <= 0.0 {
+            return;
+        }
+        if self.at_end {
+            let v = self.speed;
+            self.speed = 0.0;
+            self.accel = if dt > 0.0 { -v / dt } else { 0.0 };
+        }
+        if self.s > length {
+            self.s = length;
+            self.at_end |= s_before >= length - EPS;
+        } else if self.s < 0.0 {
+            self.s = 0.0;
+            self.at_end |= s_before <= EPS;
         }
     }
 
@@ -258,6 +332,13 @@ impl Motion {
         self
     }
 
+    /// This motion keeping its heading relative to the road while no lateral action runs (a
+    /// pedestrian: esmini turns neither its box nor its walking direction with the road).
+    pub fn holding_heading(mut self) -> Self {
+        self.hold_heading = true;
+        self
+    }
+
     /// The box centre's position from the moved point, entity frame, m.
     pub fn reference(&self) -> [f64; 2] {
         self.reference
@@ -278,6 +359,10 @@ impl Motion {
             self.traj = None;
             hit = true;
         }
+        if self.spline.as_ref().is_some_and(|l| l.action == i) {
+            self.spline = None;
+            hit = true;
+        }
         hit
     }
 
@@ -292,18 +377,31 @@ impl Motion {
     /// A trajectory holds both domains (esmini): any motion action replaces it, and it
     /// replaces both the longitudinal and the lateral action.
     pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
-        let mut replaced = Vec::new();
+        let mut replaced: Vec<usize> = Vec::new();
         if action.is_longitudinal() || action.is_lateral() {
-            replaced.extend(self.traj.take().map(|l| l.action).filter(|&a| a != i));
+            replaced.extend(self.traj.take().map(|x| x.action).filter(|&a| a != i));
+            replaced.extend(self.spline.take().map(|x| x.action).filter(|&a| a != i));
         }
-        if let Action::FollowTrajectory { segments } = action {
-            replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
-            replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
-            self.traj = Some(Traj::new(i, segments, self.s, self.offset, self.heading));
-            return (replaced, false);
+        if action.is_lateral() {
+            self.hold_heading = false;
         }
-        let (r, done) = self.start_one(i, action, t, world);
-        replaced.extend(r);
+        match action {
+            Action::FollowTrajectory { segments } => {
+                replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+                replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+                self.spline = Some(Spline::new(i, segments, self.s, self.offset, self.heading));
+                return (replaced, false);
+            }
+            Action::Trajectory { absolute, vertices } => {
+                replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+                replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+                self.traj = Some(Traj { action: i, t0: if *absolute { 0.0 } else { t }, vertices: vertices.clone() });
+                return (replaced, false);
+            }
+            _ => {}
+        }
+        let (other, done) = self.start_one(i, action, t, world);
+        replaced.extend(other);
         (replaced, done)
     }
 
@@ -616,6 +714,25 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
+        if let Some(tr) = &self.traj {
+            let (s, offset, heading, seg_speed, ended) = tr.at(t1);
+            // The speed is the step's displacement over the step (esmini: also a jump to where a
+            // time offset puts the entity at the start), the segment's speed once it ends.
+            let moved = (s - self.s).hypot(offset - self.offset);
+            self.traveled += moved;
+            let speed = if ended || dt <= 0.0 { seg_speed } else { moved / dt };
+            (self.s, self.offset, self.heading, self.speed) = (s, offset, heading, speed);
+            self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+            if ended {
+                // esmini's default controller takes over: on along the road at that speed, in
+                // the direction the heading faces, the heading kept.
+                out.long_done = Some(tr.action);
+                self.traj = None;
+                self.hold_heading = true;
+                self.reversed = crate::track::wrap(heading).abs() > std::f64::consts::FRAC_PI_2;
+            }
+            return out;
+        }
         let long_action = self.long.as_ref().map(|l| l.action);
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
@@ -653,7 +770,7 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        if let Some(tr) = self.traj.as_mut() {
+        if let Some(tr) = self.spline.as_mut() {
             // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
             // rest of the step straight on along its last heading, and the action ends.
             let step_len = self.speed * dt;
@@ -671,7 +788,7 @@ impl Motion {
             self.heading = crate::track::wrap(p[2]);
             self.traveled += step_len;
             if out.lat_done.is_some() {
-                self.traj = None;
+                self.spline = None;
                 self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
             }
             return out;
@@ -718,10 +835,14 @@ impl Motion {
         self.traveled += along;
         if self.reversed {
             self.s -= ds;
-            self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            if !self.hold_heading {
+                self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            }
         } else {
             self.s += ds;
-            self.heading = lateral;
+            if !self.hold_heading {
+                self.heading = lateral;
+            }
         }
         out
     }
@@ -782,7 +903,7 @@ mod tests {
     fn a_trajectory_is_laid_from_the_actor_and_sampled_every_metre() {
         // An oncoming actor (heading pi) at s = 100, offset 1.75 turning left (curvature +) moves to
         // -s and to smaller offsets; the polyline has a vertex per metre and one at the end.
-        let tr = Traj::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
+        let tr = Spline::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
         assert_eq!(tr.pts.len(), 11);
         let end = tr.pts[10];
         let (dx, dy) = (100.0 * (0.105f64).sin(), 100.0 * (1.0 - (0.105f64).cos()));
