@@ -385,9 +385,9 @@ def esmini_alks_run(esmini: Path, file: Path, perm: int | None, model: str, time
 # flc in controller mode
 
 
-def flc_controller_run(flc: Path, file: Path, perm: int | None, controller: str, timeout: float) -> dict:
+def flc_controller_run(flc: Path, file: Path, perm: int | None, controller: str, timeout: float, extra: tuple[str, ...] = ()) -> dict:
     with tempfile.TemporaryDirectory(prefix="pubctl-flc-") as tmp:
-        cmd = [str(flc), "--config", str(file), "--ego-mode", "controller", "--set", f"controller={controller}", "--out", tmp, "--json",
+        cmd = [str(flc), "--config", str(file), "--ego-mode", "controller", "--set", f"controller={controller}", *extra, "--out", tmp, "--json",
                "--threads", "1"]
         if perm is not None:
             cmd += ["--permutation", str(perm)]
@@ -500,7 +500,8 @@ def one_run(task: dict, tools: dict, work: Path) -> dict:
         if r["status"] == "ok":
             r.update(analyse(r["traj"], r["dims"], r["ego"], r["collisions"]))
     else:
-        r = flc_controller_run(tools["flc"], file, perm, who, tools["timeout"])
+        # The probe: whether flc imports the file (a run of 0.05 s).
+        r = flc_controller_run(tools["flc"], file, perm, who, tools["timeout"], ("--set", "duration=0.05") if task.get("probe") else ())
         if task.get("probe"):
             r = {k: v for k, v in r.items() if k in ("status", "message")}
         elif r["status"] == "ok" and r.get("traj"):
@@ -520,6 +521,30 @@ def one_run(task: dict, tools: dict, work: Path) -> dict:
         out["dims"] = {k: list(v) for k, v in out["dims"].items()}
     cache.parent.mkdir(parents=True, exist_ok=True)
     cache.write_text(json.dumps(out) + "\n")
+    return out
+
+
+def check_run(file: Path, p: int | None, base: str, raw_base: str, controllers: list[str], models: list[str], tools: dict, work: Path) -> dict:
+    """Every player's run of one (file, permutation): ``{"players": {...}}``, or ``{"flc": {status,
+    message}}`` when flc does not import it (esmini is then not run)."""
+    out: dict = {"players": {}}
+    dims = None
+    # Only what flc imports is checked.
+    probe = pc.sha(base.encode(), b"imports")
+    r = one_run({"file": str(file), "perm": p, "who": controllers[0], "key": probe, "probe": True}, tools, work)
+    if r["status"] != "ok":
+        out["flc"] = {"status": r["status"], "message": r.get("message", "")}
+        return out
+    for m in models:
+        raw_key = pc.sha(raw_base.encode(), m.encode())
+        r = one_run({"file": str(file), "perm": p, "who": f"esmini:{m}", "key": pc.sha(base.encode(), m.encode()), "raw_key": raw_key}, tools, work)
+        out["players"][f"esmini:{m}"] = r
+        if r["status"] == "ok" and dims is None:
+            dims = {k: tuple(v) for k, v in r["dims"].items()}
+    for c in controllers:
+        # The boxes from esmini's run of the same file (both read the same BoundingBox), else flc's own import.
+        key = pc.sha(base.encode(), c.encode(), json.dumps(sorted((dims or {}).items())).encode())
+        out["players"][c] = one_run({"file": str(file), "perm": p, "who": c, "key": key, "dims": dims}, tools, work)
     return out
 
 
@@ -601,35 +626,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(files)} files, {len(jobs)} runs x ({len(models)} esmini models + {len(controllers)} flc controllers); -j {args.jobs}; cache {work}",
           file=sys.stderr)
 
-    def do(run: dict, file: Path, p: int | None, base: str, raw_base: str) -> None:
-        dims = None
-        # Only what flc imports is checked: a file flc refuses is recorded as such, esmini not run.
-        probe = pc.sha(base.encode(), b"imports")
-        r = one_run({"file": str(file), "perm": p, "who": controllers[0], "key": probe, "probe": True}, tools, work)
-        if r["status"] != "ok":
-            run["flc"] = {"status": r["status"], "message": r.get("message", "")}
-            return
-        for m in models:
-            raw_key = pc.sha(raw_base.encode(), m.encode())
-            r = one_run({"file": str(file), "perm": p, "who": f"esmini:{m}", "key": pc.sha(base.encode(), m.encode()), "raw_key": raw_key}, tools, work)
-            run["players"][f"esmini:{m}"] = r
-            if r["status"] == "ok" and dims is None:
-                dims = {k: tuple(v) for k, v in r["dims"].items()}
-        for c in controllers:
-            # The boxes from esmini's run of the same file (both read the same BoundingBox), else flc's own import.
-            key = pc.sha(base.encode(), c.encode(), json.dumps(sorted((dims or {}).items())).encode())
-            r = one_run({"file": str(file), "perm": p, "who": c, "key": key, "dims": dims}, tools, work)
-            run["players"][c] = r
-            if r["status"] != "ok":
-                # Not imported by flc: the esmini runs of this file are not counted (nothing to hold them against).
-                pass
-
     done = 0
-    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futs = {pool.submit(do, *j): j for j in jobs}
+    # Processes, not threads: the reading of long runs is Python work.
+    with concurrent.futures.ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futs = {pool.submit(check_run, j[1], j[2], j[3], j[4], controllers, models, tools, work): j for j in jobs}
         for fut in concurrent.futures.as_completed(futs):
-            fut.result()
             run, file, p, _, _ = futs[fut]
+            run.update(fut.result())
             done += 1
             said = [f"flc {run['flc']['status']}: {run['flc']['message']}"] if "flc" in run else []
             for who, r in run["players"].items():
