@@ -482,6 +482,8 @@ def one_run(task: dict, tools: dict, work: Path) -> dict:
     cache = work / "runs" / f"{task['key']}.json"
     if cache.is_file():
         return json.loads(cache.read_text())
+    if tools.get("cached_only"):
+        return {"status": "not run", "message": "not in the cache (--cached-only)"}
     file, perm, who = Path(task["file"]), task["perm"], task["who"]
     if who.startswith("esmini:"):
         # esmini's own run is cached apart (gzipped, with its trajectory) under a key of its inputs and
@@ -566,6 +568,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", default=str(ROOT / "target" / "published-controller-check"), help="cache of finished runs (resumable)")
     ap.add_argument("--data", default=str(ROOT / "docs" / "openscenario" / "controller.json"))
     ap.add_argument("--timeout", type=float, default=pc.TIMEOUT_S, help="seconds per esmini or flc run")
+    ap.add_argument("--cached-only", action="store_true", help="run nothing: write the data file from the finished runs of the cache "
+                    "(the others are `not run`)")
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.paths]
     if args.pub:
@@ -589,7 +593,7 @@ def main(argv: list[str] | None = None) -> int:
         except er.EsminiError as ex:
             print(f"error: {ex}", file=sys.stderr)
             return 2
-    tools = {"flc": flc, "esmini": esmini, "timeout": args.timeout}
+    tools = {"flc": flc, "esmini": esmini, "timeout": args.timeout, "cached_only": args.cached_only}
     esmini_code = "".join(inspect.getsource(f) for f in (ego_name, with_alks_controller, read_esmini_csv, esmini_alks_run, pc.run, er.dist_parameters))
     esmini_bins = (pc.file_hash(esmini.resolve()) if esmini else b"") + esmini_code.encode()
     bins = pc.file_hash(flc) + (pc.file_hash(esmini.resolve()) if esmini else b"") + Path(__file__).read_bytes() + pc.Path(pc.__file__).read_bytes()

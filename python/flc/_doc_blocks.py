@@ -749,7 +749,10 @@ def controller_check_summary() -> str:
         ])
     colls = ", ".join(f"{n} `{c['commit'][:12]}`" for n, c in sorted(d["collections"].items()))
     e = d["esmini"] or {}
-    head = (f"{len(runs)} runs of {len({f['path'] for f, _ in runs})} published files that flc imports; esmini {e.get('version', '-')} "
+    unfinished = sum(1 for f in d["files"] for r in f["runs"] if (r.get("flc") or {}).get("status") == "not run")
+    refused = sum(1 for f in d["files"] for r in f["runs"] if (r.get("flc") or {}).get("status") not in (None, "not run"))
+    head = (f"{len(runs)} runs of {len({f['path'] for f, _ in runs})} published files that flc imports ({refused} runs flc refuses"
+            f"{f', {unfinished} not run yet' if unfinished else ''}); esmini {e.get('version', '-')} "
             f"(commit {e.get('commit', '-')}); flc `{d['flc']['commit']}`; collections: {colls}; checked {d['generated']}.\n\n")
     return head + table(["driver", "runs", "runs with a contact", "of them where esmini's ReferenceDriver had none", "runs with a far stop",
                          "runs passing an in-path object"], rows, "lrrrrr")
