@@ -568,6 +568,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", default=str(ROOT / "target" / "published-controller-check"), help="cache of finished runs (resumable)")
     ap.add_argument("--data", default=str(ROOT / "docs" / "openscenario" / "controller.json"))
     ap.add_argument("--timeout", type=float, default=pc.TIMEOUT_S, help="seconds per esmini or flc run")
+    ap.add_argument("--flc-commit", help="the commit the --flc binary was built from, when it is not this checkout's (`git describe` of it by default)")
     ap.add_argument("--cached-only", action="store_true", help="run nothing: write the data file from the finished runs of the cache "
                     "(the others are `not run`)")
     args = ap.parse_args(argv)
@@ -654,7 +655,7 @@ def main(argv: list[str] | None = None) -> int:
         "command": "python3 tools/published_controller_check.py " + " ".join(a for a in (argv if argv is not None else sys.argv[1:])),
         "esmini": {"version": version[0], "commit": version[1], "step_s": STEP, "controller": "ALKS_R157SM_Controller", "models": models,
                    "flags": "--headless --fixed_timestep 0.01 --seed 1 --collision"} if models else None,
-        "flc": {"commit": pc.git(ROOT, "describe", "--always", "--dirty"), "flags": "--ego-mode controller", "controllers": controllers},
+        "flc": {"commit": args.flc_commit or pc.git(ROOT, "describe", "--always", "--dirty"), "flags": "--ego-mode controller", "controllers": controllers},
         "definitions": {"corridor_margin_m": CORRIDOR_MARGIN, "far_stop_m": FAR_STOP, "stand_speed_mps": STAND_SPEED, "stand_time_s": STAND_TIME,
                         "reference": REFERENCE, "esmini_reference": ESMINI_REFERENCE},
         "collections": colls,
