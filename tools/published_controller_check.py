@@ -67,6 +67,10 @@ ESMINI_REFERENCE = "ReferenceDriver"
 #: path.rs, ``CORRIDOR_MARGIN``): an object whose body comes within it of the band the ego's body
 #: sweeps is in the ego's path.
 CORRIDOR_MARGIN = 0.5
+#: Half the width of the ego's lane band, m: a 3.5 m lane (every lane of the ALKS roads and of
+#: esmini's straight road), centred on the ego's path. An object whose body reaches into the band
+#: or into the corridor is *in the ego's path* for this check.
+LANE_HALF = 1.75
 #: A far stop: the ego standing (below STAND_SPEED) for at least STAND_TIME with nothing in its
 #: path within FAR_STOP of its front.
 FAR_STOP = 50.0
@@ -161,9 +165,10 @@ def analyse(traj: list[tuple], dims: dict[str, tuple[float, float, float]], ego:
     ``traj``: ``(t, name, x, y, heading, speed)`` rows (the reference point, as esmini and flc
     write it); ``dims``: name -> (box centre ahead of the reference point, length, width), m;
     ``contacts``: ``[t, a, b]`` of the run. Road coordinates are the ego's own swept path
-    (:class:`SweptPath`): an object is *in the ego's path* when its body comes within
-    :data:`CORRIDOR_MARGIN` of the band the ego's body sweeps (the in-path module's corridor,
-    crates/flc-sim/src/sim/path.rs).
+    (:class:`SweptPath`): an object is *in the ego's path* when its body reaches into the ego's
+    lane band (:data:`LANE_HALF` each side of the path) or comes within :data:`CORRIDOR_MARGIN`
+    of the band the ego's body sweeps (the in-path module's corridor,
+    crates/flc-sim/src/sim/path.rs; with a 2 m wide ego inside the lane band).
 
     Returns ``closest_m``: the least bumper gap to an object in path ahead (``None``: never one);
     ``passed``: objects that were wholly ahead in path and that the ego's front then went beyond
@@ -182,6 +187,7 @@ def analyse(traj: list[tuple], dims: dict[str, tuple[float, float, float]], ego:
     de = dims.get(ego, (0.0, 0.0, 0.0))
     path = SweptPath([(*centre(x, y, h, de), h) for x, y, h, _ in (by_t[k][ego] for k in ego_steps)])
     half_le, half_we = de[1] / 2.0, de[2] / 2.0
+    band = max(LANE_HALF, half_we + CORRIDOR_MARGIN)  # from the path's centre
     hit_with = {c[2] if c[1] == ego else c[1] for c in contacts if ego in (c[1], c[2])}
 
     def look(k: int) -> tuple[float, list[tuple[str, float, float]]]:
@@ -199,7 +205,7 @@ def analyse(traj: list[tuple], dims: dict[str, tuple[float, float, float]], ego:
             along = 0.5 * (do[1] * abs(math.cos(rel)) + do[2] * abs(math.sin(rel)))
             across = 0.5 * (do[1] * abs(math.sin(rel)) + do[2] * abs(math.cos(rel)))
             clearance = abs(to) - across - half_we
-            if clearance >= CORRIDOR_MARGIN:
+            if abs(to) - across >= band:
                 continue
             gap = so - along - (se + half_le)  # bumper gap along the path
             if gap > 0:
@@ -513,9 +519,9 @@ def one_run(task: dict, tools: dict, work: Path) -> dict:
             dims = task.get("dims") or flc_dims(tools["flc"], file, perm, names, tools["timeout"])
             r["dims"] = dims
             r.update(analyse(r["traj"], dims, r["ego"], r["collisions"]))
-            # Far stops as flc's own in-path module sees them (the series' `gap`).
+            # Also as flc's own in-path module sees them (the series' `gap`: the corridor only).
             if r.get("series"):
-                r["far_stops"] = series_far_stops(r["series"])
+                r["far_stops_corridor"] = series_far_stops(r["series"])
         elif r["status"] == "ok":
             r = {"status": "failed", "message": "flc wrote no per-entity trajectory CSV with --out"}
     out = {k: v for k, v in r.items() if k not in ("traj", "series")}

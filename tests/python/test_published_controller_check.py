@@ -38,8 +38,9 @@ def straight(ego_speed, t_end, others=(), stop_at=None):
 
 
 def test_a_standing_motorbike_on_the_marking_is_passed_a_wider_one_is_not():
-    # The ego (1.8 m wide) at 15 m/s past a motorbike standing 1.6 m left of its path: 1.6 - 0.4 -
-    # 0.9 = 0.3 m between the bodies, inside the 0.5 m corridor margin: passed.
+    # The ego (1.8 m wide) at 15 m/s past a motorbike standing 1.6 m left of its path: its body
+    # reaches 1.2 m from the path's centre, into the ego's lane (1.75 m): passed, 1.6 - 0.4 - 0.9 =
+    # 0.3 m between the bodies.
     traj = straight(15.0, 8.0, [("Bike", 60.0, 1.6, 0.0, 0.0)])
     r = pcc.analyse(traj, {"Ego": CAR, "Bike": BIKE}, "Ego", [])
     assert [p["object"] for p in r["passed"]] == ["Bike"]
@@ -47,7 +48,7 @@ def test_a_standing_motorbike_on_the_marking_is_passed_a_wider_one_is_not():
     # The ego's front reaches the motorbike's rear (60 + 0.4 - 1.1 = 59.3 m) at (59.3 - 1.4 - 2.25) / 15 s.
     assert abs(r["passed"][0]["time"] - (59.3 - 3.65) / 15.0) < 0.011
     assert r["closest_m"] < 0.2
-    # 2.2 m left (0.9 m between the bodies): not in the path, not passed, no closest approach.
+    # 2.2 m left (its body from 1.8 m: out of the lane): not in the path, not passed, no closest approach.
     r = pcc.analyse(straight(15.0, 8.0, [("Bike", 60.0, 2.2, 0.0, 0.0)]), {"Ego": CAR, "Bike": BIKE}, "Ego", [])
     assert r["passed"] == [] and r["closest_m"] is None
     # A contact with it is a contact, not a pass.
@@ -65,8 +66,8 @@ def test_a_lead_that_cuts_out_before_the_ego_arrives_is_not_passed():
     r = pcc.analyse(traj, {"Ego": CAR, "Lead": CAR}, "Ego", [])
     assert r["passed"] == []
     # The closest approach while it was in the path: the gap 35.5 - 10 t when its body leaves the
-    # corridor, 2.3 m to the side (0.5 m margin + two half widths) at t = 1 + 2 * 2.3 / 3.5 s.
-    t_out = 1.0 + 2.0 * 2.3 / 3.5
+    # ego's lane band, 2.65 m to the side (half a 3.5 m lane + its half width) at t = 1 + 2 * 2.65 / 3.5 s.
+    t_out = 1.0 + 2.0 * 2.65 / 3.5
     assert abs(r["closest_m"] - (35.5 - 10.0 * t_out)) < 0.15, r["closest_m"]
     # Staying in the lane instead, it is hit or passed: here passed (no contact recorded).
     r = pcc.analyse(straight(15.0, 8.0, [("Lead", 40.0, 0.0, 0.0, 5.0)]), {"Ego": CAR, "Lead": CAR}, "Ego", [])
