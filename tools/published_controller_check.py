@@ -75,7 +75,8 @@ LANE_HALF = 1.75
 #: path within FAR_STOP of its front.
 FAR_STOP = 50.0
 STAND_SPEED = 0.1
-STAND_TIME = 1.0
+#: 3 s: longer than a driver takes to set off again once the way is clear.
+STAND_TIME = 3.0
 
 
 # ---------------------------------------------------------------------------------------------

@@ -90,9 +90,11 @@ def test_far_stops_are_stops_with_nothing_in_path_within_50_m():
     r = pcc.analyse(straight(10.0, 15.0, stop_at=100.0), dims, "Ego", [])
     assert len(r["far_stops"]) == 1 and r["far_stops"][0]["gap_m"] is None
     # flc's own series: the same rule on the in-path gap (NaN: nothing in path).
-    series = [(k * 0.01, math.nan if k > 50 else 10.0, 0.0 if k > 50 else 5.0) for k in range(300)]
-    assert pcc.series_far_stops(series) == [{"time": 0.51, "duration": 2.48, "gap_m": None}]
-    assert pcc.series_far_stops([(k * 0.01, 30.0, 0.0) for k in range(300)]) == []
+    series = [(k * 0.01, math.nan if k > 50 else 10.0, 0.0 if k > 50 else 5.0) for k in range(500)]
+    assert pcc.series_far_stops(series) == [{"time": 0.51, "duration": 4.48, "gap_m": None}]
+    assert pcc.series_far_stops([(k * 0.01, 30.0, 0.0) for k in range(500)]) == []
+    # Standing less than 3 s (setting off again once the way is clear) is no far stop.
+    assert pcc.series_far_stops(series[:340]) == []
 
 
 def test_on_a_curve_the_next_lane_is_not_in_path():
