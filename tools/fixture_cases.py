@@ -1,16 +1,16 @@
 #!/usr/bin/env python3
-"""Writes eight of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
-from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority, standing_car and
-target_brakes, with the project's XML
+"""Writes ten of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
+distance_arc, from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority,
+relative_lateral, standing_car and target_brakes, with the project's XML
 writer `tools/osc_writer.py` (as `tools/suite_cases.py` writes the standard suites).
 
-    python3 tools/fixture_cases.py      # rewrites the eight files (same bytes on every run)
+    python3 tools/fixture_cases.py      # rewrites the ten files (same bytes on every run)
     python3 tools/fixture_cases.py --out DIR   # writes them into DIR (tools/asam_qc.py compares)
 
 After a change, regenerate esmini's reference trajectories of them (tests/data/esmini/README.md):
 
     python3 tools/esmini_reference.py from_catalogs lane_leave_reveal merge_in parameters positions_arc \\
-        priority standing_car target_brakes distribution_2x2 distribution_multi
+        priority standing_car target_brakes distribution_2x2 distribution_multi distance_arc relative_lateral
 
 Every entity is the 4.5 x 1.8 x 1.5 m car (reference point on the rear axle, box centre 1.4 m
 ahead: front 3.65 m ahead of the reference point, rear 0.85 m behind), inline (osc_writer.car) or
@@ -375,7 +375,9 @@ def relative_lateral():
         "position 1.75 m to the right, not 1.75 m right of the centre of the lane Side is in.",
         "OverTaker: lane -3 (t = -8.75), s 20, 25 m/s. When Ego's TimeHeadwayCondition to it (freespace,",
         "no relativeDistanceType) exceeds 0.4 s (rising) it changes to Ego's lane (sinusoidal, 3 s); when it",
-        "exceeds 1.0 s (rising) it slows to 0 at 5 m/s2. Stop at 12 s.",
+        "exceeds 1.0 s (rising) it slows to 0 at 5 m/s2 (an override: its lane change stops there).",
+        "Side, 1.75 m right of Ego, overlaps lane -3: OverTaker touches it at about 7.1 s (scripted, both",
+        "drive on). Stop at 12 s.",
     )
     side_pos = relative("RelativeLanePosition", "Ego", dLane="0", ds="10.0", offset="-7.0")
     offset = X("PrivateAction", X("LateralAction", X("LaneOffsetAction",
