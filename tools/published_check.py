@@ -13,6 +13,7 @@ renders into docs/openscenario.md. Only the Python standard library.
 
     python3 tools/published_check.py --pub /work/scratch/pub -j 2          # the 53 files of issue 45
     python3 tools/published_check.py DIR_OR_FILE... --data out.json        # any files
+    python3 tools/published_check.py --pub /work/scratch/pub --only 4_6_2 --out /tmp/check   # some, into a scratch folder
 
 Resumable: each run's result is cached in `--work` (default target/published-check/) under a key
 of the file's bytes, the distribution's scenario file, the collection's commit, the permutation and
