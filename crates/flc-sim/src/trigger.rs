@@ -590,8 +590,8 @@ pub fn box_distance(a: ([f64; 3], f64, f64), b: ([f64; 3], f64, f64)) -> (f64, b
     let mut d = f64::INFINITY;
     for (pts, other) in [(&ca, &cb), (&cb, &ca)] {
         for p in pts {
-            for k in 0..4 {
-                d = d.min(edge(*p, other[k], other[(k + 1) % 4]));
+            for (k, q) in other.iter().enumerate() {
+                d = d.min(edge(*p, *q, other[(k + 1) % 4]));
             }
         }
     }
@@ -1447,6 +1447,25 @@ mod tests {
         // An unknown entity never holds (validation reports it); nothing panics.
         let ghost = trig(&on("ghost"));
         assert!(!TriggerState::new().update(&ghost, &closing(0.0), 0.0));
+    }
+
+    #[test]
+    fn box_distance_is_the_shortest_between_rotated_boxes() {
+        // Aligned 4 x 2 m boxes, centres 10 m apart along x: 6 m, the second ahead.
+        let (d, ahead) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([10.0, 0.0, 0.0], 4.0, 2.0));
+        assert!((d - 6.0).abs() < 1e-12 && ahead, "{d} {ahead}");
+        // Seen from the second: the first is behind.
+        assert!(!box_distance(([10.0, 0.0, 0.0], 4.0, 2.0), ([0.0, 0.0, 0.0], 4.0, 2.0)).1);
+        // Diagonally apart (3 m along, 4 m across between the near corners): 5 m, not 3.
+        let (d, _) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([7.0, 6.0, 0.0], 4.0, 2.0));
+        assert!((d - 5.0).abs() < 1e-12, "{d}");
+        // The second turned by 30 degrees: its rear corner comes nearer than its centre line.
+        let h = 30f64.to_radians();
+        let (d, _) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([10.0, 0.0, h], 4.0, 2.0));
+        let corner = 10.0 - 2.0 * h.cos() - 1.0 * h.sin() - 2.0;
+        assert!((d - corner).abs() < 1e-12, "{d} vs {corner}");
+        // Overlapping: 0.
+        assert_eq!(box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([3.0, 0.5, 0.2], 4.0, 2.0)).0, 0.0);
     }
 
     #[test]
