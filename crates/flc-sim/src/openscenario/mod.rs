@@ -778,11 +778,23 @@ fn translate(
     // Every entity's reference point: its actions move that point, as in OpenSCENARIO.
     let references = defs.iter().zip(&names).filter(|(d, _)| d.center != [0.0, 0.0]).map(|(d, n)| (n.clone(), d.center)).collect();
     // A vehicle's Performance limits its speed changes (esmini); a pedestrian's or an object's
-    // do not.
+    // do not. Recorded for the vehicles it may bind: a speed change by time or distance, or by a
+    // rate whose peak exceeds the smaller limit (a step, or a rate within both, never needs it).
+    let may_bind = |name: &str, [up, down]: [f64; 2]| {
+        acts.iter().flat_map(|a| a.groups.iter()).filter(|g| g.actors.iter().any(|x| x == name)).any(|g| {
+            g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()).any(|x| match &x.action {
+                crate::story::Action::Speed { transition: t, .. } => {
+                    t.shape != crate::story::Shape::Step
+                        && (t.dimension != crate::story::Dimension::Rate || t.shape.peak_slope() * t.value > up.min(down))
+                }
+                _ => false,
+            })
+        })
+    };
     let limits = defs
         .iter()
         .zip(&names)
-        .filter_map(|(d, n)| d.performance.filter(|_| d.kind == entities::Kind::Vehicle).map(|p| (n.clone(), p)))
+        .filter_map(|(d, n)| d.performance.filter(|&p| d.kind == entities::Kind::Vehicle && may_bind(n, p)).map(|p| (n.clone(), p)))
         .collect();
     let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, limits, acts };
 
