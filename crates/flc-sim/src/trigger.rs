@@ -577,7 +577,7 @@ pub fn box_distance(a: ([f64; 3], f64, f64), b: ([f64; 3], f64, f64)) -> (f64, b
         ha < lb || hb < la
     });
     let ((la, _), (_, hb)) = (project(&ca, axis(a.0[2])[0]), project(&cb, axis(a.0[2])[0]));
-    let ahead = !(la > hb);
+    let ahead = la <= hb;
     if !separated {
         return (0.0, ahead);
     }
