@@ -190,6 +190,9 @@ pub(crate) struct Ctx<'a, 't> {
     pub(crate) cats: &'a Catalogs<'t>,
     pub(crate) warn: Warnings,
     stack: Vec<(String, String)>,
+    /// The last vehicle `Performance` read: `[maxAcceleration, maxDeceleration]` when both are
+    /// given and used.
+    pub(crate) performance: Option<[f64; 2]>,
 }
 
 impl<'a, 't> Ctx<'a, 't> {
@@ -565,7 +568,7 @@ fn import_doc(
         None => CatalogFiles::empty(),
     };
     let cats = Catalogs::new(&files);
-    let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new() };
+    let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new(), performance: None };
     let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads).map(|mut imp| {
         // The given values typed by their declarations (an undeclared one stays text).
         imp.typed_params = values
@@ -812,7 +815,26 @@ fn translate(
     }
     // Every entity's reference point: its actions move that point, as in OpenSCENARIO.
     let references = defs.iter().zip(&names).filter(|(d, _)| d.center != [0.0, 0.0]).map(|(d, n)| (n.clone(), d.center)).collect();
-    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, acts };
+    // A vehicle's Performance limits its speed changes (esmini); a pedestrian's or an object's
+    // do not. Recorded for the vehicles it may bind: a speed change by time or distance, or by a
+    // rate whose peak exceeds the smaller limit (a step, or a rate within both, never needs it).
+    let may_bind = |name: &str, [up, down]: [f64; 2]| {
+        acts.iter().flat_map(|a| a.groups.iter()).filter(|g| g.actors.iter().any(|x| x == name)).any(|g| {
+            g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()).any(|x| match &x.action {
+                crate::story::Action::Speed { transition: t, .. } => {
+                    t.shape != crate::story::Shape::Step
+                        && (t.dimension != crate::story::Dimension::Rate || t.shape.peak_slope() * t.value > up.min(down))
+                }
+                _ => false,
+            })
+        })
+    };
+    let limits = defs
+        .iter()
+        .zip(&names)
+        .filter_map(|(d, n)| d.performance.filter(|&p| d.kind == entities::Kind::Vehicle && may_bind(n, p)).map(|p| (n.clone(), p)))
+        .collect();
+    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, limits, acts };
 
     // The controller and its set speed.
     let kind = opts.controller.or(init_controller).or(ed.controller).unwrap_or_default();
@@ -840,7 +862,6 @@ fn translate(
     if top > 0.0 {
         set_cruise_speed(&mut s, top + crate::paper::BASELINE_SET_SPEED_MARGIN_KMH * KMH);
     }
-    place_init_distances(&mut s, &story);
     s.track = TrackSpec::Custom(track);
     s.stop.trigger = stop;
     s.story = Some(story);
@@ -877,54 +898,6 @@ fn file_header(file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
         }
     }
     Ok(())
-}
-
-/// Init `LongitudinalDistanceAction`s (by distance or time gap) place their actor at t = 0, as esmini applies
-/// Init actions before its first step (a continuous one also gives it the target's speed); the
-/// action, in the act `init`, then makes the same placement in the first step. Positions are
-/// box centres along the centreline; an actor facing against the road measures ahead in -s.
-fn place_init_distances(s: &mut Scenario, story: &crate::story::Story) {
-    let Some(init) = story.acts.iter().find(|a| a.name == "init") else { return };
-    for g in &init.groups {
-        for a in g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()) {
-            let Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } = &a.action else { continue };
-            let Some((ts, tlen, tv, _)) = entity_slot(s, of) else { continue };
-            for actor in &g.actors {
-                let Some((_, len, v, heading)) = entity_slot(s, actor) else { continue };
-                // A time gap times the actor's own initial speed (a kept one: `of`'s), as the
-                // action itself takes it in the first step (story::motion).
-                let Some(d) = distance.or_else(|| time_gap.map(|g| g * if *continuous { tv } else { v })) else { continue };
-                let dir = if heading.abs() > std::f64::consts::FRAC_PI_2 { -1.0 } else { 1.0 };
-                let gap = d + if *freespace { 0.5 * (tlen + len) } else { 0.0 };
-                let centre = if *ahead { ts + dir * gap } else { ts - dir * gap };
-                set_slot(s, actor, centre, continuous.then_some(tv));
-            }
-        }
-    }
-}
-
-/// `(centre s, length, initial speed, heading)` of an entity by flc name.
-fn entity_slot(s: &Scenario, name: &str) -> Option<(f64, f64, f64, f64)> {
-    match name {
-        "ego" => Some((s.follower.start_s?, s.follower.vehicle.length, s.follower.initial_speed, s.follower.start_heading)),
-        "lead" => Some((s.lead.s?, s.lead.vehicle.length, s.lead.initial_speed, s.lead.heading)),
-        _ => s.vehicles.iter().find(|v| v.name == name).map(|v| (v.s, v.vehicle.length, v.initial_speed, v.heading)),
-    }
-}
-
-fn set_slot(s: &mut Scenario, name: &str, centre: f64, speed: Option<f64>) {
-    let (slot, v0) = match name {
-        "ego" => (s.follower.start_s.get_or_insert(centre), &mut s.follower.initial_speed),
-        "lead" => (s.lead.s.get_or_insert(centre), &mut s.lead.initial_speed),
-        _ => match s.vehicles.iter_mut().find(|x| x.name == name) {
-            Some(x) => (&mut x.s, &mut x.initial_speed),
-            None => return,
-        },
-    };
-    *slot = centre;
-    if let Some(v) = speed {
-        *v0 = v;
-    }
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
@@ -1604,12 +1577,13 @@ mod tests {
 
     #[test]
     fn an_init_distance_by_time_gap_places_its_actor_at_t0() {
-        // Lead at 15 m/s placed 2 s ahead of Ego (20 m/s) in Init: 2 s x its own 15 m/s = 30 m
-        // between centres at t = 0 (esmini applies Init actions before its first step), not at
-        // its teleported s = 200; `distance` likewise.
+        // Lead at 15 m/s to be 2 s ahead of Ego (20 m/s) in Init: the time gap is taken times the
+        // referenced entity's speed (esmini's LongDistanceAction), 40 m between centres in the
+        // state at t = 0 (esmini applies Init actions before its first logged row), not its
+        // teleported s = 200; `distance` likewise. The lead takes the ego's speed.
         let d = tmp("init-gap");
         let ents = format!("{}{}", car("Ego"), car("Lead"));
-        for (attr, want) in [("timeGap=\"2.0\"", 30.0), ("distance=\"25.0\"", 25.0)] {
+        for (attr, want) in [("timeGap=\"2.0\"", 40.0), ("distance=\"25.0\"", 25.0)] {
             let keep = format!(
                 "<Private entityRef=\"Lead\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" {attr} \
                  freespace=\"false\" continuous=\"false\" coordinateSystem=\"entity\" displacement=\"leadingReferencedEntity\"/>\
@@ -1619,9 +1593,10 @@ mod tests {
             let text = xosc("", &ents, &init, "");
             let imp = import(&write(&d, "g.xosc", &text), &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() })
                 .unwrap_or_else(|e| panic!("{attr}: {e}"));
-            let s = &imp.runs[0].scenario;
-            let gap = s.lead.s.unwrap_or(f64::NAN) - s.follower.start_s.unwrap_or(f64::NAN);
-            assert!(close(gap, want), "{attr}: centres {gap} m apart, want {want}");
+            let sim = crate::sim::Simulation::new(&imp.runs[0].scenario).expect("sim");
+            let (lead, ego) = (sim.scripted_state("lead").expect("lead"), sim.follower_state(0).expect("ego"));
+            assert!(close(lead.x - ego.x, want), "{attr}: centres {} m apart, want {want}", lead.x - ego.x);
+            assert!(close(lead.speed, 20.0), "{attr}: lead at {} m/s", lead.speed);
         }
         let _ = std::fs::remove_dir_all(&d);
     }
@@ -1724,7 +1699,7 @@ mod tests {
     fn catalog_cycles_and_depth_are_errors() {
         let files = CatalogFiles::empty();
         let cats = Catalogs::new(&files);
-        let mut ctx = Ctx { params: Params::new(), cats: &cats, warn: Warnings::default(), stack: Vec::new() };
+        let mut ctx = Ctx { params: Params::new(), cats: &cats, warn: Warnings::default(), stack: Vec::new(), performance: None };
         let doc = xml::parse("<CatalogReference catalogName=\"c\" entryName=\"e\"/>", "f.xosc").expect("xml");
         let n = doc.root_element();
         ctx.enter_catalog("f.xosc", n, "c", "a").expect("a");

@@ -1285,9 +1285,24 @@ impl Sb<'_, '_, '_> {
         (entity, of): (&str, &str),
         what: &str,
     ) -> Result<(bool, f64, Rule), ImportError> {
+        let distance = self.distance_type(file, node, Some(DistanceType::Longitudinal))?;
+        self.time_measure(file, node, (entity, of), what, distance)
+    }
+
+    /// [`Self::longitudinal_time`] for a given measure: longitudinal, or (a time headway)
+    /// Euclidean.
+    fn time_measure(
+        &mut self,
+        file: &str,
+        node: Node<'_, '_>,
+        (entity, of): (&str, &str),
+        what: &str,
+        distance: DistanceType,
+    ) -> Result<(bool, f64, Rule), ImportError> {
         self.along_route(file, node)?;
         self.coordinate_system(file, node, true)?;
-        if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
+        let ok = distance == DistanceType::Longitudinal || (distance == DistanceType::Euclidean && what == "a time headway");
+        if !ok {
             return Err(ImportError::at(file, node, format!("{what} measured other than longitudinally is not supported")));
         }
         let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
@@ -1575,8 +1590,10 @@ impl Sb<'_, '_, '_> {
             }
             "TimeHeadwayCondition" => {
                 let of = self.entity(file, node, "entityRef")?;
-                let (freespace, value, rule) = self.longitudinal_time(file, node, (&entity, &of), "a time headway")?;
-                Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule, tolerance: None })
+                // esmini's default measure: the (box) Euclidean distance.
+                let distance = self.distance_type(file, node, Some(DistanceType::Euclidean))?;
+                let (freespace, value, rule) = self.time_measure(file, node, (&entity, &of), "a time headway", distance)?;
+                Ok(ConditionKind::TimeHeadway { entity, of, freespace, distance, value, rule, tolerance: None })
             }
             "TimeToCollisionCondition" => {
                 let target = xml::child(node, "TimeToCollisionConditionTarget")

@@ -33,6 +33,8 @@ pub(super) struct Body {
     pub(super) reference: [f64; 2],
     /// A pedestrian: moved kinematically whatever the story's `dynamics`.
     pub(super) pedestrian: bool,
+    /// The limits of its speed changes (`story.limits`).
+    pub(super) limits: Option<[f64; 2]>,
 }
 
 /// The motion of the reference point of `b` on `track`.
@@ -44,6 +46,7 @@ pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
     let m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
         .with_length(b.length)
         .with_reference(b.reference)
+        .with_limits(b.limits)
         .with_heading(crate::track::wrap(st.yaw - p.heading));
     if b.pedestrian { m.holding_heading() } else { m }
 }

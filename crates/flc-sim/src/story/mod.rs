@@ -245,11 +245,12 @@ pub enum Action {
         transition: Transition,
     },
     /// `LaneOffsetAction` (non-continuous): to `offset` (m, + left) from the centre of the lane
-    /// the actor is in when it starts; `relative_to` another entity's offset instead if given.
+    /// the actor is in when it starts; with `of`, to `offset` from that entity's lateral
+    /// position, whatever lanes the two are in (as esmini).
     LaneOffset {
         /// Target offset from the lane centre, m.
         offset: f64,
-        /// `RelativeTargetLaneOffset`: relative to this entity's offset from its lane centre.
+        /// `RelativeTargetLaneOffset`: relative to this entity's lateral position.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         of: Option<String>,
         /// Shape of the change.
@@ -597,6 +598,11 @@ pub struct Story {
     /// not named move their box centre.
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub references: std::collections::BTreeMap<String, [f64; 2]>,
+    /// Each entity's `[max acceleration, max deceleration]` (m/s², OpenSCENARIO's vehicle
+    /// `Performance`): a speed change whose peak rate exceeds them is stretched in time until it
+    /// does not (as esmini). Entities not named change speed as their actions say.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub limits: std::collections::BTreeMap<String, [f64; 2]>,
     /// The acts.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub acts: Vec<Act>,
@@ -702,6 +708,13 @@ impl Story {
             }
             check_range(&format!("story.references.{name}[0]"), r[0], -50.0, 50.0, "m")?;
             check_range(&format!("story.references.{name}[1]"), r[1], -50.0, 50.0, "m")?;
+        }
+        for (name, l) in &self.limits {
+            if !known(name) {
+                return Err(ConfigError::new(format!("story.limits.{name}"), format!("no entity `{name}`")));
+            }
+            check_range(&format!("story.limits.{name}[0]"), l[0], 0.01, 1.0e3, "m/s²")?;
+            check_range(&format!("story.limits.{name}[1]"), l[1], 0.01, 1.0e3, "m/s²")?;
         }
         for (i, a) in self.acts.iter().enumerate() {
             let ak = format!("story.acts[{i}]");

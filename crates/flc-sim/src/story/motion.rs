@@ -55,7 +55,8 @@ const LARGE: f64 = 1.0e10;
 /// esmini's `MAX_DECELERATION` of a synchronisation that must stop at once, m/s².
 const SYNC_STOP_DECEL: f64 = -8.0;
 
-/// A continuous `LongitudinalDistanceAction`.
+/// A running `LongitudinalDistanceAction`: kept every step (`continuous`), or until within
+/// [`REACHED_M`] of the distance.
 #[derive(Debug, Clone, PartialEq)]
 struct Keep {
     of: String,
@@ -63,7 +64,12 @@ struct Keep {
     time_gap: Option<f64>,
     freespace: bool,
     ahead: bool,
+    continuous: bool,
 }
+
+/// A non-continuous `LongitudinalDistanceAction` ends in the step its distance is off by less
+/// than this, m (esmini 3.6.0's `LONGITUDINAL_DISTANCE_THRESHOLD`).
+pub const REACHED_M: f64 = 0.1;
 
 /// A running lateral action.
 #[derive(Debug, Clone, PartialEq)]
@@ -252,6 +258,8 @@ pub struct Motion {
     own_len: Option<f64>,
     /// Its box centre from the reference point (`s`, `offset`), entity frame, m.
     reference: [f64; 2],
+    /// `[max acceleration, max deceleration]` its speed changes keep to, m/s² (`None`: none).
+    limits: Option<[f64; 2]>,
     long: Option<Long>,
     lat: Option<Lat>,
     traj: Option<Traj>,
@@ -278,6 +286,7 @@ impl Motion {
             lane_width,
             own_len: None,
             reference: [0.0, 0.0],
+            limits: None,
             long: None,
             lat: None,
             traj: None,
@@ -314,6 +323,13 @@ impl Motion {
     /// This motion for an entity `length` m long (freespace placements).
     pub fn with_length(mut self, length: f64) -> Self {
         self.own_len = Some(length);
+        self
+    }
+
+    /// This motion for an entity whose speed changes keep to `limits` (`[max acceleration, max
+    /// deceleration]`, m/s²): a transition whose peak rate would exceed them takes longer.
+    pub fn with_limits(mut self, limits: Option<[f64; 2]>) -> Self {
+        self.limits = limits;
         self
     }
 
@@ -423,18 +439,18 @@ impl Motion {
                     }
                     (None, None) => (self.speed, None),
                 };
-                let duration = speed_duration(transition, self.speed, target);
-                self.long = Some(Long {
-                    action: i,
-                    v0: self.speed,
-                    v1: target,
-                    shape: transition.shape,
-                    duration,
-                    t0: t,
-                    track,
-                    keep: None,
-                    sync: None,
-                });
+                let mut duration = speed_duration(transition, self.speed, target);
+                if let Some([up, down]) = self.limits {
+                    // esmini (`TransitionDynamics::SetMaxRate`): the transition slowed to the
+                    // entity's performance, its shape kept.
+                    let change = (target - self.speed).abs();
+                    let limit = if target > self.speed { up } else { down };
+                    if duration.is_finite() && duration > 0.0 && limit > 0.0 {
+                        duration = duration.max(transition.shape.peak_slope() * change / limit);
+                    }
+                }
+                self.long =
+                    Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track, keep: None, sync: None });
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
@@ -452,12 +468,13 @@ impl Motion {
             }
             Action::LaneOffset { offset, of, shape, max_lateral_acc } => {
                 let replaced = self.lat.take().map(|l| l.action).filter(|&a| a != i);
-                let centre = self.lane_of(self.offset) * self.lane_width;
-                let base = match of {
-                    Some(name) => world.entity(name).map_or(0.0, |e| e.lateral - self.lane_of(e.lateral) * self.lane_width),
-                    None => 0.0,
+                // Absolute: from the centre of the lane the entity is in. Relative to an entity:
+                // that entity's lateral position plus `offset`, whatever lane either is in
+                // (esmini keeps the actor's lane and offsets within it, even by a lane or more).
+                let to = match of.as_deref().and_then(|name| world.entity(name)) {
+                    Some(e) => e.lateral + offset,
+                    None => self.lane_of(self.offset) * self.lane_width + offset,
                 };
-                let to = centre + base + offset;
                 let change = (to - self.offset).abs();
                 // Peak lateral acceleration of the shape over a change `c` in time `T`: linear has
                 // none inside (taken as cubic), cubic 6 c / T², sinusoidal pi² c / (2 T²).
@@ -472,7 +489,33 @@ impl Motion {
             }
             Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
-                let keep = Keep { of: of.clone(), distance: *distance, time_gap: *time_gap, freespace: *freespace, ahead: *ahead };
+                let keep = Keep {
+                    of: of.clone(),
+                    distance: *distance,
+                    time_gap: *time_gap,
+                    freespace: *freespace,
+                    ahead: *ahead,
+                    continuous: *continuous,
+                };
+                // With the world's geometry, esmini's way: one correction now (the first one
+                // of an Init action is in the state at t = 0), one at the start of every step
+                // after, until within `REACHED_M` (non-continuous).
+                if let Some(off) = self.reach(&keep, world) {
+                    if *continuous || off >= REACHED_M {
+                        self.long = Some(Long {
+                            action: i,
+                            v0: self.speed,
+                            v1: self.speed,
+                            shape: Shape::Step,
+                            duration: 0.0,
+                            t0: t,
+                            track: None,
+                            keep: Some(keep),
+                        });
+                        return (replaced, false);
+                    }
+                    return (replaced, true);
+                }
                 if let Some(r) = world.entity(of) {
                     // A reached-once time gap is the actor's own speed times the gap (as before);
                     // a kept one `of`'s (esmini).
@@ -682,6 +725,37 @@ impl Motion {
         }
         self.speed += acc * dt;
         false
+
+    /// One correction of a distance action as esmini 3.6.0 makes it (`LongDistanceAction::Step`):
+    /// the distance to `k.of` measured along this entity's heading (between the rotated boxes
+    /// with `freespace`: 0 when their projections overlap; else between box centres), the
+    /// wanted one (a time gap times `k.of`'s speed), and the entity moved along its path by
+    /// the difference, at `k.of`'s speed. Returns the difference's size before the move, m
+    /// (`None` when the world gives no geometry: the caller measures along the centreline).
+    fn reach(&mut self, k: &Keep, world: &dyn WorldView) -> Option<f64> {
+        let r = world.entity(&k.of)?;
+        let [xr, yr, hr] = world.pose(&k.of)?;
+        let [x0, y0, h0, kappa] = world.place(self.s, self.offset)?;
+        let yaw = h0 + self.heading;
+        let (c, sn) = (yaw.cos(), yaw.sin());
+        let [rx, ry] = self.reference;
+        let (xa, ya) = (x0 + c * rx - sn * ry, y0 + sn * rx + c * ry);
+        // > 0: `of` is ahead along this entity's heading.
+        let along = c * (xr - xa) + sn * (yr - ya);
+        let distance = if k.freespace {
+            let d = hr - yaw;
+            let half = 0.5 * self.own_len.unwrap_or(r.length) + 0.5 * r.length * d.cos().abs() + 0.5 * r.width * d.sin().abs();
+            (along.abs() - half).max(0.0).copysign(along)
+        } else {
+            along
+        };
+        let want = k.distance.unwrap_or_else(|| k.time_gap.unwrap_or(0.0) * r.speed).abs();
+        let diff = distance - if k.ahead { -want } else { want };
+        let scale = 1.0 - kappa * self.offset;
+        let dir = if self.reversed { -1.0 } else { 1.0 };
+        self.s += dir * if scale > 0.1 { diff / scale } else { diff };
+        self.speed = r.speed.max(0.0);
+        Some(diff.abs())
     }
 
     /// Puts the reference point where `k` wants it from `r` (distances between box centres,
@@ -737,7 +811,11 @@ impl Motion {
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
             // moved on with that speed (esmini's order).
-            if let Some(r) = world.entity(&k.of) {
+            if let Some(off) = self.reach(&k, world) {
+                if !k.continuous && off < REACHED_M {
+                    out.long_done = long_action;
+                }
+            } else if let Some(r) = world.entity(&k.of) {
                 self.keep_at(&k, &r, r.speed);
                 self.speed = r.speed.max(0.0);
             }
