@@ -511,6 +511,7 @@ impl Motion {
                             t0: t,
                             track: None,
                             keep: Some(keep),
+                            sync: None,
                         });
                         return (replaced, false);
                     }
@@ -725,6 +726,7 @@ impl Motion {
         }
         self.speed += acc * dt;
         false
+    }
 
     /// One correction of a distance action as esmini 3.6.0 makes it (`LongDistanceAction::Step`):
     /// the distance to `k.of` measured along this entity's heading (between the rotated boxes
