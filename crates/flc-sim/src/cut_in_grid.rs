@@ -161,6 +161,10 @@ lane_keeping = true
 [v2v]
 enabled = false
 
+# The careful driver cruises at the ego's speed (its own desired speed would slow it down).
+[careful_driver.normal]
+desired_speed = {ego}
+
 [story]
 dynamics = "kinematic"
 ego = "controller"
