@@ -60,12 +60,17 @@ pub struct NeighbourParams {
     pub gate_d: f64,
     /// Scans a track is kept without being seen. Default 3.
     pub max_misses: u8,
-    /// Smallest width across the path of a view that measures the band a track occupies, m.
+    /// Smallest width across the path of a view that measures the band a track occupies (a
+    /// full view; see also `full_range`), m.
     /// Default 1.5: a car's rear face (1.6-2.0 m) with a few returns missing. A partial view (a
     /// fragment of a rear face whose returns nearest the path dropped out, at range) shows its
     /// near edge too far out; it neither widens the band nor, before the first full view, makes
     /// the track intrude.
     pub full_width: f64,
+    /// Farthest a full view is taken, m. Default 40: beyond it a rear face is a few returns a
+    /// beam spacing apart (0.24 m at 70 m for 0.2 degree beams), and under dropout its measured
+    /// near edge was 0.7 m too far out in views 1.5 m wide.
+    pub full_range: f64,
     /// Widest cluster tracked, m. Default 6: a car turned across the lane while it changes lanes
     /// (the detector rejects it as too wide for a lead, above `max_width` 3 m). Its depth must
     /// stay within the same bound.
@@ -90,6 +95,7 @@ impl NeighbourParams {
             gate_d: 0.8,
             max_misses: 3,
             full_width: 1.5,
+            full_range: 40.0,
             max_width: 6.0,
         }
     }
@@ -103,6 +109,7 @@ impl NeighbourParams {
         check_positive("gate_x", self.gate_x, 100.0, "must be finite and in (0, 100] m")?;
         check_positive("gate_d", self.gate_d, 10.0, "must be finite and in (0, 10] m")?;
         check_range("full_width", self.full_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
+        check_range("full_range", self.full_range, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
         check_positive("max_width", self.max_width, 100.0, "must be finite and in (0, 100] m")?;
         if self.max_width < self.min_width {
             return Err(ParamError { field: "max_width", problem: "must be >= min_width" });
@@ -137,7 +144,8 @@ pub struct NeighbourTrack {
     pub points: usize,
     /// Scans since it was last seen (0: seen in the last scan).
     pub misses: u8,
-    /// It has been seen in full (a view at least `full_width` wide): its band is measured.
+    /// It has been seen in full (a view at least `full_width` wide within `full_range`): its
+    /// band is measured.
     pub full: bool,
     /// The intrusion rule holds (evaluated when it is seen).
     pub intruding: bool,
@@ -241,7 +249,7 @@ impl NeighbourTracker {
             };
             let Some(i) = slot else { continue };
             let a = libm::fabs(near);
-            let full = c.width() >= p.full_width;
+            let full = c.width() >= p.full_width && c.x_min <= p.full_range;
             let track = match self.tracks.get(i).copied().flatten().filter(|_| best.is_some()) {
                 // The first full view: the band starts again from it.
                 Some(t) if full && !t.full => NeighbourTrack { near_far: a, near_close: a, full: true, ..t },
@@ -405,6 +413,8 @@ mod tests {
         for k in 0..120 {
             let x = 70.0 - 0.5 * f64::from(k);
             let c = match k % 4 {
+                // Beyond `full_range` a view 1.55 m wide is no full view either.
+                0 if x > 40.0 => cluster(x, 3.33, 4.88),
                 0 => cluster(x, 3.33, 4.58),
                 1 => cluster(x, 2.55, 4.4),
                 2 => cluster(x, 2.95, 4.4),
