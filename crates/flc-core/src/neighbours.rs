@@ -208,11 +208,7 @@ impl NeighbourTracker {
             Some(RejectReason::TooWide) => c.width() <= p.max_width && c.depth() <= p.max_width,
             _ => false,
         };
-        shaped
-            && c.points > 0
-            && c.width() >= p.min_width
-            && c.x_min <= p.max_range
-            && libm::fabs(near_edge(c)) <= p.band
+        shaped && c.points > 0 && c.width() >= p.min_width && c.x_min <= p.max_range && libm::fabs(near_edge(c)) <= p.band
     }
 
     /// One scan: `clusters` are the detector's clusters of that scan
