@@ -75,6 +75,10 @@ pub struct NeighbourParams {
     /// (the detector rejects it as too wide for a lead, above `max_width` 3 m). Its depth must
     /// stay within the same bound.
     pub max_width: f64,
+    /// Width of the lanes, m: a car keeping the next lane has its centre this far from the path
+    /// (the ego keeping its own lane's centre). Default 3.5; 0 turns the lane rule off (the band
+    /// rule alone). See the second intrusion rule in the module's documentation.
+    pub lane_width: f64,
 }
 
 impl Default for NeighbourParams {
@@ -97,6 +101,7 @@ impl NeighbourParams {
             full_width: 1.5,
             full_range: 40.0,
             max_width: 6.0,
+            lane_width: 3.5,
         }
     }
 
@@ -111,6 +116,7 @@ impl NeighbourParams {
         check_range("full_width", self.full_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
         check_range("full_range", self.full_range, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
         check_positive("max_width", self.max_width, 100.0, "must be finite and in (0, 100] m")?;
+        check_range("lane_width", self.lane_width, 0.0, 100.0, "must be finite and in [0, 100] m (0 = off)")?;
         if self.max_width < self.min_width {
             return Err(ParamError { field: "max_width", problem: "must be >= min_width" });
         }
@@ -211,6 +217,14 @@ impl NeighbourTracker {
         shaped && c.points > 0 && c.width() >= p.min_width && c.x_min <= p.max_range && libm::fabs(near_edge(c)) <= p.band
     }
 
+    /// The lane rule: the track's near edge has come more than `wandering` towards the path from
+    /// the farthest it has been, and its lateral centre (on the path) is more than `wandering`
+    /// inside the middle of the next lane (`lane_width` from the path).
+    fn left_its_lane(p: &NeighbourParams, t: &NeighbourTrack, c: &ClusterInfo) -> bool {
+        let centre = libm::fabs(0.5 * (c.d_min + c.d_max));
+        p.lane_width > 0.0 && t.near_far - libm::fabs(t.near) > p.wandering && centre < p.lane_width - p.wandering
+    }
+
     /// One scan: `clusters` are the detector's clusters of that scan
     /// ([`crate::LeadDetector::clusters`]). Updates the tracks and returns the nearest intruding
     /// one as a detection (its rear face and lateral centre, sensor frame), `None` if none
@@ -280,7 +294,7 @@ impl NeighbourTracker {
                 misses: 0,
                 ..track
             };
-            track.intruding = track.full && track.moved_towards() > p.wandering;
+            track.intruding = track.full && (track.moved_towards() > p.wandering || Self::left_its_lane(&p, &track, c));
             if let (Some(t), Some(s)) = (self.tracks.get_mut(i), seen.get_mut(i)) {
                 *t = Some(track);
                 *s = true;
@@ -355,25 +369,53 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_car_changing_lanes_towards_the_path_intrudes_after_the_wandering_zone() {
-        for side in [1.0, -1.0] {
-            let mut n = tracker();
-            let mut first = None;
-            for k in 0..=100 {
-                // Steady for 20 scans, then 3.5 m towards the path in 80 scans.
-                let u = (f64::from(k) - 20.0).max(0.0) / 80.0;
-                let t = side * 3.5 * (1.0 - 0.5 * (1.0 - libm::cos(core::f64::consts::PI * u)));
-                let out = n.update(&[car(30.0 - 0.1 * f64::from(k), t)]);
-                if let (Some(d), None) = (out, first) {
-                    first = Some((k, t));
-                    assert!((d.distance - (30.0 - 0.1 * f64::from(k))).abs() < 1e-12);
-                }
+    /// Where a car changing lanes towards the path (steady at the next lane's centre, then 3.5 m
+    /// towards the path) is first reported, with `params`: (scan, its centre's offset).
+    fn first_intrusion(params: NeighbourParams, side: f64) -> (i32, f64) {
+        let mut n = NeighbourTracker::new(params).unwrap();
+        let mut first = None;
+        for k in 0..=100 {
+            // Steady for 20 scans, then 3.5 m towards the path in 80 scans.
+            let u = (f64::from(k) - 20.0).max(0.0) / 80.0;
+            let t = side * 3.5 * (1.0 - 0.5 * (1.0 - libm::cos(core::f64::consts::PI * u)));
+            let out = n.update(&[car(30.0 - 0.1 * f64::from(k), t)]);
+            if let (Some(d), None) = (out, first) {
+                first = Some((k, t));
+                assert!((d.distance - (30.0 - 0.1 * f64::from(k))).abs() < 1e-12);
             }
-            let (k, t) = first.expect("intrudes");
-            // Moved 2 x 0.375 m from the lane's centre (the middle of its band is half way).
+        }
+        first.expect("intrudes")
+    }
+
+    #[test]
+    fn a_car_changing_lanes_towards_the_path_intrudes_once_it_leaves_the_wandering_zone() {
+        for side in [1.0, -1.0] {
+            // The lane rule: its centre 0.375 m inside the next lane's centre (R157's careful
+            // driver perceives it there too).
+            let (k, t) = first_intrusion(NeighbourParams::default(), side);
+            let moved = 3.5 - t.abs();
+            assert!(moved > 0.375 && moved < 0.45, "scan {k}: moved {moved:.3} m");
+            // The band rule alone: 2 x 0.375 m from the lane's centre (the middle of its band
+            // is half way).
+            let (k, t) = first_intrusion(NeighbourParams { lane_width: 0.0, ..NeighbourParams::default() }, side);
             let moved = 3.5 - t.abs();
             assert!(moved > 0.75 && moved < 0.85, "scan {k}: moved {moved:.3} m");
+        }
+    }
+
+    #[test]
+    fn a_car_keeping_off_the_centre_of_the_next_lane_does_not_intrude() {
+        // Seen first 0.6 m inside the next lane's centre and steady there: its centre is inside
+        // the wandering zone but it has not come closer. Then a car drifting 0.3 m towards the
+        // path from the next lane's centre: within the wandering zone.
+        let mut n = tracker();
+        for k in 0..100 {
+            assert_eq!(n.update(&[car(25.0, 2.9)]), None, "scan {k}");
+        }
+        let mut n = tracker();
+        for k in 0..100 {
+            let t = 3.5 - 0.3 * f64::from(k) / 99.0;
+            assert_eq!(n.update(&[car(25.0, t)]), None, "scan {k}");
         }
     }
 
@@ -466,6 +508,7 @@ mod tests {
             (NeighbourParams { max_misses: 200, ..d }, "max_misses"),
             (NeighbourParams { full_width: -0.1, ..d }, "full_width"),
             (NeighbourParams { max_width: 1.0, ..d }, "max_width"),
+            (NeighbourParams { lane_width: -1.0, ..d }, "lane_width"),
         ] {
             assert_eq!(NeighbourTracker::new(p).unwrap_err().field, field);
         }
