@@ -20,8 +20,20 @@
 //!
 //! the near edge has come towards the path by more than the wandering zone (UN R157: 0.375 m)
 //! from the middle of the band it has occupied: a car weaving +-0.3 m within its lane stays within
-//! 0.3 m of the middle of its band, a car changing lanes towards the ego crosses the rule after
-//! 0.75 m. (The detector's swept-path corridor, `swept_half_width`, takes over once its body
+//! 0.3 m of the middle of its band, a car changing lanes towards the ego crosses this band rule
+//! only after 0.75 m (the middle moves in with it). The **lane rule** reports it where R157's
+//! careful driver perceives it:
+//!
+//! ```text
+//! intruding  <=>  near_far - |near| > wandering  and  |centre| < lane_width - wandering
+//! ```
+//!
+//! it has come `wandering` closer than the farthest it has been and its centre is `wandering`
+//! inside the middle of the next lane (the ego keeping its lane's centre). A car weaving about
+//! the next lane's centre, or keeping steadily off it, meets one condition only. A slow (5 s)
+//! lane change on the wet road (4 m/s²) was reported by the band rule alone about 0.25 s after
+//! the careful driver perceived it, too late to stop. (The detector's swept-path corridor,
+//! `swept_half_width`, takes over once its body
 //! reaches into the ego's swept path plus margin.) The nearest intruding track is reported as a
 //! [`Detection`] at its measured distance, which the fallback follows like a lead in the path.
 //!
