@@ -22,8 +22,10 @@
 //!    writer of the generated figures (`svg`);
 //! 6. **the runner**: [`run`] / [`RunOptions`] (recording, stop flag, progress, batches);
 //! 7. **experiments**: [`sweep`], the standard test suites ([`suite`]), the frequency response
-//!    ([`frequency_response`]), the detector study ([`detection_study`]) and the `scenario` binary.
+//!    ([`frequency_response`]), the detector study ([`detection_study`]), the cut-in grid
+//!    ([`cut_in_grid`]) and the `scenario` binary.
 mod controllers;
+pub mod cut_in_grid;
 pub mod detection_study;
 mod error;
 mod external;
