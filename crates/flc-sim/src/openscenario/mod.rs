@@ -449,7 +449,7 @@ fn check_limits(file: &str, entities: Node<'_, '_>, storyboard: Node<'_, '_>) ->
 
 /// The road the ego's initial position names (following relative positions), if any.
 fn road_hint(
-    ctx: &Ctx<'_, '_>,
+    ctx: &mut Ctx<'_, '_>,
     file: &str,
     ego: usize,
     init: &[storyboard::InitState<'_, '_>],
@@ -457,7 +457,11 @@ fn road_hint(
 ) -> Result<Option<String>, ImportError> {
     let mut i = ego;
     for _ in 0..=names.len() {
-        let Some(pos) = init.get(i).and_then(|s| s.position) else { return Ok(None) };
+        let st = init.get(i);
+        if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
+            return storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| position::road_id(&ctx.params, file, pos));
+        }
+        let Some(pos) = st.and_then(|s| s.position) else { return Ok(None) };
         if let Some(id) = position::road_id(&ctx.params, file, pos)? {
             return Ok(Some(id));
         }
@@ -663,7 +667,10 @@ fn translate(
                 })?,
                 None => n.roads.first().ok_or_else(|| ImportError::at(file, root, "the road file has no road"))?,
             };
-            ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?
+            match init_states.get(ego).filter(|s| s.position.is_none()).and_then(|s| s.trajectory) {
+                Some(fta) => storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| ego_route(ctx, file, n, road, Some(pos)))?,
+                None => ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?,
+            }
         }
     };
     let poses = place_all(ctx, file, &geo, &defs, &init_states, &osc_names)?;
@@ -800,6 +807,7 @@ fn translate(
         param_vars: BTreeMap::new(),
         skipped_used: false,
         elements: 0,
+        start_trajectory: false,
     };
     let init_act = sb.init_act(file, init)?;
     let (story_acts, stop) = sb.storyboard(file, board)?;
@@ -977,7 +985,7 @@ fn init_controller(
 /// The world pose of every entity's reference point, from its Init `TeleportAction` (relative
 /// positions after the entity they refer to).
 fn place_all(
-    ctx: &Ctx<'_, '_>,
+    ctx: &mut Ctx<'_, '_>,
     file: &str,
     geo: &Geo,
     defs: &[EntityDef],
@@ -991,7 +999,18 @@ fn place_all(
             if poses.get(i).is_some_and(Option::is_some) {
                 continue;
             }
-            let Some(pos) = init.get(i).and_then(|s| s.position) else { continue };
+            let st = init.get(i);
+            if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
+                let p = storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| {
+                    position::resolve(&ctx.params, geo, file, pos, &|_: &str| None)
+                })?;
+                if let Some(slot) = poses.get_mut(i) {
+                    *slot = Some(p);
+                    progress = true;
+                }
+                continue;
+            }
+            let Some(pos) = st.and_then(|s| s.position) else { continue };
             let ready = match position::reference(&ctx.params, file, pos)? {
                 None => true,
                 Some(r) => names.iter().position(|n| *n == r).is_none_or(|j| poses.get(j).is_some_and(Option::is_some)),
@@ -1017,7 +1036,7 @@ fn place_all(
             None => {
                 let msg = match init.get(i).and_then(|s| s.position) {
                     Some(_) => format!("the position of `{}` refers to entities that wait on each other", d.osc_name),
-                    None => format!("`{}` has no TeleportAction in Init (no initial position)", d.osc_name),
+                    None => format!("`{}` has no TeleportAction and no FollowTrajectoryAction in Init (no initial position)", d.osc_name),
                 };
                 return Err(ImportError { file: d.file.clone(), line: d.line, element: "ScenarioObject".into(), message: msg });
             }
@@ -1401,6 +1420,80 @@ mod tests {
         assert!((y + 1.2467).abs() < 1e-3, "Target at y = {y} (esmini: -1.246668)");
     }
 
+    /// An entity with no TeleportAction starting on its Init trajectory (`follow` mode): the
+    /// text of the scenario, with `fta_attrs` on the action and `first` as the first segment.
+    fn trajectory_start_xosc(fta_attrs: &str, first: &str) -> String {
+        let target = format!(
+            "<Private entityRef=\"Target\"><PrivateAction><RoutingAction><FollowTrajectoryAction{fta_attrs}>\
+             <TrajectoryRef><Trajectory name=\"T\" closed=\"false\"><Shape><ClothoidSpline>{first}\
+             <ClothoidSplineSegment curvatureStart=\"0.02\" curvatureEnd=\"0.02\" length=\"30.0\"/></ClothoidSpline></Shape></Trajectory>\
+             </TrajectoryRef><TimeReference><None/></TimeReference><TrajectoryFollowingMode followingMode=\"follow\"/>\
+             </FollowTrajectoryAction></RoutingAction></PrivateAction><PrivateAction><LongitudinalAction><SpeedAction>\
+             <SpeedActionDynamics dynamicsShape=\"step\" dynamicsDimension=\"time\" value=\"0\"/><SpeedActionTarget>\
+             <AbsoluteTargetSpeed value=\"10\"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Private>\n"
+        );
+        xosc("", &format!("{}{}", car("Ego"), car("Target")), &format!("{}{target}", place("Ego", -1, 10.0, 5.0)), "")
+    }
+
+    const START: &str = "<ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20.0\"><PositionStart>\
+                         <LanePosition roadId=\"1\" laneId=\"-2\" s=\"40.0\" offset=\"0\"/></PositionStart></ClothoidSplineSegment>";
+
+    #[test]
+    fn an_entity_without_teleport_starts_at_its_init_trajectory() {
+        let d = tmp("trajstart");
+        let imp =
+            import(&write(&d, "ok.xosc", &trajectory_start_xosc("", START)), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let run = &imp.runs[0];
+        let target = run.entities.iter().find(|e| e.osc_name == "Target").map(|e| e.flc_name.clone()).expect("Target");
+        let mut sim = crate::Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+        let at = |sim: &crate::Simulation| sim.scripted_state(&target).map(|st| (st.x, st.y)).expect("state");
+        let (x0, y0) = at(&sim);
+        // The bounding box's centre, 1.4 m ahead of the reference point.
+        assert!((x0 - 41.4).abs() < 1e-9 && (y0 + 5.25).abs() < 1e-9, "start ({x0}, {y0}): lane -2 at s 40");
+        for _ in 0..300 {
+            assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+        }
+        // t = 3 s at 10 m/s: 20 m straight, then 10 m of a left arc of radius 50 m.
+        let (x, y) = at(&sim);
+        let (r, a) = (50.0, 10.0 / 50.0_f64);
+        let (xr, yr) = (60.0 + r * a.sin() + 1.4 * a.cos(), -5.25 + r * (1.0 - a.cos()) + 1.4 * a.sin());
+        assert!((x - xr).abs() < 0.05 && (y - yr).abs() < 0.05, "t = 3 s: ({x}, {y}), expected ({xr}, {yr})");
+    }
+
+    #[test]
+    fn a_trajectory_start_refuses_what_it_cannot_place() {
+        let d = tmp("trajstartbad");
+        let cases = [
+            ("offset.xosc", " initialDistanceOffset=\"5\"", START.to_string(), "initialDistanceOffset"),
+            (
+                "nostart.xosc",
+                "",
+                "<ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20.0\"/>".into(),
+                "PositionStart",
+            ),
+            (
+                "relative.xosc",
+                "",
+                START.replace(
+                    "<LanePosition roadId=\"1\" laneId=\"-2\" s=\"40.0\" offset=\"0\"/>",
+                    "<RelativeObjectPosition entityRef=\"Ego\" dx=\"5\" dy=\"0\"/>",
+                ),
+                "relative to an entity",
+            ),
+            ("badlane.xosc", "", START.replace("laneId=\"-2\"", "laneId=\"-9\""), "-9"),
+        ];
+        for (name, attrs, first, needle) in cases {
+            let text = trajectory_start_xosc(attrs, &first);
+            let e = import(&write(&d, name, &text), &ImportOptions::default()).err().map(|e| e.to_string());
+            let e = e.unwrap_or_else(|| panic!("{name}: imported"));
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+        // A second segment's PositionStart stays refused.
+        let two = format!("{START}{}", START.replace("s=\"40.0\"", "s=\"60.0\""));
+        let e = import(&write(&d, "second.xosc", &trajectory_start_xosc("", &two)), &ImportOptions::default()).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains("PositionStart")), "{e:?}");
+    }
+
     #[test]
     fn synchronize_and_trajectory_refuse_bad_input_naming_the_element() {
         let d = tmp("sync");
@@ -1433,7 +1526,7 @@ mod tests {
                 "<ClothoidSplineSegment curvatureStart=\"0.005\" curvatureEnd=\"0.005\" length=\"20.0\"><PositionStart><WorldPosition x=\"0\" y=\"0\"/></PositionStart></ClothoidSplineSegment>",
                 "PositionStart",
             ),
-            ("follow.xosc", "followingMode=\"position\"", "followingMode=\"follow\"", "followingMode"),
+            ("follow.xosc", "followingMode=\"position\"", "followingMode=\"sideways\"", "followingMode"),
             ("timing.xosc", "<None/>", "<Timing domainAbsoluteRelative=\"absolute\" scale=\"1\" offset=\"0\"/>", "TimeReference"),
             ("closed.xosc", "closed=\"false\"", "closed=\"true\"", "closed"),
             (

@@ -49,6 +49,9 @@ pub struct Facts {
 pub struct InitState<'a, 'i> {
     /// Its `TeleportAction/Position` and the file.
     pub position: Option<Node<'a, 'i>>,
+    /// Its first Init `FollowTrajectoryAction`: without a `TeleportAction` the entity starts at
+    /// the trajectory's first point (as esmini places it when the action starts at t = 0).
+    pub trajectory: Option<Node<'a, 'i>>,
     /// Initial speed, m/s (a `SpeedAction` with a `step` shape or a time of 0).
     pub speed: Option<f64>,
     /// An initial speed relative to another entity (OpenSCENARIO name, delta or factor).
@@ -79,6 +82,10 @@ pub struct Sb<'c, 'a, 't> {
     pub skipped_used: bool,
     /// Storyboard elements built so far.
     pub elements: usize,
+    /// The action being read is the Init `FollowTrajectoryAction` an entity without a
+    /// `TeleportAction` starts on ([`trajectory_start`]): its first segment's `PositionStart`
+    /// is where the entity already is.
+    pub start_trajectory: bool,
 }
 
 /// `dynamicsShape`.
@@ -181,6 +188,8 @@ pub fn init_state<'a, 'i>(
                         return Err(ImportError::at(file, t, format!("a second TeleportAction for `{name}` in Init")));
                     }
                     st.position = Some(xml::child(t, "Position").ok_or_else(|| ImportError::at(file, t, "<Position> is missing"))?);
+                } else if let Some(f) = xml::child(pa, "RoutingAction").and_then(|r| xml::child(r, "FollowTrajectoryAction")) {
+                    st.trajectory = st.trajectory.or(Some(f));
                 } else if let Some(sa) = speed_action(pa) {
                     if !immediate_speed(ctx, file, sa)? {
                         continue;
@@ -230,6 +239,64 @@ pub fn init_state<'a, 'i>(
     Ok(out)
 }
 
+/// Runs `f` on the first point of the trajectory of the Init `FollowTrajectoryAction` `fta`
+/// (the `PositionStart` of its `ClothoidSpline`'s first segment), with the trajectory's
+/// parameters in scope (a `TrajectoryCatalog` entry's declarations and the reference's
+/// assignments). esmini starts the action at t = 0 and places the entity there
+/// (`initialDistanceOffset` 0), which flc takes as the entity's initial position.
+pub fn trajectory_start<'a, 't, R>(
+    ctx: &mut Ctx<'a, 't>,
+    file: &str,
+    fta: Node<'_, '_>,
+    f: impl FnOnce(&mut Ctx<'a, 't>, &str, Node<'_, '_>) -> Result<R, ImportError>,
+) -> Result<R, ImportError> {
+    if ctx.params.num_attr(fta, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
+        return Err(ImportError::at(file, fta, "a start from a trajectory with an initialDistanceOffset other than 0 is not supported"));
+    }
+    let traj = match xml::child(fta, "TrajectoryRef") {
+        Some(r) => only_child(file, r)?,
+        None => xml::elements(fta)
+            .find(|c| matches!(c.tag_name().name(), "Trajectory" | "CatalogReference"))
+            .ok_or_else(|| ImportError::at(file, fta, "<TrajectoryRef> is missing"))?,
+    };
+    fn first_point<'a, 't, R>(
+        ctx: &mut Ctx<'a, 't>,
+        file: &str,
+        traj: Node<'_, '_>,
+        f: impl FnOnce(&mut Ctx<'a, 't>, &str, Node<'_, '_>) -> Result<R, ImportError>,
+    ) -> Result<R, ImportError> {
+        if traj.tag_name().name() != "Trajectory" {
+            return Err(ImportError::at(file, traj, "expected a <Trajectory>"));
+        }
+        let shape = xml::child(traj, "Shape").ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+        let shape = only_child(file, shape)?;
+        if shape.tag_name().name() != "ClothoidSpline" {
+            return Err(ImportError::at(
+                file,
+                shape,
+                format!("<{}>: an entity without a TeleportAction may start only on a <ClothoidSpline>", shape.tag_name().name()),
+            ));
+        }
+        let seg = xml::elements(shape).next().ok_or_else(|| ImportError::at(file, shape, "no <ClothoidSplineSegment>"))?;
+        let start = xml::child(seg, "PositionStart").ok_or_else(|| {
+            ImportError::at(file, seg, "the first segment has no <PositionStart> and the entity no TeleportAction (no initial position)")
+        })?;
+        if super::position::reference(&ctx.params, file, start)?.is_some() {
+            return Err(ImportError::at(file, start, "a trajectory start relative to an entity is not supported"));
+        }
+        f(ctx, file, start)
+    }
+    match traj.tag_name().name() {
+        "CatalogReference" => ctx.catalog_entry(file, traj, &["TrajectoryCatalog"], |ctx, efile, node| first_point(ctx, efile, node, f)),
+        _ => {
+            ctx.params.push_scope();
+            let r = ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| first_point(ctx, file, traj, f));
+            ctx.params.pop_scope();
+            r
+        }
+    }
+}
+
 impl Sb<'_, '_, '_> {
     fn count(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
         self.elements += 1;
@@ -260,6 +327,7 @@ impl Sb<'_, '_, '_> {
                     "Private" => {
                         let who = self.entity(file, a, "entityRef")?;
                         let mut acts = Vec::new();
+                        let mut start_on_trajectory = !xml::elements(a).any(|pa| xml::child(pa, "TeleportAction").is_some());
                         for pa in xml::elements(a) {
                             if xml::child(pa, "TeleportAction").is_some() {
                                 continue;
@@ -297,7 +365,12 @@ impl Sb<'_, '_, '_> {
                                 }
                                 continue;
                             }
-                            if let Some(action) = self.private_action(file, pa, std::slice::from_ref(&who))? {
+                            let fta = xml::child(pa, "RoutingAction").and_then(|r| xml::child(r, "FollowTrajectoryAction"));
+                            self.start_trajectory = start_on_trajectory && fta.is_some();
+                            start_on_trajectory &= fta.is_none();
+                            let action = self.private_action(file, pa, std::slice::from_ref(&who));
+                            self.start_trajectory = false;
+                            if let Some(action) = action? {
                                 acts.push((pa, action));
                             }
                         }
@@ -1214,9 +1287,9 @@ impl Sb<'_, '_, '_> {
         }
         let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
         let m = self.ctx.params.req_enum(mode, "followingMode", file, &["position", "follow"])?;
-        if m != "position" {
-            return Err(ImportError::at(file, mode, "followingMode=\"follow\" is not supported (only \"position\")"));
-        }
+        // esmini hands the mode to the shape only (a polyline's corners); a clothoid spline
+        // is smooth, so "follow" moves the actor as "position" does.
+        let _ = m;
         if !self.straight_track() {
             return Err(ImportError::at(file, node, "a trajectory on a curved road is not supported (flc lays it in the road's frame)"));
         }
@@ -1288,8 +1361,13 @@ impl Sb<'_, '_, '_> {
                 return Err(ImportError::unsupported(file, g));
             }
             if let Some(c) = xml::elements(g).next() {
-                // esmini starts a segment there; flc lays the spline from the actor only.
-                return Err(ImportError::at(file, c, "a segment's <PositionStart> is not supported (the spline starts at the actor)"));
+                // esmini starts a segment there; flc lays the spline from the actor only: the
+                // first segment's start is accepted where the entity was placed at it.
+                if segments.is_empty() && self.start_trajectory && c.tag_name().name() == "PositionStart" && xml::elements(g).count() == 1 {
+                    // fall through: the entity starts there.
+                } else {
+                    return Err(ImportError::at(file, c, "a segment's <PositionStart> is not supported (the spline starts at the actor)"));
+                }
             }
             if p.num_attr(g, "hOffset", file)?.is_some_and(|h| h != 0.0) {
                 return Err(ImportError::at(file, g, "hOffset other than 0 is not supported"));
