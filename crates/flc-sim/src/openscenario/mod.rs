@@ -459,7 +459,10 @@ fn road_hint(
     for _ in 0..=names.len() {
         let st = init.get(i);
         if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
-            return storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| position::road_id(&ctx.params, file, pos));
+            return storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos, _| match pos.first() {
+                Some(p) => position::road_id(&ctx.params, file, *p),
+                None => Ok(None),
+            });
         }
         let Some(pos) = st.and_then(|s| s.position) else { return Ok(None) };
         if let Some(id) = position::road_id(&ctx.params, file, pos)? {
@@ -668,7 +671,9 @@ fn translate(
                 None => n.roads.first().ok_or_else(|| ImportError::at(file, root, "the road file has no road"))?,
             };
             match init_states.get(ego).filter(|s| s.position.is_none()).and_then(|s| s.trajectory) {
-                Some(fta) => storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| ego_route(ctx, file, n, road, Some(pos)))?,
+                Some(fta) => {
+                    storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos, _| ego_route(ctx, file, n, road, pos.first().copied()))?
+                }
                 None => ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?,
             }
         }
@@ -1001,8 +1006,14 @@ fn place_all(
             }
             let st = init.get(i);
             if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
-                let p = storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos| {
-                    position::resolve(&ctx.params, geo, file, pos, &|_: &str| None)
+                let p = storyboard::trajectory_start(ctx, file, fta, |ctx, efile, points, offset| {
+                    let mut poses = Vec::with_capacity(points.len());
+                    for p in points {
+                        poses.push(position::resolve(&ctx.params, geo, efile, *p, &|_: &str| None)?);
+                    }
+                    storyboard::along_polyline(&poses, offset).ok_or_else(|| {
+                        ImportError::at(file, fta, format!("initialDistanceOffset = {offset} m is beyond the trajectory's end"))
+                    })
                 })?;
                 if let Some(slot) = poses.get_mut(i) {
                     *slot = Some(p);
@@ -1461,10 +1472,42 @@ mod tests {
     }
 
     #[test]
+    fn a_polyline_start_lies_initial_distance_offset_along_it() {
+        use position::Pose;
+        let pts = [Pose { x: 100.0, y: 1.75, h: 0.0 }, Pose { x: 0.0, y: 1.75, h: 0.0 }, Pose { x: 0.0, y: 51.75, h: 0.0 }];
+        let p = storyboard::along_polyline(&pts, 30.0).expect("on it");
+        assert!((p.x - 70.0).abs() < 1e-12 && (p.y - 1.75).abs() < 1e-12 && (p.h - std::f64::consts::PI).abs() < 1e-12, "{p:?}");
+        let q = storyboard::along_polyline(&pts, 120.0).expect("on the second segment");
+        assert!(q.x.abs() < 1e-12 && (q.y - 21.75).abs() < 1e-12 && (q.h - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{q:?}");
+        assert!(storyboard::along_polyline(&pts, 150.5).is_none(), "past the end");
+        assert!(storyboard::along_polyline(&pts[..1], 0.0).is_some() && storyboard::along_polyline(&pts[..1], 1.0).is_none());
+        assert!(storyboard::along_polyline(&[], 0.0).is_none());
+        // Through the importer: the placement is checked before the action is read.
+        let d = tmp("polystart");
+        let poly = |offset: &str| {
+            trajectory_start_xosc(&format!(" initialDistanceOffset=\"{offset}\""), START).replace(
+                &format!("<ClothoidSpline>{START}<ClothoidSplineSegment curvatureStart=\"0.02\" curvatureEnd=\"0.02\" length=\"30.0\"/></ClothoidSpline>"),
+                "<Polyline><Vertex><Position><WorldPosition x=\"100\" y=\"1.75\"/></Position></Vertex>\
+                 <Vertex><Position><WorldPosition x=\"0\" y=\"1.75\"/></Position></Vertex></Polyline>",
+            )
+        };
+        for (name, offset, needle) in [
+            ("beyond.xosc", "100.5", "beyond the trajectory's end"),
+            ("neg.xosc", "-1", "initialDistanceOffset"),
+            ("nan.xosc", "NaN", "initialDistanceOffset"),
+        ] {
+            let text = poly(offset);
+            assert!(text.contains("<Polyline>"), "the fixture has a polyline");
+            let e = import(&write(&d, name, &text), &ImportOptions::default()).err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+    }
+
+    #[test]
     fn a_trajectory_start_refuses_what_it_cannot_place() {
         let d = tmp("trajstartbad");
         let cases = [
-            ("offset.xosc", " initialDistanceOffset=\"5\"", START.to_string(), "initialDistanceOffset"),
+            ("offset.xosc", " initialDistanceOffset=\"5\"", START.to_string(), "initialDistanceOffset other than 0"),
             (
                 "nostart.xosc",
                 "",

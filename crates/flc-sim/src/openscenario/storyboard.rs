@@ -239,19 +239,21 @@ pub fn init_state<'a, 'i>(
     Ok(out)
 }
 
-/// Runs `f` on the first point of the trajectory of the Init `FollowTrajectoryAction` `fta`
-/// (the `PositionStart` of its `ClothoidSpline`'s first segment), with the trajectory's
-/// parameters in scope (a `TrajectoryCatalog` entry's declarations and the reference's
-/// assignments). esmini starts the action at t = 0 and places the entity there
-/// (`initialDistanceOffset` 0), which flc takes as the entity's initial position.
+/// Runs `f` on the start of the trajectory of the Init `FollowTrajectoryAction` `fta`, with the
+/// trajectory's parameters in scope (a `TrajectoryCatalog` entry's declarations and the
+/// reference's assignments): `f` gets the points to resolve and the distance along them
+/// (`initialDistanceOffset`). A `ClothoidSpline` gives its first segment's `PositionStart`
+/// (offset 0 only); a `Polyline` its vertices' positions. esmini starts the action at t = 0 and
+/// places the entity there, which flc takes as the entity's initial position.
 pub fn trajectory_start<'a, 't, R>(
     ctx: &mut Ctx<'a, 't>,
     file: &str,
     fta: Node<'_, '_>,
-    f: impl FnOnce(&mut Ctx<'a, 't>, &str, Node<'_, '_>) -> Result<R, ImportError>,
+    f: impl FnOnce(&mut Ctx<'a, 't>, &str, &[Node<'_, '_>], f64) -> Result<R, ImportError>,
 ) -> Result<R, ImportError> {
-    if ctx.params.num_attr(fta, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
-        return Err(ImportError::at(file, fta, "a start from a trajectory with an initialDistanceOffset other than 0 is not supported"));
+    let offset = ctx.params.num_attr(fta, "initialDistanceOffset", file)?.unwrap_or(0.0);
+    if !offset.is_finite() || offset < 0.0 {
+        return Err(ImportError::at(file, fta, format!("initialDistanceOffset = {offset}: expected a finite distance >= 0")));
     }
     let traj = match xml::child(fta, "TrajectoryRef") {
         Some(r) => only_child(file, r)?,
@@ -259,42 +261,88 @@ pub fn trajectory_start<'a, 't, R>(
             .find(|c| matches!(c.tag_name().name(), "Trajectory" | "CatalogReference"))
             .ok_or_else(|| ImportError::at(file, fta, "<TrajectoryRef> is missing"))?,
     };
-    fn first_point<'a, 't, R>(
-        ctx: &mut Ctx<'a, 't>,
-        file: &str,
-        traj: Node<'_, '_>,
-        f: impl FnOnce(&mut Ctx<'a, 't>, &str, Node<'_, '_>) -> Result<R, ImportError>,
-    ) -> Result<R, ImportError> {
+    let first_point = move |ctx: &mut Ctx<'a, 't>, file: &str, traj: Node<'_, '_>| -> Result<R, ImportError> {
         if traj.tag_name().name() != "Trajectory" {
             return Err(ImportError::at(file, traj, "expected a <Trajectory>"));
         }
         let shape = xml::child(traj, "Shape").ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
         let shape = only_child(file, shape)?;
-        if shape.tag_name().name() != "ClothoidSpline" {
-            return Err(ImportError::at(
-                file,
-                shape,
-                format!("<{}>: an entity without a TeleportAction may start only on a <ClothoidSpline>", shape.tag_name().name()),
-            ));
+        let points: Vec<Node<'_, '_>> = match shape.tag_name().name() {
+            "ClothoidSpline" => {
+                if offset != 0.0 {
+                    return Err(ImportError::at(
+                        file,
+                        fta,
+                        "a start on a <ClothoidSpline> with an initialDistanceOffset other than 0 is not supported",
+                    ));
+                }
+                let seg = xml::elements(shape).next().ok_or_else(|| ImportError::at(file, shape, "no <ClothoidSplineSegment>"))?;
+                vec![xml::child(seg, "PositionStart").ok_or_else(|| {
+                    ImportError::at(
+                        file,
+                        seg,
+                        "the first segment has no <PositionStart> and the entity no TeleportAction (no initial position)",
+                    )
+                })?]
+            }
+            "Polyline" => {
+                let mut v = Vec::new();
+                for x in xml::elements(shape) {
+                    if v.len() == 10_000 {
+                        return Err(ImportError::at(file, x, "more than 10000 vertices"));
+                    }
+                    v.push(xml::child(x, "Position").ok_or_else(|| ImportError::at(file, x, "<Position> is missing"))?);
+                }
+                if v.is_empty() {
+                    return Err(ImportError::at(file, shape, "no <Vertex>"));
+                }
+                v
+            }
+            other => {
+                return Err(ImportError::at(
+                    file,
+                    shape,
+                    format!("<{other}>: an entity without a TeleportAction may start only on a <ClothoidSpline> or <Polyline>"),
+                ));
+            }
+        };
+        for p in &points {
+            if super::position::reference(&ctx.params, file, *p)?.is_some() {
+                return Err(ImportError::at(file, *p, "a trajectory start relative to an entity is not supported"));
+            }
         }
-        let seg = xml::elements(shape).next().ok_or_else(|| ImportError::at(file, shape, "no <ClothoidSplineSegment>"))?;
-        let start = xml::child(seg, "PositionStart").ok_or_else(|| {
-            ImportError::at(file, seg, "the first segment has no <PositionStart> and the entity no TeleportAction (no initial position)")
-        })?;
-        if super::position::reference(&ctx.params, file, start)?.is_some() {
-            return Err(ImportError::at(file, start, "a trajectory start relative to an entity is not supported"));
-        }
-        f(ctx, file, start)
-    }
+        f(ctx, file, &points, offset)
+    };
     match traj.tag_name().name() {
-        "CatalogReference" => ctx.catalog_entry(file, traj, &["TrajectoryCatalog"], |ctx, efile, node| first_point(ctx, efile, node, f)),
+        "CatalogReference" => ctx.catalog_entry(file, traj, &["TrajectoryCatalog"], |ctx, efile, node| first_point(ctx, efile, node)),
         _ => {
             ctx.params.push_scope();
-            let r = ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| first_point(ctx, file, traj, f));
+            let r = ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| first_point(ctx, file, traj));
             ctx.params.pop_scope();
             r
         }
     }
+}
+
+/// The pose `offset` metres along the polyline through `points` (world poses): the heading of
+/// the segment it lies on (a single point: its own pose). `None` past the end.
+pub fn along_polyline(points: &[position::Pose], offset: f64) -> Option<position::Pose> {
+    let first = *points.first()?;
+    if points.len() == 1 {
+        return (offset == 0.0).then_some(first);
+    }
+    let mut left = offset;
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let len = dx.hypot(dy);
+        if left <= len && len > 0.0 {
+            let k = left / len;
+            return Some(position::Pose { x: a.x + k * dx, y: a.y + k * dy, h: dy.atan2(dx) });
+        }
+        left -= len;
+    }
+    None
 }
 
 impl Sb<'_, '_, '_> {
@@ -1287,8 +1335,7 @@ impl Sb<'_, '_, '_> {
         }
         let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
         let m = self.ctx.params.req_enum(mode, "followingMode", file, &["position", "follow"])?;
-        // esmini hands the mode to the shape only (a polyline's corners); a clothoid spline
-        // is smooth, so "follow" moves the actor as "position" does.
+        // A clothoid spline is smooth: "follow" moves the actor as "position" does.
         let _ = m;
         if !self.straight_track() {
             return Err(ImportError::at(file, node, "a trajectory on a curved road is not supported (flc lays it in the road's frame)"));
