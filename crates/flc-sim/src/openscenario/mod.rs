@@ -1537,6 +1537,66 @@ mod tests {
         assert!(e.as_deref().is_some_and(|e| e.contains("PositionStart")), "{e:?}");
     }
 
+    /// The first `Synchronize` action of `text` (the synchronize fixture, edited): `(master
+    /// target, target)`.
+    fn sync_targets(dir: &Path, name: &str, text: &str) -> Result<(f64, f64), String> {
+        let text = text
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()))
+            .replace("filepath=\"roads/", &format!("filepath=\"{}/", fixtures().join("roads").display()));
+        let imp = import(&write(dir, name, &text), &ImportOptions::default()).map_err(|e| e.to_string())?;
+        let st = story_of(&imp);
+        let a = st.acts.iter().flat_map(|a| &a.groups).flat_map(|g| &g.maneuvers).flat_map(|m| &m.events).flat_map(|e| &e.actions);
+        a.filter_map(|a| match &a.action {
+            Action::Synchronize { master_target, target, .. } => Some((*master_target, *target)),
+            _ => None,
+        })
+        .next()
+        .ok_or_else(|| "no Synchronize".to_string())
+    }
+
+    #[test]
+    fn a_trajectory_position_is_a_synchronize_target() {
+        let d = tmp("trajpos");
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc")).expect("fixture");
+        let (m0, t0) = sync_targets(&d, "lane.xosc", &text).expect("fixture");
+        let master = "<LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"250.0\"/>";
+        let target = "<LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"200.0\"/>";
+        assert!(text.contains(master) && text.contains(target));
+        // The master's target 30 m along a straight spline from s 220; the actor's 50 m along a
+        // polyline from s 150 to s 250 of its lane.
+        let spline = "<TrajectoryPosition s=\"30\"><TrajectoryRef><Trajectory name=\"M\" closed=\"false\"><Shape><ClothoidSpline>\
+                      <ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20\"><PositionStart>\
+                      <LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"220.0\"/></PositionStart></ClothoidSplineSegment>\
+                      <ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20\"/></ClothoidSpline></Shape>\
+                      </Trajectory></TrajectoryRef></TrajectoryPosition>";
+        let poly = "<TrajectoryPosition s=\"50\"><TrajectoryRef><Trajectory name=\"T\" closed=\"false\"><Shape><Polyline>\
+                    <Vertex><Position><LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"250.0\"/></Position></Vertex>\
+                    <Vertex><Position><LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"150.0\"/></Position></Vertex>\
+                    </Polyline></Shape></Trajectory></TrajectoryRef></TrajectoryPosition>";
+        let edited = text.replacen(master, spline, 1).replacen(target, poly, 1);
+        let (m1, t1) = sync_targets(&d, "traj.xosc", &edited).unwrap_or_else(|e| panic!("{e}"));
+        assert!((m1 - m0).abs() < 1e-9 && (t1 - t0).abs() < 1e-9, "({m1}, {t1}) against ({m0}, {t0})");
+        // Bad input, named.
+        for (name, from, to, needle) in [
+            ("tpneg.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"-1\"", "s = -1"),
+            ("tpnan.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"NaN\"", "s"),
+            ("tpt.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"50\" t=\"1\"", "t other than 0"),
+            ("tpend.xosc", "TrajectoryPosition s=\"30\"", "TrajectoryPosition s=\"40.5\"", "beyond the trajectory's end"),
+            ("tppend.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"100.5\"", "beyond the trajectory's end"),
+            ("tpnostart.xosc", "<PositionStart>\n", "<Nope>", "PositionStart"),
+        ] {
+            let bad = edited.replacen(from, to, 1);
+            let bad = if name == "tpnostart.xosc" {
+                bad.replacen("<PositionStart><LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"220.0\"/></PositionStart>", "", 1)
+            } else {
+                assert!(bad != edited, "{name}: `{from}` not found");
+                bad
+            };
+            let e = sync_targets(&d, name, &bad).err().unwrap_or_default();
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+    }
+
     #[test]
     fn synchronize_and_trajectory_refuse_bad_input_naming_the_element() {
         let d = tmp("sync");

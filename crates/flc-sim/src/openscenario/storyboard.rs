@@ -1486,6 +1486,11 @@ impl Sb<'_, '_, '_> {
     /// The track `s` of an absolute target position (a `TargetPosition...` element holding one
     /// position) and the direction it faces along the track (+1 or -1).
     fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+        if let Some(tp) = xml::child(holder, "TrajectoryPosition") {
+            let pose = self.trajectory_position(file, tp)?;
+            let pr = self.track.project(pose.x, pose.y);
+            return Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }));
+        }
         if position::reference(&self.ctx.params, file, holder)?.is_some() {
             return Err(ImportError::at(
                 file,
@@ -1496,6 +1501,92 @@ impl Sb<'_, '_, '_> {
         let pose = position::resolve(&self.ctx.params, self.geo, file, holder, &|_| None)?;
         let pr = self.track.project(pose.x, pose.y);
         Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }))
+    }
+
+    /// The world pose of a `TrajectoryPosition` (`s` m along its trajectory, `t` 0): on a
+    /// `Polyline` through its vertices, on a `ClothoidSpline` from its first segment's
+    /// `PositionStart` (esmini's polyline of the spline, as the actor moves along it).
+    fn trajectory_position(&mut self, file: &str, node: Node<'_, '_>) -> Result<position::Pose, ImportError> {
+        let s = self.ctx.params.req_num(node, "s", file)?;
+        if !s.is_finite() || s < 0.0 {
+            return Err(ImportError::at(file, node, format!("s = {s}: expected a finite distance >= 0")));
+        }
+        if self.ctx.params.num_attr(node, "t", file)?.is_some_and(|t| t != 0.0) {
+            return Err(ImportError::at(file, node, "t other than 0 is not supported"));
+        }
+        let r = xml::child(node, "TrajectoryRef").ok_or_else(|| ImportError::at(file, node, "<TrajectoryRef> is missing"))?;
+        let traj = only_child(file, r)?;
+        let geo = self.geo;
+        let run = |sb: &mut Self, file: &str, traj: Node<'_, '_>| -> Result<position::Pose, ImportError> {
+            let shape = xml::child(traj, "Shape").and_then(|x| xml::elements(x).next());
+            let shape = shape.ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+            let points: Vec<Node<'_, '_>> = match shape.tag_name().name() {
+                "Polyline" => xml::elements(shape).filter_map(|v| xml::child(v, "Position")).take(10_001).collect(),
+                "ClothoidSpline" => xml::elements(shape).next().and_then(|g| xml::child(g, "PositionStart")).into_iter().collect(),
+                _ => Vec::new(),
+            };
+            if points.is_empty() || points.len() > 10_000 {
+                return Err(ImportError::at(
+                    file,
+                    shape,
+                    "a TrajectoryPosition needs a <Polyline> of 1 to 10000 vertices or a <ClothoidSpline> whose first segment has a <PositionStart>",
+                ));
+            }
+            let mut poses = Vec::with_capacity(points.len());
+            for p in &points {
+                if position::reference(&sb.ctx.params, file, *p)?.is_some() {
+                    return Err(ImportError::at(file, *p, "a trajectory relative to an entity is not supported here"));
+                }
+                poses.push(position::resolve(&sb.ctx.params, geo, file, *p, &|_| None)?);
+            }
+            let beyond = || ImportError::at(file, node, format!("s = {s} m is beyond the trajectory's end"));
+            if shape.tag_name().name() == "Polyline" {
+                return along_polyline(&poses, s).ok_or_else(beyond);
+            }
+            let was = sb.start_trajectory;
+            sb.start_trajectory = true;
+            let a = sb.trajectory(file, traj);
+            sb.start_trajectory = was;
+            let Action::FollowTrajectory { segments } = a? else { return Err(ImportError::at(file, traj, "expected a <ClothoidSpline>")) };
+            if s > segments.iter().map(|g| g.length).sum::<f64>() + 1.0e-9 {
+                return Err(beyond());
+            }
+            let [x, y, h] = crate::story::spline_pose(&segments, s);
+            let o = poses[0];
+            let (c, sn) = (o.h.cos(), o.h.sin());
+            Ok(position::Pose { x: o.x + x * c - y * sn, y: o.y + x * sn + y * c, h: o.h + h })
+        };
+        match traj.tag_name().name() {
+            "Trajectory" => {
+                self.ctx.params.push_scope();
+                let r = self.ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| run(self, file, traj));
+                self.ctx.params.pop_scope();
+                r
+            }
+            "CatalogReference" => {
+                let cats = self.ctx.cats;
+                let catalog = self.ctx.params.req_str(traj, "catalogName", file)?;
+                let entry = self.ctx.params.req_str(traj, "entryName", file)?;
+                let (efile, enode) = match cats.find(&["TrajectoryCatalog"], &catalog, &entry)? {
+                    Some(x) => x,
+                    None => return Err(ImportError::at(file, traj, cats.not_found(&catalog, &entry))),
+                };
+                if enode.tag_name().name() != "Trajectory" {
+                    return Err(ImportError::at(&efile, enode, "expected a <Trajectory> entry"));
+                }
+                self.ctx.enter_catalog(file, traj, &catalog, &entry)?;
+                let overrides = super::catalog::assignments(&self.ctx.params, traj, file);
+                let r = overrides.and_then(|o| {
+                    self.ctx.params.push_scope();
+                    let r = self.ctx.params.declare_in(enode, &efile, &o).and_then(|()| run(self, &efile, enode));
+                    self.ctx.params.pop_scope();
+                    r
+                });
+                self.ctx.leave_catalog();
+                r
+            }
+            _ => Err(ImportError::unsupported(file, traj)),
+        }
     }
 
     /// The track position `(s, lateral)` of an absolute `Position` (a relative one is an error:

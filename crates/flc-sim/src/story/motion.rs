@@ -154,6 +154,15 @@ impl Traj {
     }
 }
 
+/// The pose `[x, y, theta]` `u` m along the spline of `segments` laid from the origin along +x,
+/// on esmini's polyline of it (as a running `FollowTrajectoryAction` moves).
+pub fn spline_pose(segments: &[ClothoidSegment], u: f64) -> [f64; 3] {
+    if segments.is_empty() {
+        return [0.0; 3];
+    }
+    Traj::new(0, segments, 0.0, 0.0, 0.0).at(u)
+}
+
 /// The pose `u` m along a clothoid segment `g` from `start` (`[x, y, theta]`, local frame):
 /// theta integrates the linear curvature exactly, x and y by Gauss-Legendre quadrature over
 /// pieces of at most 0.25 m.
