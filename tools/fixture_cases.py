@@ -1,16 +1,16 @@
 #!/usr/bin/env python3
-"""Writes nine of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
-from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority, standing_car,
-target_brakes and through_junction, with the project's XML
+"""Writes eleven of the OpenSCENARIO test fixtures in tests/data/openscenario/ (stdlib only):
+distance_arc, from_catalogs, lane_leave_reveal, merge_in, parameters, positions_arc, priority,
+relative_lateral, standing_car, target_brakes and through_junction, with the project's XML
 writer `tools/osc_writer.py` (as `tools/suite_cases.py` writes the standard suites).
 
-    python3 tools/fixture_cases.py      # rewrites the nine files (same bytes on every run)
+    python3 tools/fixture_cases.py      # rewrites the eleven files (same bytes on every run)
     python3 tools/fixture_cases.py --out DIR   # writes them into DIR (tools/asam_qc.py compares)
 
 After a change, regenerate esmini's reference trajectories of them (tests/data/esmini/README.md):
 
     python3 tools/esmini_reference.py from_catalogs lane_leave_reveal merge_in parameters positions_arc \\
-        priority standing_car target_brakes through_junction distribution_2x2 distribution_multi
+        priority standing_car target_brakes through_junction distribution_2x2 distribution_multi distance_arc relative_lateral
 
 Every entity is the 4.5 x 1.8 x 1.5 m car (reference point on the rear axle, box centre 1.4 m
 ahead: front 3.65 m ahead of the reference point, rear 0.85 m behind), inline (osc_writer.car) or
@@ -22,7 +22,7 @@ import pathlib
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from osc_writer import (X, activate, after, car, catalog_locations, catalog_object, catalog_ref, collides, condition,  # noqa: E402
+from osc_writer import (X, activate, after, by_entity, car, catalog_locations, catalog_object, catalog_ref, collides, condition,  # noqa: E402
                         constrained, document, event, gap_below, lane_change, lane_position, maneuver_group, params, place,
                         place_at, road_network, speed, story, story_of, storyboard)
 
@@ -352,7 +352,84 @@ def through_junction():
                     storyboard(init, [], stops))
 
 
+def distance_action(actor_of, how, continuous="false"):
+    """A LongitudinalDistanceAction (entity coordinates, no DynamicConstraints): `how` holds
+    `distance` or `timeGap`, `freespace` and `displacement`."""
+    return X("PrivateAction", X("LongitudinalAction", X("LongitudinalDistanceAction", entityRef=actor_of, continuous=continuous,
+                                                          coordinateSystem="entity", **how)))
+
+
+def distance_arc():
+    comment = header(
+        "distance_arc", "Init LongitudinalDistanceAction on a curve and from an overlap; speed changes beyond Performance",
+        "roads/arc.xodr (line 0-100 m, arc R 200 m to the left from s 100 to 300; lane centres t = -1.75,",
+        "-5.25, -8.75). Every car is the inline 4.5 m car (Performance: maxAcceleration and",
+        "maxDeceleration 10 m/s2).",
+        "Ego: lane -2, s 110, 15 m/s. Lead: teleported 40 m ahead of Ego along the reference line, then an",
+        "Init LongitudinalDistanceAction: 1.5 s time gap to Ego, freespace, leadingReferencedEntity (on the",
+        "arc the distance between the two rotated boxes, measured along Lead's heading, is not the",
+        "distance along the road). Lead takes Ego's speed.",
+        "Follower: lane -3, s 20, 10 m/s. Blocker: teleported to lane -3, s 22 (its box overlaps",
+        "Follower's), then an Init LongitudinalDistanceAction: 10 m of free space ahead of Follower.",
+        "At t > 2 s Lead speeds up to 25 m/s, linear by rate 15 m/s2; at t > 3 s Follower slows to 0,",
+        "linear by rate 12 m/s2: both rates exceed the cars' 10 m/s2 (a player that keeps to Performance",
+        "stretches the changes to 10 m/s2). Stop at 6 s.",
+    )
+    gap = {"timeGap": "1.5", "freespace": "true", "displacement": "leadingReferencedEntity"}
+    ahead = {"distance": "10.0", "freespace": "true", "displacement": "leadingReferencedEntity"}
+    init = [
+        place("Ego", -2, "110.0", "15.0"),
+        place_at("Lead", relative("RelativeLanePosition", "Ego", dLane="0", ds="40.0", offset="0.0"), "15.0", distance_action("Ego", gap)),
+        place("Follower", -3, "20.0", "10.0"),
+        place("Blocker", -3, "22.0", "10.0", distance_action("Follower", ahead)),
+    ]
+    faster = event("LeadFaster", "LeadTo25", speed("25.0", "linear", "rate", "15.0"), condition("LeadFasterStart", after("2.0")))
+    stop = event("FollowerStops", "FollowerTo0", speed("0.0", "linear", "rate", "12.0"), condition("FollowerStopsStart", after("3.0")))
+    groups = [maneuver_group("Lead", "LeadManeuver", [faster]), maneuver_group("Follower", "FollowerManeuver", [stop])]
+    stories = [story_of("DistanceStory", "DistanceAct", groups, act_start=condition("ActStart", after("0.0")))]
+    names = ["Ego", "Lead", "Follower", "Blocker"]
+    return document(comment, 2, "distance_arc: Init LongitudinalDistanceAction on a curve; Performance limits", X("CatalogLocations"),
+                    road_network("roads/arc.xodr"), X("Entities", *[car(n, n.lower()) for n in names]),
+                    storyboard(init, stories, [[condition("StopTime", after("6.0"))]]))
+
+
+def relative_lateral():
+    comment = header(
+        "relative_lateral", "a lane offset relative to another entity two lanes away; a time headway by box distance",
+        "roads/straight5.xodr (5 lanes of 3.5 m, lane centres t = -1.75, -5.25, ...); inline 4.5 m cars.",
+        "Ego: lane -2 (t = -5.25), s 50, 20 m/s. Side: RelativeLanePosition to Ego, dLane 0, ds 10, offset",
+        "-7 (t = -12.25, the centre of lane -4: two lanes right of Ego's); at t > 1 s a LaneOffsetAction",
+        "with RelativeTargetLaneOffset to Ego, -1.75 m (sinusoidal, maxLateralAcc 0.5): to t = -7.0, Ego's",
+        "position 1.75 m to the right, not 1.75 m right of the centre of the lane Side is in.",
+        "OverTaker: lane -3 (t = -8.75), s 20, 25 m/s. When Ego's TimeHeadwayCondition to it (freespace,",
+        "no relativeDistanceType) exceeds 0.4 s (rising) it changes to Ego's lane (sinusoidal, 3 s); when it",
+        "exceeds 1.0 s (rising) it slows to 0 at 5 m/s2 (an override: its lane change stops there).",
+        "Side, 1.75 m right of Ego, overlaps lane -3: OverTaker touches it at about 7.1 s (scripted, both",
+        "drive on). Stop at 12 s.",
+    )
+    side_pos = relative("RelativeLanePosition", "Ego", dLane="0", ds="10.0", offset="-7.0")
+    offset = X("PrivateAction", X("LateralAction", X("LaneOffsetAction",
+        X("LaneOffsetActionDynamics", dynamicsShape="sinusoidal", maxLateralAcc="0.5"),
+        X("LaneOffsetTarget", X("RelativeTargetLaneOffset", entityRef="Ego", value="-1.75")), continuous="false")))
+    init = [place("Ego", -2, "50.0", "20.0"), place_at("Side", side_pos, "20.0"), place("OverTaker", -3, "20.0", "25.0")]
+
+    def headway(name, value):
+        return condition(name, by_entity("Ego", X("TimeHeadwayCondition", entityRef="OverTaker", value=value, freespace="true",
+                                                    rule="greaterThan")), edge="rising")
+    cut = event("CutIn", "CutInAction", lane_change("Ego", "0", "3.0"), headway("CutInStart", "0.4"))
+    brake = event("Brake", "BrakeAction", speed("0.0", "linear", "rate", "5.0"), headway("BrakeStart", "1.0"))
+    side = event("SideOffset", "SideOffsetAction", offset, condition("SideOffsetStart", after("1.0")))
+    groups = [maneuver_group("OverTaker", "OverTakerManeuver", [cut, brake]), maneuver_group("Side", "SideManeuver", [side])]
+    stories = [story_of("LateralStory", "LateralAct", groups, act_start=condition("ActStart", after("0.0")))]
+    return document(comment, 2, "relative_lateral: RelativeTargetLaneOffset two lanes away; TimeHeadway by box distance",
+                    X("CatalogLocations"), road_network("roads/straight5.xodr"),
+                    X("Entities", car("Ego", "ego"), car("Side", "side"), car("OverTaker", "overtaker")),
+                    storyboard(init, stories, [[condition("StopTime", after("12.0"))]]))
+
+
 FIXTURES = {
+    "distance_arc.xosc": distance_arc,
+    "relative_lateral.xosc": relative_lateral,
     "from_catalogs.xosc": from_catalogs,
     "lane_leave_reveal.xosc": lane_leave_reveal,
     "merge_in.xosc": merge_in,

@@ -13,6 +13,7 @@ renders into docs/openscenario.md. Only the Python standard library.
 
     python3 tools/published_check.py --pub /work/scratch/pub -j 2          # the 53 files of issue 45
     python3 tools/published_check.py DIR_OR_FILE... --data out.json        # any files
+    python3 tools/published_check.py --pub /work/scratch/pub --only 4_6_2 --out /tmp/check   # some, into a scratch folder
 
 Resumable: each run's result is cached in `--work` (default target/published-check/) under a key
 of the file's bytes, the distribution's scenario file, the collection's commit, the permutation and
@@ -293,7 +294,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", default=str(ROOT / "target" / "published-check"), help="cache of finished runs (resumable)")
     ap.add_argument("--data", default=str(ROOT / "docs" / "openscenario" / "published.json"))
     ap.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per esmini or flc run (a cut run is reported as a timeout)")
-    ap.add_argument("--only", metavar="SUBSTRING", help="check only the files whose path contains SUBSTRING (e.g. CCFtap)")
+    ap.add_argument("--only", metavar="SUBSTRING", action="append", help="run only the files whose path contains SUBSTRING (repeatable)")
+    ap.add_argument("--out", metavar="DIR", help="write the data file and the run cache into DIR (instead of --data / --work; a scratch measurement)")
     ap.add_argument("--asam-qc", metavar="PYTHON", help="also record ASAM's checker findings (a python with tools/asam_qc-requirements.txt)")
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.paths]
@@ -316,7 +318,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     tools = {"flc": flc, "esmini": esmini, "dat2csv": dat2csv, "features": flc_features(flc), "timeout": args.timeout}
     bins = file_hash(flc) + file_hash(esmini.resolve()) + Path(__file__).read_bytes() + str(args.timeout).encode()
-    files = [f for f in discover(paths) if args.only is None or args.only in str(f)]
+    files = discover(paths)
+    if args.only:
+        files = [f for f in files if any(o in str(f) for o in args.only)]
+    if args.out:
+        args.work, args.data = str(Path(args.out) / "work"), str(Path(args.out) / "published.json")
     colls: dict[str, dict] = {}
     entries, tasks = [], []
     for file in files:

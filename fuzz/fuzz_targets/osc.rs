@@ -3,16 +3,20 @@
 //! a fixed set of parameters) and `Params::declare` on a small document whose parameter value is
 //! the input, for every parameter type, followed by the typed attribute getters on it; the
 //! OpenDRIVE reader (`openscenario::road::from_str`) and, on a network it accepts, the route of
-//! lane -1 from each of its first roads through links and junctions (`junction::route`, `join`).
-//! Nothing may panic; an accepted value must satisfy its type; a route names roads of the file
-//! once each, in increasing positions, and its joined road is as long as its roads.
+//! lane -1 from each of its first roads through links and junctions (`junction::route`, `join`);
+//! and the whole importer (storyboard, positions, trajectories, pedestrians) on an input that is
+//! an `OpenSCENARIO` scenario, on the stand-in straight road, in both ego modes. Nothing may
+//! panic; an accepted value must satisfy its type, an imported scenario must validate; a route
+//! names roads of the file once each, in increasing positions, and its joined road is as long as
+//! its roads.
 #![no_main]
 
 use std::collections::BTreeMap;
 
 use flc_sim::openscenario::expr::{self, Value};
 use flc_sim::openscenario::params::{ParamType, Params};
-use flc_sim::openscenario::{distribution, junction, road, xml};
+use flc_sim::openscenario::{self, ImportOptions, RoadChoice, distribution, junction, road, xml};
+use flc_sim::story::EgoMode;
 use libfuzzer_sys::fuzz_target;
 
 const TYPES: [&str; 7] = ["double", "integer", "unsignedInt", "unsignedShort", "boolean", "string", "dateTime"];
@@ -46,11 +50,28 @@ fn escape(s: &str) -> String {
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
 
-    // 1. The XML reader, and the distribution reader on anything it accepts.
+    // 1. The XML reader, and the distribution reader on anything it accepts; a scenario goes
+    //    through the whole importer (4.).
+    let mut scenario = false;
     if let Ok(doc) = xml::parse(&text, "fuzz.xosc") {
         if distribution::is_distribution(&doc) {
             if let Ok(d) = distribution::read(&doc, std::path::Path::new("fuzz.xosc")) {
                 assert!(d.len() as u64 <= distribution::MAX_RUNS);
+            }
+        } else {
+            scenario = doc.root_element().has_tag_name("OpenSCENARIO") && xml::child(doc.root_element(), "Storyboard").is_some();
+        }
+    }
+    if scenario {
+        let dir = std::env::temp_dir().join(format!("flc-fuzz-osc-{}", std::process::id()));
+        if std::fs::create_dir_all(&dir).is_ok() && std::fs::write(dir.join("fuzz.xosc"), text.as_bytes()).is_ok() {
+            for ego_mode in [EgoMode::Controller, EgoMode::Scripted] {
+                let opts = ImportOptions { road: RoadChoice::Straight, ego_mode, ..ImportOptions::default() };
+                if let Ok(imp) = openscenario::import(&dir.join("fuzz.xosc"), &opts) {
+                    for run in &imp.runs {
+                        assert!(run.scenario.validate().is_ok(), "an imported scenario must validate");
+                    }
+                }
             }
         }
     }

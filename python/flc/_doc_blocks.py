@@ -700,6 +700,97 @@ def published_files() -> str:
 
 
 # ---------------------------------------------------------------------------------------------
+# The published files in controller mode against esmini's ALKS controller
+# (docs/openscenario/controller.json, written by `python3 tools/published_controller_check.py
+# --pub DIR`; CI has no published files, so the blocks render the committed file).
+
+
+def _controller_check() -> dict[str, Any]:
+    path = ROOT / "docs" / "openscenario" / "controller.json"
+    if not path.is_file():
+        raise FileNotFoundError("controller-check: docs/openscenario/controller.json is missing (tools/published_controller_check.py writes it)")
+    data: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    return data
+
+
+def _ego_contacts(r: dict[str, Any]) -> list[dict[str, Any]]:
+    return [c for c in r.get("contacts") or [] if r.get("ego") in c["pair"]]
+
+
+def _controller_runs(d: dict[str, Any]) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """(file, run) of every run flc imported."""
+    return [(f, r) for f in d["files"] for r in f["runs"] if "flc" not in r and r["players"]]
+
+
+@generator("controller-check-summary")
+def controller_check_summary() -> str:
+    """docs/careful-driver.md: per player, the published runs flc imports in controller mode
+    and esmini with its ALKS controller: runs, contacts of the ego, contacts where esmini's
+    ALKS controller (the reference model) had none, far stops, in-path objects passed."""
+    d = _controller_check()
+    runs = _controller_runs(d)
+    ref = "esmini:" + d["definitions"]["esmini_reference"]
+    players = [f"esmini:{m}" for m in (d["esmini"] or {}).get("models", [])] + d["flc"]["controllers"]
+    rows = []
+    for who in players:
+        ok = [(f, r) for f, r in runs if r["players"].get(who, {}).get("status") == "ok"]
+        hit = [(f, r) for f, r in ok if _ego_contacts(r["players"][who])]
+        if who.startswith("esmini:") or not any(ref in r["players"] for _, r in runs):
+            beyond = "-"
+        else:
+            beyond = str(sum(1 for f, r in hit if r["players"].get(ref, {}).get("status") == "ok" and not _ego_contacts(r["players"][ref])))
+        rows.append([
+            who.replace("esmini:", "esmini ALKS_R157SM ") if who.startswith("esmini:") else f"flc `{who}`",
+            f"{len(ok)} of {len(runs)}",
+            str(len(hit)),
+            beyond,
+            str(sum(1 for f, r in ok if r["players"][who]["far_stops"])),
+            str(sum(1 for f, r in ok if r["players"][who]["passed"])),
+        ])
+    colls = ", ".join(f"{n} `{c['commit'][:12]}`" for n, c in sorted(d["collections"].items()))
+    e = d["esmini"] or {}
+    unfinished = sum(1 for f in d["files"] for r in f["runs"] if (r.get("flc") or {}).get("status") == "not run")
+    refused = sum(1 for f in d["files"] for r in f["runs"] if (r.get("flc") or {}).get("status") not in (None, "not run"))
+    head = (f"{len(runs)} runs of {len({f['path'] for f, _ in runs})} published files that flc imports ({refused} runs flc refuses"
+            f"{f', {unfinished} not run yet' if unfinished else ''}); esmini {e.get('version', '-')} "
+            f"(commit {e.get('commit', '-')}); flc `{d['flc']['commit']}`; collections: {colls}; checked {d['generated']}.\n\n")
+    return head + table(["driver", "runs", "runs with a contact", "of them where esmini's ReferenceDriver had none", "runs with a far stop",
+                         "runs passing an in-path object"], rows, "lrrrrr")
+
+
+@generator("controller-check-findings")
+def controller_check_findings() -> str:
+    """docs/careful-driver.md: every run of the controller check with a contact, a far stop or
+    a passed in-path object, and what esmini's ALKS controller did there."""
+    d = _controller_check()
+    ref = "esmini:" + d["definitions"]["esmini_reference"]
+    rows = []
+    for f, r in _controller_runs(d):
+        for who, p in r["players"].items():
+            if who.startswith("esmini:") or p.get("status") != "ok":
+                continue
+            bits = []
+            for c in _ego_contacts(p):
+                other = [n for n in c["pair"] if n != p["ego"]][0]
+                bits.append(f"contact with {other} at {c['time']:.2f} s, {c['speeds'].get(p['ego'], 0.0):.1f} m/s")
+            for s in p["far_stops"]:
+                short = "nothing in path" if s["gap_m"] is None else f"{s['gap_m']:.0f} m short"
+                bits.append(f"far stop at {s['time']:.2f} s ({short})")
+            for q in p["passed"]:
+                bits.append(f"passed {q['object']} at {q['time']:.2f} s, {q['ego_speed']:.1f} m/s, {q['clearance_m']:.2f} m clear")
+            if not bits:
+                continue
+            e = r["players"].get(ref, {})
+            es = "not run" if e.get("status") != "ok" else "; ".join(
+                f"contact with {[n for n in c['pair'] if n != e['ego']][0]}, {c['speeds'].get(e['ego'], 0.0):.1f} m/s" for c in _ego_contacts(e)) or "no contact"
+            perm = "" if r["permutation"] is None else f" p{r['permutation']}"
+            rows.append([f"{f['path'].split('/')[-1].replace('.xosc', '')}{perm}", f"`{who}`", "; ".join(bits), es])
+    if not rows:
+        return "No run has a contact, a far stop or a passed in-path object.\n"
+    return table(["run", "controller", "what happened", "esmini ReferenceDriver"], rows)
+
+
+# ---------------------------------------------------------------------------------------------
 # Safety evidence (docs/safety-evidence.md)
 
 

@@ -292,10 +292,11 @@ pub enum ConditionKind {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         tolerance: Option<f64>,
     },
-    /// `ByEntityCondition/TimeHeadwayCondition`: the longitudinal distance (bumper to bumper
-    /// with `freespace`, else centre to centre) from `entity` to `of` ahead of it, divided by the
+    /// `ByEntityCondition/TimeHeadwayCondition`: the distance (bumper to bumper with
+    /// `freespace`, else centre to centre) from `entity` to `of` ahead of it, divided by the
     /// speed of `entity` (s). Infinite when `of` is behind `entity` or `entity` does not move
-    /// forward.
+    /// forward. `distance = "euclidean"` with `freespace`: the shortest distance between the two
+    /// (rotated) boxes, as esmini measures it.
     TimeHeadway {
         /// Triggering entity (the follower).
         entity: String,
@@ -303,6 +304,9 @@ pub enum ConditionKind {
         of: String,
         /// Bounding boxes (`true`) or reference points (`false`).
         freespace: bool,
+        /// What is measured (default `longitudinal`).
+        #[serde(default = "longitudinal", skip_serializing_if = "is_longitudinal")]
+        distance: DistanceType,
         /// Threshold, s.
         value: f64,
         /// Comparison.
@@ -560,6 +564,65 @@ pub trait WorldView {
     fn collided(&self, _a: &str, _b: Option<&str>) -> bool {
         false
     }
+    /// The world pose `[x, y, yaw]` of entity `name`'s box centre (default: none; distances
+    /// are then measured along the centreline).
+    fn pose(&self, _name: &str) -> Option<[f64; 3]> {
+        None
+    }
+    /// The world point `offset` m (+ left) from the centreline at `s`: `[x, y, road heading,
+    /// curvature]` (default: none).
+    fn place(&self, _s: f64, _offset: f64) -> Option<[f64; 4]> {
+        None
+    }
+}
+
+fn longitudinal() -> DistanceType {
+    DistanceType::Longitudinal
+}
+
+fn is_longitudinal(d: &DistanceType) -> bool {
+    *d == DistanceType::Longitudinal
+}
+
+/// The shortest distance between two boxes (`[x, y, yaw]` of the centre, length, width), 0 when
+/// they overlap, and whether the second is ahead of the first along the first's heading (their
+/// projections on it apart, or overlapping: esmini's `Object::FreeSpaceDistance` and the sign it
+/// gives a distance).
+pub fn box_distance(a: ([f64; 3], f64, f64), b: ([f64; 3], f64, f64)) -> (f64, bool) {
+    let corners = |([x, y, h], l, w): ([f64; 3], f64, f64)| {
+        let (c, s) = (h.cos(), h.sin());
+        [(0.5, 0.5), (-0.5, 0.5), (-0.5, -0.5), (0.5, -0.5)].map(|(u, v)| [x + c * u * l - s * v * w, y + s * u * l + c * v * w])
+    };
+    let (ca, cb) = (corners(a), corners(b));
+    let project = |pts: &[[f64; 2]; 4], n: [f64; 2]| {
+        pts.iter().map(|p| p[0] * n[0] + p[1] * n[1]).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    };
+    let axis = |h: f64| [[h.cos(), h.sin()], [-h.sin(), h.cos()]];
+    // Separating axes: the sides of both boxes.
+    let separated = axis(a.0[2]).into_iter().chain(axis(b.0[2])).any(|n| {
+        let ((la, ha), (lb, hb)) = (project(&ca, n), project(&cb, n));
+        ha < lb || hb < la
+    });
+    let ((la, _), (_, hb)) = (project(&ca, axis(a.0[2])[0]), project(&cb, axis(a.0[2])[0]));
+    let ahead = la <= hb;
+    if !separated {
+        return (0.0, ahead);
+    }
+    let edge = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        let (dx, dy) = (r[0] - q[0], r[1] - q[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 { (((p[0] - q[0]) * dx + (p[1] - q[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        (p[0] - q[0] - t * dx).hypot(p[1] - q[1] - t * dy)
+    };
+    let mut d = f64::INFINITY;
+    for (pts, other) in [(&ca, &cb), (&cb, &ca)] {
+        for p in pts {
+            for (k, q) in other.iter().enumerate() {
+                d = d.min(edge(*p, *q, other[(k + 1) % 4]));
+            }
+        }
+    }
+    (d, ahead)
 }
 
 /// Longitudinal / lateral distance from `a` to `b` (reference points or box gaps).
@@ -613,10 +676,22 @@ impl ConditionKind {
                     DistanceType::Euclidean => dx.hypot(dy),
                 })
             }
-            ConditionKind::TimeHeadway { entity, of, freespace, .. } => {
+            ConditionKind::TimeHeadway { entity, of, freespace, distance, .. } => {
                 let (a, b) = pair(entity, of)?;
-                let gap = gaps(&a, &b, *freespace).0;
-                Some(if b.s < a.s || a.speed <= 0.0 { f64::INFINITY } else { gap / a.speed })
+                let (dx, dy) = gaps(&a, &b, *freespace);
+                let boxes = match (distance, *freespace, world.pose(entity), world.pose(of)) {
+                    (DistanceType::Euclidean, true, Some(pa), Some(pb)) => {
+                        Some(box_distance((pa, a.length, a.width), (pb, b.length, b.width)))
+                    }
+                    _ => None,
+                };
+                let (gap, behind) = match (boxes, distance) {
+                    (Some((d, ahead)), _) => (d, !ahead),
+                    (None, DistanceType::Euclidean) => (dx.hypot(dy), b.s < a.s),
+                    (None, DistanceType::Lateral) => (dy, b.s < a.s),
+                    (None, DistanceType::Longitudinal) => (dx, b.s < a.s),
+                };
+                Some(if behind || a.speed <= 0.0 { f64::INFINITY } else { gap / a.speed })
             }
             ConditionKind::Ttc { entity, of, freespace, .. } => {
                 let (a, b) = pair(entity, of)?;
@@ -1401,6 +1476,25 @@ mod tests {
         // An unknown entity never holds (validation reports it); nothing panics.
         let ghost = trig(&on("ghost"));
         assert!(!TriggerState::new().update(&ghost, &closing(0.0), 0.0));
+    }
+
+    #[test]
+    fn box_distance_is_the_shortest_between_rotated_boxes() {
+        // Aligned 4 x 2 m boxes, centres 10 m apart along x: 6 m, the second ahead.
+        let (d, ahead) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([10.0, 0.0, 0.0], 4.0, 2.0));
+        assert!((d - 6.0).abs() < 1e-12 && ahead, "{d} {ahead}");
+        // Seen from the second: the first is behind.
+        assert!(!box_distance(([10.0, 0.0, 0.0], 4.0, 2.0), ([0.0, 0.0, 0.0], 4.0, 2.0)).1);
+        // Diagonally apart (3 m along, 4 m across between the near corners): 5 m, not 3.
+        let (d, _) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([7.0, 6.0, 0.0], 4.0, 2.0));
+        assert!((d - 5.0).abs() < 1e-12, "{d}");
+        // The second turned by 30 degrees: its rear corner comes nearer than its centre line.
+        let h = 30f64.to_radians();
+        let (d, _) = box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([10.0, 0.0, h], 4.0, 2.0));
+        let corner = 10.0 - 2.0 * h.cos() - 1.0 * h.sin() - 2.0;
+        assert!((d - corner).abs() < 1e-12, "{d} vs {corner}");
+        // Overlapping: 0.
+        assert_eq!(box_distance(([0.0, 0.0, 0.0], 4.0, 2.0), ([3.0, 0.5, 0.2], 4.0, 2.0)).0, 0.0);
     }
 
     #[test]

@@ -16,7 +16,8 @@ use flc_sim::trigger::ElementEvent;
 mod common;
 use common::repo;
 
-/// `(fixture, curved road)`.
+/// `(fixture, curved road)`; `distance_arc` is on a curve but held to the straight roads' 0.05 m
+/// (its distance actions measure between the rotated boxes, as esmini does).
 const FIXTURES: &[(&str, bool)] = &[
     ("speed_linear_rate", false),
     ("speed_shapes", false),
@@ -36,13 +37,16 @@ const FIXTURES: &[(&str, bool)] = &[
     ("synchronize", false),
     ("lane_change_rate", false),
     ("pedestrians", false),
+    ("crossing", false),
     ("distribution_2x2", false),
     ("distribution_multi", false),
+    ("relative_lateral", false),
     ("arc_road", true),
     ("spiral_road", true),
     ("poly_road", true),
     ("positions_arc", true),
     ("through_junction", false),
+    ("distance_arc", false),
 ];
 
 /// One reference row: `(x, y, speed)` of an entity at step `k`.

@@ -477,3 +477,56 @@ fn junction_routes_and_hostile_road_networks() {
         assert!(lines[0].contains(needle), "{name}: `{}` should say `{needle}`", lines[0]);
     }
 }
+
+#[test]
+fn an_ego_in_a_positive_lane_meets_a_crossing_pedestrian_and_stops_at_the_road_start() {
+    use flc_sim::ObjectKind;
+    // crossing.xosc: Ego in lane 1 (driven in -s) from s = 60 at 10 m/s; Walker crosses on a
+    // polyline trajectory from t = 0.51 s (1.55 m/s across) into its path.
+    let file = data().join("crossing.xosc");
+    let imp = openscenario::import(&file, &scripted()).unwrap_or_else(|e| panic!("{e}"));
+    let run = &imp.runs[0];
+    let walker = run.entities.iter().find(|e| e.osc_name == "Walker").map(|e| e.flc_name.clone()).expect("walker");
+    let mut sim = Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+    let mut rows = Vec::new();
+    while sim.step().unwrap_or_else(|e| panic!("{e}")) {
+        let w = *sim.scripted_state(&walker).expect("walker state");
+        let e = *sim.follower_state(0).expect("ego");
+        rows.push((sim.time(), w, e));
+    }
+    let at = |t: f64| rows.iter().find(|r| (r.0 - t).abs() < 5e-3).copied().unwrap_or_else(|| panic!("no row at {t}"));
+    // The ego drives -x (heading pi) and stands at the road's start from 6.02 s: its reference
+    // point at x = 0, its box centre 1.4 m ahead of it (x = -1.4).
+    let (_, _, e3) = at(3.0);
+    assert!((e3.yaw.abs() - std::f64::consts::PI).abs() < 1e-9 && (e3.x - (30.0 - 1.4)).abs() < 1e-6, "{e3:?}");
+    for t in [6.02, 7.0, 9.0] {
+        let (_, _, e) = at(t);
+        assert!(e.speed == 0.0 && (e.x + 1.4).abs() < 1e-6, "t = {t}: {e:?}");
+    }
+    let (_, _, e6) = at(6.01);
+    assert!(e6.speed == 10.0, "the end is reached at 6.00 s, the speed kept one step: {e6:?}");
+    // The walker crosses (y of its box centre 0.1 m ahead along heading 1.4) at 1.55 m/s and,
+    // after its last vertex (5.01 s), walks on along the road (+x) at that speed.
+    let (_, w3, _) = at(3.0);
+    let (_, w4, _) = at(4.0);
+    assert!((w4.y - w3.y - 1.55).abs() < 1e-6 && (w4.x - w3.x).abs() < 1e-9 && (w3.speed - 1.55).abs() < 1e-9, "{w3:?} {w4:?}");
+    assert!((w3.yaw - 1.4).abs() < 1e-9, "the pedestrian keeps its heading: {w3:?}");
+    let (_, w7, _) = at(7.0);
+    let (_, w8, _) = at(8.0);
+    assert!((w8.x - w7.x - 1.55).abs() < 1e-6 && (w8.y - w7.y).abs() < 1e-9, "{w7:?} {w8:?}");
+    // One contact, with the walker, at 2.61 s (esmini: 2.61 s).
+    let r = flc_sim::run(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+    let hits: Vec<_> = r.contacts.iter().filter(|c| c.b.kind == ObjectKind::Pedestrian || c.a.kind == ObjectKind::Pedestrian).collect();
+    assert_eq!(hits.len(), 1, "{:?}", r.contacts);
+    assert!((hits[0].time - 2.61).abs() <= 0.011, "contact at {}", hits[0].time);
+    // flc's controller drives the ego: its LiDAR sees the pedestrian as it enters the lane
+    // (a detection before the scripted contact) and it brakes hard.
+    let imp = openscenario::import(&file, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = Simulation::new(&imp.runs[0].scenario).unwrap_or_else(|e| panic!("{e}"));
+    while sim.step().unwrap_or_else(|e| panic!("{e}")) {}
+    let series = sim.series(1).expect("series");
+    let seen = series.detected_distance.iter().zip(&series.t).find(|(d, _)| d.is_finite()).map(|(_, t)| *t);
+    assert!(seen.is_some_and(|t| t < 2.6), "first detection at {seen:?}");
+    let r = sim.result();
+    assert!(r.metrics.max_decel > 3.0, "max deceleration {}", r.metrics.max_decel);
+}

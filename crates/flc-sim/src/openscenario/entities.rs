@@ -35,6 +35,9 @@ pub struct EntityDef {
     pub vehicle: VehicleParams,
     /// `BoundingBox/Center` x, y: the box centre in the entity's frame, from its reference point.
     pub center: [f64; 2],
+    /// Its `Performance` `[maxAcceleration, maxDeceleration]`, m/s², when both are given and
+    /// used (they limit its speed changes).
+    pub performance: Option<[f64; 2]>,
     /// The flc controller its `ObjectController` names, if any.
     pub controller: Option<ControllerKind>,
     /// Where it is declared.
@@ -76,6 +79,7 @@ impl Ctx<'_, '_> {
                         if object.is_some() {
                             return Err(ImportError::at(file, c, "a ScenarioObject holds one entity object"));
                         }
+                        self.performance = None;
                         object = Some(self.entity_object(file, c)?);
                     }
                     "ObjectController" => {
@@ -88,7 +92,17 @@ impl Ctx<'_, '_> {
             }
             let (kind, vehicle, center) =
                 object.ok_or_else(|| ImportError::at(file, so, format!("entity `{name}` has no Vehicle, Pedestrian or MiscObject")))?;
-            out.push(EntityDef { osc_name: name, kind, vehicle, center, controller, file: file.to_string(), line: xml::line(so) });
+            let performance = self.performance.take();
+            out.push(EntityDef {
+                osc_name: name,
+                kind,
+                vehicle,
+                center,
+                performance,
+                controller,
+                file: file.to_string(),
+                line: xml::line(so),
+            });
         }
         Ok(out)
     }
@@ -257,11 +271,14 @@ impl Ctx<'_, '_> {
     }
 
     /// `Performance`: `maxDeceleration` -> `max_brake`, `maxAcceleration` -> `max_accel` when in
-    /// their ranges; `maxSpeed` is not used.
+    /// their ranges (both used: they limit the story's speed changes, `story.limits`);
+    /// `maxSpeed` is not used.
     fn performance(&mut self, file: &str, node: Node<'_, '_>, v: &mut VehicleParams) -> Result<(), ImportError> {
+        let mut used = [None, None];
         if let Some(d) = self.params.num_attr(node, "maxDeceleration", file)? {
             if (0.5..=15.0).contains(&d) {
                 v.max_brake = d;
+                used[1] = Some(d);
             } else {
                 self.warn.note(
                     "Performance@maxDeceleration",
@@ -274,6 +291,7 @@ impl Ctx<'_, '_> {
         if let Some(a) = self.params.num_attr(node, "maxAcceleration", file)? {
             if (0.1..=15.0).contains(&a) {
                 v.max_accel = a;
+                used[0] = Some(a);
             } else {
                 self.warn.note(
                     "Performance@maxAcceleration",
@@ -282,6 +300,9 @@ impl Ctx<'_, '_> {
                     format!("{a} m/s² outside [0.1, 15]: the default {} m/s² is used", v.max_accel),
                 );
             }
+        }
+        if let [Some(a), Some(d)] = used {
+            self.performance = Some([a, d]);
         }
         if node.attribute("maxSpeed").is_some() {
             self.params.num_attr(node, "maxSpeed", file)?;
@@ -486,6 +507,7 @@ mod tests {
             kind,
             vehicle: VehicleParams::default(),
             center: [1.4, 0.0],
+            performance: None,
             controller: None,
             file: String::new(),
             line: 0,

@@ -190,6 +190,9 @@ pub(crate) struct Ctx<'a, 't> {
     pub(crate) cats: &'a Catalogs<'t>,
     pub(crate) warn: Warnings,
     stack: Vec<(String, String)>,
+    /// The last vehicle `Performance` read: `[maxAcceleration, maxDeceleration]` when both are
+    /// given and used.
+    pub(crate) performance: Option<[f64; 2]>,
 }
 
 impl<'a, 't> Ctx<'a, 't> {
@@ -572,7 +575,7 @@ fn import_doc(
         None => CatalogFiles::empty(),
     };
     let cats = Catalogs::new(&files);
-    let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new() };
+    let mut ctx = Ctx { params, cats: &cats, warn: std::mem::take(warn), stack: Vec::new(), performance: None };
     let r = translate(&mut ctx, doc, file, &base, (vars, network, entities, board), opts, roads).map(|mut imp| {
         // The given values typed by their declarations (an undeclared one stays text).
         imp.typed_params = values
@@ -813,6 +816,7 @@ fn translate(
         skipped_used: false,
         elements: 0,
         start_trajectory: false,
+        start_offset: 0.0,
     };
     let init_act = sb.init_act(file, init)?;
     let (story_acts, stop) = sb.storyboard(file, board)?;
@@ -825,7 +829,26 @@ fn translate(
     }
     // Every entity's reference point: its actions move that point, as in OpenSCENARIO.
     let references = defs.iter().zip(&names).filter(|(d, _)| d.center != [0.0, 0.0]).map(|(d, n)| (n.clone(), d.center)).collect();
-    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, acts };
+    // A vehicle's Performance limits its speed changes (esmini); a pedestrian's or an object's
+    // do not. Recorded for the vehicles it may bind: a speed change by time or distance, or by a
+    // rate whose peak exceeds the smaller limit (a step, or a rate within both, never needs it).
+    let may_bind = |name: &str, [up, down]: [f64; 2]| {
+        acts.iter().flat_map(|a| a.groups.iter()).filter(|g| g.actors.iter().any(|x| x == name)).any(|g| {
+            g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()).any(|x| match &x.action {
+                crate::story::Action::Speed { transition: t, .. } => {
+                    t.shape != crate::story::Shape::Step
+                        && (t.dimension != crate::story::Dimension::Rate || t.shape.peak_slope() * t.value > up.min(down))
+                }
+                _ => false,
+            })
+        })
+    };
+    let limits = defs
+        .iter()
+        .zip(&names)
+        .filter_map(|(d, n)| d.performance.filter(|&p| d.kind == entities::Kind::Vehicle && may_bind(n, p)).map(|p| (n.clone(), p)))
+        .collect();
+    let story = Story { dynamics: opts.dynamics, ego: opts.ego_mode, variables, references, limits, acts };
 
     // The controller and its set speed.
     let kind = opts.controller.or(init_controller).or(ed.controller).unwrap_or_default();
@@ -853,7 +876,6 @@ fn translate(
     if top > 0.0 {
         set_cruise_speed(&mut s, top + crate::paper::BASELINE_SET_SPEED_MARGIN_KMH * KMH);
     }
-    place_init_distances(&mut s, &story);
     s.track = TrackSpec::Custom(track);
     s.stop.trigger = stop;
     s.story = Some(story);
@@ -890,54 +912,6 @@ fn file_header(file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
         }
     }
     Ok(())
-}
-
-/// Init `LongitudinalDistanceAction`s (by distance or time gap) place their actor at t = 0, as esmini applies
-/// Init actions before its first step (a continuous one also gives it the target's speed); the
-/// action, in the act `init`, then makes the same placement in the first step. Positions are
-/// box centres along the centreline; an actor facing against the road measures ahead in -s.
-fn place_init_distances(s: &mut Scenario, story: &crate::story::Story) {
-    let Some(init) = story.acts.iter().find(|a| a.name == "init") else { return };
-    for g in &init.groups {
-        for a in g.maneuvers.iter().flat_map(|m| m.events.iter()).flat_map(|e| e.actions.iter()) {
-            let Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } = &a.action else { continue };
-            let Some((ts, tlen, tv, _)) = entity_slot(s, of) else { continue };
-            for actor in &g.actors {
-                let Some((_, len, v, heading)) = entity_slot(s, actor) else { continue };
-                // A time gap times the actor's own initial speed (a kept one: `of`'s), as the
-                // action itself takes it in the first step (story::motion).
-                let Some(d) = distance.or_else(|| time_gap.map(|g| g * if *continuous { tv } else { v })) else { continue };
-                let dir = if heading.abs() > std::f64::consts::FRAC_PI_2 { -1.0 } else { 1.0 };
-                let gap = d + if *freespace { 0.5 * (tlen + len) } else { 0.0 };
-                let centre = if *ahead { ts + dir * gap } else { ts - dir * gap };
-                set_slot(s, actor, centre, continuous.then_some(tv));
-            }
-        }
-    }
-}
-
-/// `(centre s, length, initial speed, heading)` of an entity by flc name.
-fn entity_slot(s: &Scenario, name: &str) -> Option<(f64, f64, f64, f64)> {
-    match name {
-        "ego" => Some((s.follower.start_s?, s.follower.vehicle.length, s.follower.initial_speed, s.follower.start_heading)),
-        "lead" => Some((s.lead.s?, s.lead.vehicle.length, s.lead.initial_speed, s.lead.heading)),
-        _ => s.vehicles.iter().find(|v| v.name == name).map(|v| (v.s, v.vehicle.length, v.initial_speed, v.heading)),
-    }
-}
-
-fn set_slot(s: &mut Scenario, name: &str, centre: f64, speed: Option<f64>) {
-    let (slot, v0) = match name {
-        "ego" => (s.follower.start_s.get_or_insert(centre), &mut s.follower.initial_speed),
-        "lead" => (s.lead.s.get_or_insert(centre), &mut s.lead.initial_speed),
-        _ => match s.vehicles.iter_mut().find(|x| x.name == name) {
-            Some(x) => (&mut x.s, &mut x.initial_speed),
-            None => return,
-        },
-    };
-    *slot = centre;
-    if let Some(v) = speed {
-        *v0 = v;
-    }
 }
 
 /// The cruise controllers' set speed (m/s): the baselines are cruise controllers and follow the
@@ -1666,6 +1640,90 @@ mod tests {
         assert!(e.contains("curved.xosc") && e.contains("curved road"), "{e}");
     }
 
+    /// A `RoutingAction/FollowTrajectoryAction` on `T`: a polyline of `vertices`, then `rest`
+    /// (TimeReference, following mode) inside the action; `closed` on the trajectory.
+    fn trajectory(vertices: &str, rest: &str, closed: &str) -> String {
+        format!(
+            "<Action name=\"R\"><PrivateAction><RoutingAction><FollowTrajectoryAction><TrajectoryRef>\
+             <Trajectory name=\"Tr\" closed=\"{closed}\"><Shape><Polyline>{vertices}</Polyline></Shape></Trajectory></TrajectoryRef>\n\
+             {rest}</FollowTrajectoryAction></RoutingAction></PrivateAction></Action>"
+        )
+    }
+
+    fn vertex(time: &str, x: f64, y: f64) -> String {
+        format!("<Vertex time=\"{time}\"><Position><WorldPosition x=\"{x}\" y=\"{y}\" h=\"0.2\"/></Position></Vertex>\n")
+    }
+
+    const TIMING: &str = "<TimeReference><Timing domainAbsoluteRelative=\"relative\" scale=\"2\" offset=\"1\"/></TimeReference>\
+                          <TrajectoryFollowingMode followingMode=\"position\"/>";
+
+    #[test]
+    fn polyline_trajectories_are_read_and_bad_ones_refused() {
+        let d = tmp("trajectory");
+        let ents = format!("{}{}", car("Ego"), car("T"));
+        let init = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 0.0));
+        let good = format!("{}{}", vertex("0", 60.0, -1.75), vertex("2", 80.0, 0.25));
+        let text = xosc("", &ents, &init, &story("T", &trajectory(&good, TIMING, "false"), &at_time(1.0)));
+        let imp = import(&write(&d, "good.xosc", &text), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        // The stand-in straight road: the track is lane -1's centre (t = -1.75) along +x. The
+        // clock reads offset + scale * t (esmini): vertex times (time - 1) / 2.
+        match find_action(story_of(&imp), "R") {
+            Action::Trajectory { absolute, vertices } => {
+                assert!(!absolute);
+                let want = [(-0.5, 60.0, 0.0), (0.5, 80.0, 2.0)];
+                assert_eq!(vertices.len(), 2);
+                for (v, (t, s, off)) in vertices.iter().zip(want) {
+                    assert!((v.t - t).abs() < 1e-12 && (v.s - s).abs() < 1e-9 && (v.offset - off).abs() < 1e-9, "{v:?}");
+                    assert!((v.heading - 0.2).abs() < 1e-12, "{v:?}");
+                }
+            }
+            other => panic!("{other:?}"),
+        }
+        let follow = TIMING.replace("\"position\"", "\"follow\"");
+        let clothoid = "<Clothoid curvature=\"0\" curvatureDot=\"0\" length=\"10\"/>";
+        let relative = "<Vertex time=\"0\"><Position><RelativeObjectPosition entityRef=\"Ego\" dx=\"5\" dy=\"0\"/></Position></Vertex>";
+        let none = "<TimeReference><None/></TimeReference><TrajectoryFollowingMode followingMode=\"position\"/>";
+        let cases: Vec<(String, &str, &str)> = vec![
+            (trajectory(&good, &follow, "false"), "<TrajectoryFollowingMode", "followingMode=\"follow\" is not supported"),
+            (
+                trajectory(&good, "<TrajectoryFollowingMode followingMode=\"position\"/>", "false"),
+                "<FollowTrajectoryAction",
+                "<TimeReference> is missing",
+            ),
+            (trajectory(&good, none, "false"), "<None", "without timing"),
+            (trajectory(&good, TIMING, "true"), "<Trajectory ", "closed=\"true\""),
+            (trajectory(&good, &TIMING.replace("scale=\"2\"", "scale=\"0\""), "false"), "<Timing", "the scale must be positive"),
+            (
+                trajectory(&format!("{}{}", vertex("2", 60.0, -1.75), vertex("1", 80.0, 0.0)), TIMING, "false"),
+                "<Vertex time=\"1\"",
+                "must not decrease",
+            ),
+            (trajectory(&vertex("NaN", 60.0, -1.75), TIMING, "false"), "<Vertex", "time"),
+            (trajectory("", TIMING, "false"), "<Polyline", "at least one vertex"),
+            (trajectory(relative, TIMING, "false"), "<RelativeObjectPosition", "relative to an entity"),
+            (
+                trajectory(&good, TIMING, "false").replace("<Shape><Polyline>", &format!("<Shape>{clothoid}<Polyline>")),
+                "<Shape>",
+                "exactly one",
+            ),
+            (trajectory(&good, TIMING, "false").replace(&format!("<Polyline>{good}</Polyline>"), clothoid), "<Clothoid", "unsupported"),
+        ];
+        for (i, (action, at, msg)) in cases.iter().enumerate() {
+            let text = xosc("", &ents, &init, &story("T", action, &at_time(1.0)));
+            let p = write(&d, &format!("bad{i}.xosc"), &text);
+            let e = import(&p, &ImportOptions::default()).expect_err(msg);
+            let want = format!("{}:{}:", p.display(), line_of(&text, at));
+            assert!(e.to_string().starts_with(&want) && e.to_string().contains(msg), "case {i}: {e} (want {want} ... {msg})");
+        }
+        // A MiscObject cannot follow one.
+        let misc = "<ScenarioObject name=\"T\"><MiscObject name=\"b\" miscObjectCategory=\"obstacle\" mass=\"10\"><BoundingBox>\
+                    <Center x=\"0\" y=\"0\" z=\"0.5\"/><Dimensions width=\"1\" length=\"1\" height=\"1\"/></BoundingBox></MiscObject></ScenarioObject>";
+        let init0 = format!("{}{}", place("Ego", -1, 20.0, 10.0), place("T", -1, 60.0, 0.0));
+        let text = xosc("", &format!("{}{misc}", car("Ego")), &init0, &story("T", &trajectory(&good, TIMING, "false"), &at_time(1.0)));
+        let e = import(&write(&d, "misc.xosc", &text), &ImportOptions::default()).expect_err("misc");
+        assert!(e.to_string().contains("MiscObject"), "{e}");
+    }
+
     #[test]
     fn unsupported_elements_name_file_line_and_element() {
         let d = tmp("unsupported");
@@ -1676,7 +1734,7 @@ mod tests {
         let p = write(&d, "u.xosc", &text);
         let e = import(&p, &ImportOptions::default()).expect_err("routing");
         // A RoutingAction other than FollowTrajectoryAction: the element named is the action.
-        let want = format!("{}:{}: <AssignRouteAction>:", p.display(), line_of(&text, "<AssignRouteAction/>"));
+        let want = format!("{}:{}: <AssignRouteAction>:", p.display(), line_of(&text, "<AssignRouteAction"));
         assert!(e.to_string().starts_with(&want), "{e} vs {want}");
         assert!(e.to_string().contains("unsupported"), "{e}");
         // A teleport outside Init, an EndOfRoadCondition, a DynamicConstraints: errors too (a
@@ -1716,12 +1774,13 @@ mod tests {
 
     #[test]
     fn an_init_distance_by_time_gap_places_its_actor_at_t0() {
-        // Lead at 15 m/s placed 2 s ahead of Ego (20 m/s) in Init: 2 s x its own 15 m/s = 30 m
-        // between centres at t = 0 (esmini applies Init actions before its first step), not at
-        // its teleported s = 200; `distance` likewise.
+        // Lead at 15 m/s to be 2 s ahead of Ego (20 m/s) in Init: the time gap is taken times the
+        // referenced entity's speed (esmini's LongDistanceAction), 40 m between centres in the
+        // state at t = 0 (esmini applies Init actions before its first logged row), not its
+        // teleported s = 200; `distance` likewise. The lead takes the ego's speed.
         let d = tmp("init-gap");
         let ents = format!("{}{}", car("Ego"), car("Lead"));
-        for (attr, want) in [("timeGap=\"2.0\"", 30.0), ("distance=\"25.0\"", 25.0)] {
+        for (attr, want) in [("timeGap=\"2.0\"", 40.0), ("distance=\"25.0\"", 25.0)] {
             let keep = format!(
                 "<Private entityRef=\"Lead\"><PrivateAction><LongitudinalAction><LongitudinalDistanceAction entityRef=\"Ego\" {attr} \
                  freespace=\"false\" continuous=\"false\" coordinateSystem=\"entity\" displacement=\"leadingReferencedEntity\"/>\
@@ -1731,9 +1790,10 @@ mod tests {
             let text = xosc("", &ents, &init, "");
             let imp = import(&write(&d, "g.xosc", &text), &ImportOptions { ego_mode: EgoMode::Scripted, ..ImportOptions::default() })
                 .unwrap_or_else(|e| panic!("{attr}: {e}"));
-            let s = &imp.runs[0].scenario;
-            let gap = s.lead.s.unwrap_or(f64::NAN) - s.follower.start_s.unwrap_or(f64::NAN);
-            assert!(close(gap, want), "{attr}: centres {gap} m apart, want {want}");
+            let sim = crate::sim::Simulation::new(&imp.runs[0].scenario).expect("sim");
+            let (lead, ego) = (sim.scripted_state("lead").expect("lead"), sim.follower_state(0).expect("ego"));
+            assert!(close(lead.x - ego.x, want), "{attr}: centres {} m apart, want {want}", lead.x - ego.x);
+            assert!(close(lead.speed, 20.0), "{attr}: lead at {} m/s", lead.speed);
         }
         let _ = std::fs::remove_dir_all(&d);
     }
@@ -1836,7 +1896,7 @@ mod tests {
     fn catalog_cycles_and_depth_are_errors() {
         let files = CatalogFiles::empty();
         let cats = Catalogs::new(&files);
-        let mut ctx = Ctx { params: Params::new(), cats: &cats, warn: Warnings::default(), stack: Vec::new() };
+        let mut ctx = Ctx { params: Params::new(), cats: &cats, warn: Warnings::default(), stack: Vec::new(), performance: None };
         let doc = xml::parse("<CatalogReference catalogName=\"c\" entryName=\"e\"/>", "f.xosc").expect("xml");
         let n = doc.root_element();
         ctx.enter_catalog("f.xosc", n, "c", "a").expect("a");

@@ -206,13 +206,13 @@ pub fn resolve(
                 .road
                 .lane_center_t(lane, s)
                 .ok_or_else(|| ImportError::at(file, p, format!("lane {lane} does not exist at s = {s} m of road `{}`", geo.road.id)))?;
-            // The offset is to the left of the lane's driving direction.
-            let sign = if lane > 0 { -1.0 } else { 1.0 };
-            // The heading follows lane `laneId`'s driving direction even where the offset
-            // puts the point in another lane (esmini: Euro NCAP CCFhol's target, lane -1
-            // offset 3.5 m, `h = pi` relative, faces -s).
+            // The offset is along the road's t (left of the reference line) on either side, as
+            // esmini places it (lane 4 at t = 8 m with offset -5: t = 3 m). The heading follows
+            // lane `laneId`'s driving direction even where the offset puts the point in another
+            // lane (esmini: Euro NCAP CCFhol's target, lane -1 offset 3.5 m, `h = pi` relative,
+            // faces -s).
             let lane_h = geo.lane_heading(s, centre);
-            Ok(on_road(s, centre + sign * offset, Some(heading(lane_h, lane_h))))
+            Ok(on_road(s, centre + offset, Some(heading(lane_h, lane_h))))
         }
         "RoadPosition" => {
             let s = geo.road_s(file, p, &params.req_str(p, "roadId", file)?, req("s")?)?;
@@ -285,7 +285,9 @@ pub fn lane_id(params: &Params, file: &str, node: Node<'_, '_>, attr: &str) -> R
     Ok(v as i32)
 }
 
-/// The `Orientation` child of a position: `(absolute, h)`; `type` defaults to relative.
+/// The `Orientation` child of a position: `(absolute, h)`. Without `type`: absolute in a file
+/// of OpenSCENARIO 1.0-1.2 (its `FileHeader`), relative otherwise, as esmini 3.6.0 reads it
+/// ("No orientation type specified - using absolute (default for OSC version <= 1.2)").
 fn orientation(params: &Params, file: &str, p: Node<'_, '_>) -> Result<Option<(bool, f64)>, ImportError> {
     for c in xml::elements(p) {
         if c.tag_name().name() != "Orientation" {
@@ -293,8 +295,20 @@ fn orientation(params: &Params, file: &str, p: Node<'_, '_>) -> Result<Option<(b
         }
     }
     let Some(o) = xml::child(p, "Orientation") else { return Ok(None) };
-    let absolute = params.enum_attr(o, "type", file, &["relative", "absolute"])?.is_some_and(|t| t == "absolute");
+    let absolute = match params.enum_attr(o, "type", file, &["relative", "absolute"])? {
+        Some(t) => t == "absolute",
+        None => up_to_1_2(p),
+    };
     Ok(Some((absolute, params.num_attr(o, "h", file)?.unwrap_or(0.0))))
+}
+
+/// Whether the document of `node` declares OpenSCENARIO 1.0-1.2 in its `FileHeader` (a file
+/// without a readable header: no).
+fn up_to_1_2(node: Node<'_, '_>) -> bool {
+    let root = node.document().root_element();
+    let Some(h) = xml::child(root, "FileHeader") else { return false };
+    let num = |a: &str| h.attribute(a).and_then(|v| v.trim().parse::<u32>().ok());
+    matches!((num("revMajor"), num("revMinor")), (Some(1), Some(m)) if m <= 2)
 }
 
 #[cfg(test)]

@@ -1282,9 +1282,13 @@ pub struct LaneMap {
     /// [`TRACK_CHORD_TOLERANCE`] within 1 mm of road: the file's widths or offsets are
     /// discontinuous there); the track keeps the jump.
     pub discontinuities: Vec<f64>,
+    /// The track runs against the road's reference line (`s` decreasing): the ego drives a lane
+    /// with a positive id of a right-hand traffic road.
+    pub reversed: bool,
     /// The road (for exact lane offsets).
     road: Road,
-    /// `(s along the road, s along the track)` at the track's points.
+    /// `(distance from the track's start along the road, s along the track)` at the track's
+    /// points: the road's `s`, or `length - s` when [`LaneMap::reversed`].
     s_table: Vec<(f64, f64)>,
 }
 
@@ -1292,7 +1296,8 @@ impl LaneMap {
     /// Lateral offset (m, + left) of the centre of lane `lane_id` from the ego lane's centre at
     /// road position `s_road`; `None` if either lane does not exist there.
     pub fn offset_of(&self, lane_id: i32, s_road: f64) -> Option<f64> {
-        Some(self.road.lane_center_t(lane_id, s_road)? - self.road.lane_center_t(self.ego_lane, s_road)?)
+        let d = self.road.lane_center_t(lane_id, s_road)? - self.road.lane_center_t(self.ego_lane, s_road)?;
+        Some(if self.reversed { -d } else { d })
     }
 
     /// The track lane number of OpenDRIVE lane `lane_id` (`None`: not one of the track's lanes).
@@ -1306,6 +1311,7 @@ impl LaneMap {
         if s_road.is_nan() {
             return 0.0;
         }
+        let s_road = if self.reversed { self.road.length - s_road } else { s_road };
         let i = self.s_table.partition_point(|p| p.0 <= s_road).saturating_sub(1);
         match (self.s_table.get(i), self.s_table.get(i + 1)) {
             (Some(a), Some(b)) if b.0 > a.0 => a.1 + (b.1 - a.1) * ((s_road - a.0) / (b.0 - a.0)).clamp(0.0, 1.0),
@@ -1320,23 +1326,23 @@ impl LaneMap {
     }
 }
 
-/// The simulator's [`Track`] for driving `road` in lane `ego_lane` (a negative OpenDRIVE id),
-/// named `name`: the centre curve of that lane over the whole road, sampled every
-/// [`TRACK_STEP`] m of road and more finely where needed to keep every chord within
-/// [`TRACK_CHORD_TOLERANCE`] of the curve; `lanes`/`ego_lane` number the driving lanes on the
-/// ego's (right) side from the rightmost (plus the ego lane if it is of another type); the lane
+/// The simulator's [`Track`] for driving `road` in lane `ego_lane`, named `name`: the centre
+/// curve of that lane over the whole road in its driving direction (right-hand traffic: along
+/// the reference line for a negative id, against it for a positive one, the track then
+/// starting at the road's end), sampled every [`TRACK_STEP`] m of road and more finely where
+/// needed to keep every chord within [`TRACK_CHORD_TOLERANCE`] of the curve; `lanes`/`ego_lane`
+/// number the driving lanes on the ego's side of the road (its direction's lanes) from the
+/// rightmost in its driving direction (plus the ego lane if it is of another type); the lane
 /// width is the ego lane's median width. The [`LaneMap`] relates OpenDRIVE lanes to it.
 pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMap), ImportError> {
     let err = |msg: String| ImportError { file: road.file.clone(), line: road.line, element: "road".into(), message: msg };
     let rid = &road.id;
-    if ego_lane > 0 {
-        return Err(err(format!(
-            "lane {ego_lane} of road \"{rid}\": lanes with positive ids (driving against the reference line) are not supported"
-        )));
-    }
     if ego_lane == 0 {
-        return Err(err(format!("lane 0 of road \"{rid}\" is the centre lane (no width): give a lane with a negative id")));
+        return Err(err(format!("lane 0 of road \"{rid}\" is the centre lane (no width): give a lane with a non-zero id")));
     }
+    // Right-hand traffic: a positive lane runs against the reference line.
+    let reversed = ego_lane > 0;
+    let dir = if reversed { -1.0 } else { 1.0 };
     if road.left_hand_traffic {
         return Err(err(format!("road \"{rid}\" has rule=\"LHT\": left-hand traffic roads are not supported")));
     }
@@ -1349,15 +1355,28 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
     if let Some(sec) = road.lane_sections.iter().find(|sec| sec.lane(ego_lane).is_none()) {
         return Err(err(format!("lane {ego_lane} does not exist in road \"{rid}\"'s lane section at s = {} m", sec.s)));
     }
-    // The track's lanes: driving lanes on the right in any section, and the ego lane.
-    let mut lane_ids: Vec<i32> =
-        road.lane_sections.iter().flat_map(|sec| sec.right.iter().filter(|l| l.is_driving() && l.id < 0).map(|l| l.id)).collect();
+    // The track's lanes: driving lanes on the ego's side in any section, and the ego lane, from
+    // the rightmost in the driving direction (the outermost of a reversed track).
+    let mut lane_ids: Vec<i32> = road
+        .lane_sections
+        .iter()
+        .flat_map(|sec| {
+            let side = if reversed { &sec.left } else { &sec.right };
+            side.iter().filter(|l| l.is_driving() && l.id.signum() == ego_lane.signum()).map(|l| l.id)
+        })
+        .collect();
     lane_ids.push(ego_lane);
     lane_ids.sort_unstable();
     lane_ids.dedup();
+    if reversed {
+        lane_ids.reverse();
+    }
 
-    // Sample the ego lane's centre curve.
-    let centre = |s: f64| -> Result<(f64, f64, f64, f64), ImportError> {
+    // Sample the ego lane's centre curve, by `u`: the distance from the track's start along
+    // the road (the road's `s`, or `length - s` reversed).
+    let road_s = |u: f64| if reversed { road.length - u } else { u };
+    let centre = |u: f64| -> Result<(f64, f64, f64, f64), ImportError> {
+        let s = road_s(u);
         let t = road.lane_center_t(ego_lane, s).ok_or_else(|| err(format!("lane {ego_lane} does not exist at s = {s} m")))?;
         let (x, y, h) = road.world(s, t);
         Ok((x, y, h, t))
@@ -1365,7 +1384,7 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
     let (x0, y0, _, _) = centre(0.0)?;
     let mut pts = vec![[x0, y0]];
     let mut s_table = vec![(0.0, 0.0)];
-    let mut widths = vec![road.lane_width(ego_lane, 0.0).unwrap_or(0.0)];
+    let mut widths = vec![road.lane_width(ego_lane, road_s(0.0)).unwrap_or(0.0)];
     let mut s = 0.0;
     let mut track_len = 0.0;
     let max_points = MAX_TRACK_POINTS;
@@ -1395,10 +1414,11 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
         let sm = 0.5 * (s + s1);
         let (_, _, hm, tm) = centre(sm)?;
         let (dx, dy) = (p1[0] - px, p1[1] - py);
-        let stretch = 1.0 - road.curvature(sm) * tm;
-        if stretch < 0.01 || dx * hm.cos() + dy * hm.sin() <= 0.0 {
+        let stretch = 1.0 - road.curvature(road_s(sm)) * tm;
+        if stretch < 0.01 || dir * (dx * hm.cos() + dy * hm.sin()) <= 0.0 {
             return Err(err(format!(
-                "the centre of lane {ego_lane} folds back near s = {sm:.2} m (it lies {:.2} m from the reference line, beyond the curve's centre)",
+                "the centre of lane {ego_lane} folds back near s = {:.2} m (it lies {:.2} m from the reference line, beyond the curve's centre)",
+                road_s(sm),
                 tm.abs()
             )));
         }
@@ -1416,7 +1436,7 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
             }
             pts.push(p1);
             s_table.push((s1, track_len));
-            widths.push(road.lane_width(ego_lane, s1).unwrap_or(0.0));
+            widths.push(road.lane_width(ego_lane, road_s(s1)).unwrap_or(0.0));
             if pts.len() > max_points {
                 return Err(err(format!("road \"{rid}\" needs more than {max_points} track points")));
             }
@@ -1428,10 +1448,11 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
     // Uniformity of the equal-width lane model.
     let mut note = None;
     let mut width_range = (f64::INFINITY, f64::NEG_INFINITY);
-    if lane_ids.windows(2).any(|w| matches!(w, [a, b] if i64::from(*b) - i64::from(*a) != 1)) {
+    if lane_ids.windows(2).any(|w| matches!(w, [a, b] if (i64::from(*b) - i64::from(*a)).abs() != 1)) {
         note = Some(format!("the track's lanes {lane_ids:?} are not adjacent (other lane types lie between them)"));
     }
-    for &(sr, _) in &s_table {
+    for &(u, _) in &s_table {
+        let sr = road_s(u);
         for &id in &lane_ids {
             match road.lane_width(id, sr) {
                 Some(w) => {
@@ -1463,7 +1484,8 @@ pub fn to_track(road: &Road, ego_lane: i32, name: &str) -> Result<(Track, LaneMa
         width_range,
         uniform: note.is_none(),
         note,
-        discontinuities,
+        discontinuities: discontinuities.into_iter().map(road_s).collect(),
+        reversed,
         road: road.clone(),
         s_table,
     };
@@ -2087,14 +2109,31 @@ mod tests {
     }
 
     #[test]
+    fn a_lane_with_a_positive_id_is_driven_against_the_reference_line() {
+        let r = road_of(&xodr(100.0, r#"<geometry s="0" x="0" y="0" hdg="0" length="100"><line/></geometry>"#, LANES_2X2));
+        let (track, map) = to_track(&r, 1, "t").expect("lane 1");
+        // From the road's end to its start, along lane 1's centre (t = 1.75).
+        assert_eq!(track.centerline, vec![[100.0, 1.75], [0.0, 1.75]]);
+        assert!(map.reversed && close(track.length(), 100.0, 1e-9));
+        // The left driving lanes, rightmost first in the driving direction: 2 (outer), then 1.
+        assert_eq!((map.lane_ids.clone(), track.lanes, track.ego_lane), (vec![2, 1], 2, 1));
+        // Offsets + left of the driving direction: lane 2 to the right, lane -1 to the left.
+        assert!(close(map.offset_of(2, 30.0).expect("2"), -3.5, 1e-12) && close(map.offset_of(-1, 30.0).expect("-1"), 3.5, 1e-12));
+        assert!(close(map.track_s(30.0), 70.0, 1e-9) && close(map.track_s(100.0), 0.0, 1e-9));
+        // A negative lane: unchanged, along the reference line.
+        let (fwd, m) = to_track(&r, -1, "t").expect("lane -1");
+        assert_eq!(fwd.centerline, vec![[0.0, -1.75], [100.0, -1.75]]);
+        assert!(!m.reversed && close(m.track_s(30.0), 30.0, 1e-9) && close(m.offset_of(-2, 30.0).expect("-2"), -3.5, 1e-12));
+    }
+
+    #[test]
     fn to_track_refuses_what_it_cannot_model() {
         let straight =
             |len: f64| road_of(&xodr(len, &format!(r#"<geometry s="0" x="0" y="0" hdg="0" length="{len}"><line/></geometry>"#), LANES_2X2));
         let r = straight(100.0);
-        let e = to_track(&r, 1, "t").expect_err("positive");
-        assert!(e.message.contains("lanes with positive ids (driving against the reference line) are not supported"), "{e}");
+        let e = to_track(&r, 0, "t").expect_err("centre");
+        assert!(e.message.contains("centre lane"), "{e}");
         assert_eq!((e.file.as_str(), e.line, e.element.as_str()), ("t.xodr", 4, "road"));
-        assert!(to_track(&r, 0, "t").expect_err("centre").message.contains("centre lane"));
         assert!(to_track(&r, -7, "t").expect_err("missing").message.contains("does not exist"));
         // The shoulder is 1 m wide: unusual, but a positive width (the importer warns).
         assert_eq!(to_track(&r, -3, "t").expect("narrow").0.lane_width, 1.0);

@@ -11,8 +11,8 @@ use super::position::{self, Geo};
 use super::road::LaneMap;
 use super::xml;
 use crate::story::{
-    Act, Action, ClothoidSegment, Dimension, EgoMode, Event, MAX_ELEMENTS, Maneuver, ManeuverGroup, Priority, Shape, StoryAction,
-    Transition,
+    Act, Action, ClothoidSegment, Dimension, EgoMode, Event, MAX_ELEMENTS, MAX_VERTICES, Maneuver, ManeuverGroup, Priority, Shape,
+    StoryAction, Transition, Vertex,
 };
 use crate::track::Track;
 use crate::trigger::{Condition, ConditionKind, DistanceType, Edge, ElementEvent, ElementKind, Rule, Trigger, VarValue};
@@ -86,6 +86,8 @@ pub struct Sb<'c, 'a, 't> {
     /// `TeleportAction` starts on ([`trajectory_start`]): its first segment's `PositionStart`
     /// is where the entity already is.
     pub start_trajectory: bool,
+    /// The `initialDistanceOffset` of the `FollowTrajectoryAction` being read, m.
+    pub start_offset: f64,
 }
 
 /// `dynamicsShape`.
@@ -1009,6 +1011,140 @@ impl Sb<'_, '_, '_> {
         }
     }
 
+    /// `FollowTrajectoryAction`: a `ClothoidSpline` trajectory ([`Self::follow_spline`]), else
+    /// an inline `Polyline` ([`Self::follow_polyline`], which names any other shape).
+    fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let inline = xml::elements(node).find_map(|c| match c.tag_name().name() {
+            "Trajectory" => Some(c),
+            "TrajectoryRef" => xml::elements(c).find(|t| t.tag_name().name() == "Trajectory"),
+            _ => None,
+        });
+        let catalog = xml::elements(node).any(|c| {
+            c.tag_name().name() == "CatalogReference"
+                || (c.tag_name().name() == "TrajectoryRef" && xml::elements(c).any(|t| t.tag_name().name() == "CatalogReference"))
+        });
+        let first_shape = inline
+            .and_then(|t| xml::elements(t).find(|c| c.tag_name().name() == "Shape"))
+            .and_then(|sh| xml::elements(sh).next())
+            .map(|x| x.tag_name().name());
+        let untimed = xml::elements(node)
+            .find(|c| c.tag_name().name() == "TimeReference")
+            .and_then(|t| xml::elements(t).next())
+            .is_some_and(|t| t.tag_name().name() == "None");
+        let untimed_start = self.start_trajectory && untimed && first_shape == Some("Polyline");
+        if catalog || first_shape == Some("ClothoidSpline") || untimed_start {
+            self.follow_spline(file, node)
+        } else {
+            self.follow_polyline(file, node)
+        }
+    }
+
+    /// `FollowTrajectoryAction` with an inline `Polyline` trajectory (in `TrajectoryRef`, or
+    /// directly as in 1.0), `position` following mode and a `TimeReference/Timing`: the
+    /// vertices' positions (absolute ones) on the track, each reached `(time - offset) / scale`
+    /// after the action's start (`absolute`: at that simulation time), as esmini plays it.
+    fn follow_polyline(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+        let p = &self.ctx.params;
+        if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
+            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
+        }
+        let (mut trajectory, mut timing, mut mode) = (None, None, None);
+        for c in xml::elements(node) {
+            match c.tag_name().name() {
+                "Trajectory" => trajectory = Some(c),
+                "TrajectoryRef" => {
+                    let t = only_child(file, c)?;
+                    if t.tag_name().name() != "Trajectory" {
+                        return Err(ImportError::unsupported(file, t));
+                    }
+                    trajectory = Some(t);
+                }
+                "CatalogReference" => return Err(ImportError::unsupported(file, c)),
+                "TimeReference" => {
+                    let t = only_child(file, c)?;
+                    match t.tag_name().name() {
+                        "Timing" => timing = Some(t),
+                        _ => {
+                            return Err(ImportError::at(
+                                file,
+                                t,
+                                "a trajectory without timing is not supported (give <Timing>: flc moves the entity by the vertices' times)",
+                            ));
+                        }
+                    }
+                }
+                "TrajectoryFollowingMode" => mode = Some(c),
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let traj = trajectory.ok_or_else(|| ImportError::at(file, node, "<TrajectoryRef> is missing"))?;
+        let timing = timing.ok_or_else(|| ImportError::at(file, node, "<TimeReference> is missing"))?;
+        let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
+        if p.req_enum(mode, "followingMode", file, &["position", "follow"])? != "position" {
+            return Err(ImportError::at(
+                file,
+                mode,
+                "followingMode=\"follow\" is not supported (only \"position\", as esmini's default controller plays it)",
+            ));
+        }
+        let absolute = p.req_enum(timing, "domainAbsoluteRelative", file, &["absolute", "relative"])? == "absolute";
+        let scale = p.req_num(timing, "scale", file)?;
+        let offset = p.req_num(timing, "offset", file)?;
+        if !(scale > 0.0 && scale.is_finite() && offset.is_finite()) {
+            return Err(ImportError::at(
+                file,
+                timing,
+                format!("scale = {scale}, offset = {offset}: the scale must be positive, both finite"),
+            ));
+        }
+        if p.bool_attr(traj, "closed", file)? == Some(true) {
+            return Err(ImportError::at(file, traj, "closed=\"true\" is not supported"));
+        }
+        let mut polyline = None;
+        for c in xml::elements(traj) {
+            match c.tag_name().name() {
+                "Shape" => {
+                    let sh = only_child(file, c)?;
+                    if sh.tag_name().name() != "Polyline" {
+                        return Err(ImportError::unsupported(file, sh));
+                    }
+                    polyline = Some(sh);
+                }
+                _ => return Err(ImportError::unsupported(file, c)),
+            }
+        }
+        let polyline = polyline.ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+        let mut vertices = Vec::new();
+        for v in xml::elements(polyline) {
+            if v.tag_name().name() != "Vertex" {
+                return Err(ImportError::unsupported(file, v));
+            }
+            if vertices.len() >= MAX_VERTICES {
+                return Err(ImportError::at(file, v, format!("more than {MAX_VERTICES} vertices")));
+            }
+            self.count(file, v)?;
+            let time = self.ctx.params.num_attr(v, "time", file)?.ok_or_else(|| {
+                ImportError::at(file, v, "a vertex without `time` is not supported (flc moves the entity by the vertices' times)")
+            })?;
+            // esmini's reading: the trajectory's clock reads `offset + scale * t` at time `t`
+            // into the action (absolute: simulation time).
+            let t = (time - offset) / scale;
+            if !t.is_finite() || vertices.last().is_some_and(|w: &Vertex| t < w.t) {
+                return Err(ImportError::at(file, v, format!("time = {time}: vertex times must be finite and must not decrease")));
+            }
+            let pos = only_child(file, v)?;
+            if pos.tag_name().name() != "Position" {
+                return Err(ImportError::unsupported(file, pos));
+            }
+            let (s, lateral, heading) = self.track_pose(file, pos)?;
+            vertices.push(Vertex { t, s, offset: lateral, heading });
+        }
+        if vertices.is_empty() {
+            return Err(ImportError::at(file, polyline, "a polyline needs at least one vertex"));
+        }
+        Ok(Action::Trajectory { absolute, vertices })
+    }
+
     /// The story variable of an OpenSCENARIO parameter (registered with its value).
     fn param_var(&mut self, file: &str, node: Node<'_, '_>, name: &str) -> Result<(String, VarValue), ImportError> {
         let name = name.trim().trim_start_matches('$');
@@ -1282,9 +1418,24 @@ impl Sb<'_, '_, '_> {
         (entity, of): (&str, &str),
         what: &str,
     ) -> Result<(bool, f64, Rule), ImportError> {
+        let distance = self.distance_type(file, node, Some(DistanceType::Longitudinal))?;
+        self.time_measure(file, node, (entity, of), what, distance)
+    }
+
+    /// [`Self::longitudinal_time`] for a given measure: longitudinal, or (a time headway)
+    /// Euclidean.
+    fn time_measure(
+        &mut self,
+        file: &str,
+        node: Node<'_, '_>,
+        (entity, of): (&str, &str),
+        what: &str,
+        distance: DistanceType,
+    ) -> Result<(bool, f64, Rule), ImportError> {
         self.along_route(file, node)?;
         self.coordinate_system(file, node, true)?;
-        if self.distance_type(file, node, Some(DistanceType::Longitudinal))? != DistanceType::Longitudinal {
+        let ok = distance == DistanceType::Longitudinal || (distance == DistanceType::Euclidean && what == "a time headway");
+        if !ok {
             return Err(ImportError::at(file, node, format!("{what} measured other than longitudinally is not supported")));
         }
         let freespace = self.ctx.params.req_bool(node, "freespace", file)?;
@@ -1313,11 +1464,13 @@ impl Sb<'_, '_, '_> {
     /// `FollowTrajectoryAction` with `TimeReference/None`, `followingMode="position"` and a
     /// `ClothoidSpline` that starts at the actor (story::Action::FollowTrajectory), given inline
     /// or from a `TrajectoryCatalog`; on a straight road.
-    fn follow_trajectory(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
+    fn follow_spline(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
         let p = &self.ctx.params;
-        if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
-            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
+        let offset = p.num_attr(node, "initialDistanceOffset", file)?.unwrap_or(0.0);
+        if offset != 0.0 && !self.start_trajectory {
+            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported (but on an entity's start)"));
         }
+        self.start_offset = offset;
         let (mut traj, mut timing, mut mode) = (None, None, None);
         for c in xml::elements(node) {
             match c.tag_name().name() {
@@ -1395,6 +1548,12 @@ impl Sb<'_, '_, '_> {
             }
         }
         let shape = shape.ok_or_else(|| ImportError::at(file, node, "<Shape> is missing"))?;
+        if shape.tag_name().name() == "Polyline" && self.start_trajectory {
+            return self.straight_polyline(file, shape);
+        }
+        if self.start_offset != 0.0 {
+            return Err(ImportError::at(file, shape, "initialDistanceOffset other than 0 is not supported on a <ClothoidSpline>"));
+        }
         if shape.tag_name().name() != "ClothoidSpline" {
             return Err(ImportError::at(
                 file,
@@ -1432,6 +1591,46 @@ impl Sb<'_, '_, '_> {
         }
         p.num_attr(shape, "timeEnd", file)?;
         let a = Action::FollowTrajectory { segments };
+        a.validate().map_err(|e| ImportError::at(file, shape, e.to_string()))?;
+        Ok(a)
+    }
+
+    /// An untimed `Polyline` an entity starts on (placed `initialDistanceOffset` along it,
+    /// facing along it): on a straight polyline (its vertices in one line, one direction) the
+    /// actor moves on along it at its own speed, a straight spline of the rest of its length.
+    /// A polyline with corners: error.
+    fn straight_polyline(&mut self, file: &str, shape: Node<'_, '_>) -> Result<Action, ImportError> {
+        let mut poses = Vec::new();
+        for v in xml::elements(shape) {
+            if poses.len() == 10_000 {
+                return Err(ImportError::at(file, v, "more than 10000 vertices"));
+            }
+            if self.ctx.params.num_attr(v, "time", file)?.is_some() {
+                return Err(ImportError::at(file, v, "a vertex time without <Timing> is not supported"));
+            }
+            let p = xml::child(v, "Position").ok_or_else(|| ImportError::at(file, v, "<Position> is missing"))?;
+            poses.push(position::resolve(&self.ctx.params, self.geo, file, p, &|_| None)?);
+        }
+        let mut length = 0.0;
+        let mut heading: Option<f64> = None;
+        for w in poses.windows(2) {
+            let (dx, dy) = (w[1].x - w[0].x, w[1].y - w[0].y);
+            let len = dx.hypot(dy);
+            if len == 0.0 {
+                continue;
+            }
+            let h = dy.atan2(dx);
+            if heading.is_some_and(|h0| crate::track::wrap(h - h0).abs() > 1.0e-9) {
+                return Err(ImportError::at(file, shape, "an untimed <Polyline> with corners is not supported (only a straight one)"));
+            }
+            heading = Some(h);
+            length += len;
+        }
+        let rest = length - self.start_offset;
+        if heading.is_none() || rest <= 0.0 {
+            return Err(ImportError::at(file, shape, format!("nothing of the polyline ({length} m) is left past initialDistanceOffset")));
+        }
+        let a = Action::FollowTrajectory { segments: vec![ClothoidSegment { curvature_start: 0.0, curvature_end: 0.0, length: rest }] };
         a.validate().map_err(|e| ImportError::at(file, shape, e.to_string()))?;
         Ok(a)
     }
@@ -1543,10 +1742,10 @@ impl Sb<'_, '_, '_> {
             if shape.tag_name().name() == "Polyline" {
                 return along_polyline(&poses, s).ok_or_else(beyond);
             }
-            let was = sb.start_trajectory;
-            sb.start_trajectory = true;
+            let was = (sb.start_trajectory, sb.start_offset);
+            (sb.start_trajectory, sb.start_offset) = (true, 0.0);
             let a = sb.trajectory(file, traj);
-            sb.start_trajectory = was;
+            (sb.start_trajectory, sb.start_offset) = was;
             let Action::FollowTrajectory { segments } = a? else { return Err(ImportError::at(file, traj, "expected a <ClothoidSpline>")) };
             if s > segments.iter().map(|g| g.length).sum::<f64>() + 1.0e-9 {
                 return Err(beyond());
@@ -1605,6 +1804,15 @@ impl Sb<'_, '_, '_> {
         Ok((pr.s, pr.lateral_offset))
     }
 
+    /// The track position and heading relative to the track `(s, lateral, heading)` of an
+    /// absolute `Position` (a relative one is an error: its reference moves).
+    fn track_pose(&mut self, file: &str, position: Node<'_, '_>) -> Result<(f64, f64, f64), ImportError> {
+        let (s, lateral) = self.track_position(file, position)?;
+        let pose = position::resolve(&self.ctx.params, self.geo, file, position, &|_| None)?;
+        let pr = self.track.project(pose.x, pose.y);
+        Ok((s, lateral, crate::track::wrap(pose.h - pr.heading)))
+    }
+
     fn entity_condition(&mut self, file: &str, node: Node<'_, '_>, entity: &str) -> Result<ConditionKind, ImportError> {
         let entity = entity.to_string();
         let position = |sb: &mut Self| -> Result<(f64, f64), ImportError> {
@@ -1658,8 +1866,10 @@ impl Sb<'_, '_, '_> {
             }
             "TimeHeadwayCondition" => {
                 let of = self.entity(file, node, "entityRef")?;
-                let (freespace, value, rule) = self.longitudinal_time(file, node, (&entity, &of), "a time headway")?;
-                Ok(ConditionKind::TimeHeadway { entity, of, freespace, value, rule, tolerance: None })
+                // esmini's default measure: the (box) Euclidean distance.
+                let distance = self.distance_type(file, node, Some(DistanceType::Euclidean))?;
+                let (freespace, value, rule) = self.time_measure(file, node, (&entity, &of), "a time headway", distance)?;
+                Ok(ConditionKind::TimeHeadway { entity, of, freespace, distance, value, rule, tolerance: None })
             }
             "TimeToCollisionCondition" => {
                 let target = xml::child(node, "TimeToCollisionConditionTarget")

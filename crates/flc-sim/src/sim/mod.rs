@@ -269,6 +269,7 @@ impl Simulation {
                 length: p.length,
                 reference: story.references.get(name).copied().unwrap_or_default(),
                 pedestrian: p.body == crate::vehicle::BodyKind::Pedestrian,
+                limits: story.limits.get(name).copied(),
             };
             let mut initial = vec![body("lead", lead_state, ll)];
             initial.extend(traffic.iter().map(|t| body(&t.name, *t.vehicle.state(), &t.params)));
@@ -936,6 +937,7 @@ impl<O: Observer> Simulation<O> {
             length: st.followers.first().map_or(0.0, |f| f.cfg.follower.vehicle.length),
             reference: story.references.get(crate::scenario::EGO).copied().unwrap_or_default(),
             pedestrian: false,
+            limits: story.limits.get(crate::scenario::EGO).copied(),
         };
         let mut moved = Vec::new();
         {

@@ -131,6 +131,12 @@ impl<'a> EgoPath<'a> {
         (l.t - self.t).abs() - l.half_width - self.half_width < self.params.corridor_margin
     }
 
+    /// Whether the body of an object at `l` overlaps, across the road, the band the ego's body
+    /// sweeps (no margin: the ego would touch it).
+    pub(super) fn overlaps_body(&self, l: &Located) -> bool {
+        (l.t - self.t).abs() - l.half_width - self.half_width < 0.0
+    }
+
     /// Whether a careful driver reads an object at `l` (ahead) as in its lane: in the corridor,
     /// or its centre within the lane width less the wandering zone of the lane's centre (a
     /// vehicle of the next lane has moved more than the wandering zone towards it), and not
@@ -166,18 +172,28 @@ pub(super) fn nearest_in_path(track: &Track, ego: &Object, candidates: impl Iter
 }
 
 /// The vehicle in front of `ego` as a careful human driver sees it, and its length: the nearest
-/// vehicle ahead along the road that it reads as in its lane ([`EgoPath::seen_in_lane`]).
-/// `None`: nothing in front.
+/// vehicle ahead along the road that it reads as in its lane ([`EgoPath::seen_in_lane`]); with
+/// none, the nearest read as leaving the lane whose body still overlaps the band the ego's body
+/// sweeps (a driver looks past a cut-out at what it reveals, but does not drive into a vehicle
+/// still in its way: a lead swerving wide at walking pace, ALKS 4.1_2). `None`: nothing in front.
 pub(super) fn human_front(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
     let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default());
     let mut best: Option<(f64, VehicleState, f64)> = None;
+    let mut in_the_way: Option<(f64, VehicleState, f64)> = None;
     for o in candidates {
         let l = path.locate(&o);
-        if l.ds > 0.0 && path.seen_in_lane(&l) && best.is_none_or(|b| l.ds < b.0) {
-            best = Some((l.ds, o.state, o.length));
+        if l.ds <= 0.0 {
+            continue;
+        }
+        if path.seen_in_lane(&l) {
+            if best.is_none_or(|b| l.ds < b.0) {
+                best = Some((l.ds, o.state, o.length));
+            }
+        } else if path.overlaps_body(&l) && in_the_way.is_none_or(|b| l.ds < b.0) {
+            in_the_way = Some((l.ds, o.state, o.length));
         }
     }
-    best.map(|(_, st, len)| (st, len))
+    best.or(in_the_way).map(|(_, st, len)| (st, len))
 }
 
 /// Half the extent across the road of a `length` x `width` box turned by `h` from it, m.
@@ -256,13 +272,40 @@ mod tests {
                     assert!((l.t - offset).abs() < 0.01, "{tag}: t {}", l.t);
                     assert_eq!(path.in_corridor(&l), corridor, "{tag}: {l:?}");
                     assert_eq!(path.seen_in_lane(&l), seen, "{tag}: {l:?}");
+                    // Alone, a vehicle read as leaving stays in front while its body is in the way.
                     let front = human_front(&track, &ego, std::iter::once(o));
-                    assert_eq!(front.is_some(), seen, "{tag}");
+                    assert_eq!(front.is_some(), seen || path.overlaps_body(&l), "{tag}");
                     assert_eq!(nearest_in_path(&track, &ego, std::iter::once(o)).is_some(), corridor, "{tag}");
                 }
                 // Behind the ego: never in front.
                 let behind = at(&track, 100.0, 0.0, 0.0, CAR);
                 assert!(human_front(&track, &ego, std::iter::once(behind)).is_none());
+            }
+        }
+    }
+
+    #[test]
+    fn a_lead_swerving_wide_is_dropped_only_once_out_of_the_way_or_when_something_is_revealed() {
+        for radius in [250.0, 1000.0] {
+            for left in [true, false] {
+                let track = curve(radius, left);
+                let ego = at(&track, 120.0, 0.0, 0.0, CAR);
+                let tag = format!("R = {radius} m, left = {left}");
+                // 0.8 m off the lane's centre and moving away (0.2 rad at 20 m/s: 4 m/s across):
+                // read as leaving, but its body (turned 0.2 rad: 1.35 m half extent across the
+                // road) still overlaps the ego's.
+                let swerving = at(&track, 140.0, 0.8, 0.2, CAR);
+                let path = EgoPath::new(&track, &ego.state, CAR.1, PathParams::default());
+                let l = path.locate(&swerving);
+                assert!(!path.seen_in_lane(&l) && path.overlaps_body(&l), "{tag}: {l:?}");
+                assert!(human_front(&track, &ego, std::iter::once(swerving)).is_some(), "{tag}");
+                // 2.6 m off: its body clear of the ego's band (2.6 - 1.35 - 0.9 = 0.35 m): dropped.
+                let out = at(&track, 140.0, 2.6, 0.2, CAR);
+                assert!(human_front(&track, &ego, std::iter::once(out)).is_none(), "{tag}");
+                // A car revealed behind the swerving lead is what the driver looks at.
+                let revealed = at(&track, 180.0, 0.0, STANDING, CAR);
+                let front = human_front(&track, &ego, [swerving, revealed].into_iter()).expect("in front");
+                assert!((front.0.x - revealed.state.x).abs() < 1e-9, "{tag}");
             }
         }
     }

@@ -33,6 +33,8 @@ pub(super) struct Body {
     pub(super) reference: [f64; 2],
     /// A pedestrian: moved kinematically whatever the story's `dynamics`.
     pub(super) pedestrian: bool,
+    /// The limits of its speed changes (`story.limits`).
+    pub(super) limits: Option<[f64; 2]>,
 }
 
 /// The motion of the reference point of `b` on `track`.
@@ -41,10 +43,12 @@ pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
     let (c, s) = (st.yaw.cos(), st.yaw.sin());
     let [rx, ry] = b.reference;
     let p = track.project(st.x - c * rx + s * ry, st.y - s * rx - c * ry);
-    Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
+    let m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
         .with_length(b.length)
         .with_reference(b.reference)
-        .with_heading(crate::track::wrap(st.yaw - p.heading))
+        .with_limits(b.limits)
+        .with_heading(crate::track::wrap(st.yaw - p.heading));
+    if b.pedestrian { m.holding_heading() } else { m }
 }
 
 /// The pose a motion puts its vehicle's box centre in.
@@ -156,7 +160,9 @@ impl StoryRun {
             }
             let m = &mut self.motions[j];
             let kappa = track.curvature_at(m.s);
+            let s_before = m.s;
             let out = m.step(t, dt, kappa, world);
+            m.end_of_road(s_before, track.length(), dt);
             if let Some(i) = out.long_done {
                 self.state.end_action(i, false);
             }

@@ -131,6 +131,22 @@ fn follower_index(name: &str) -> Option<usize> {
 }
 
 impl WorldView for Truth<'_> {
+    fn pose(&self, name: &str) -> Option<[f64; 3]> {
+        let st = if name == "lead" {
+            self.lead.0.state()
+        } else if let Some(k) = follower_index(name) {
+            self.followers.get(k)?.vehicle.state()
+        } else {
+            self.traffic.iter().find(|t| t.name == name)?.vehicle.state()
+        };
+        Some([st.x, st.y, st.yaw])
+    }
+
+    fn place(&self, s: f64, offset: f64) -> Option<[f64; 4]> {
+        let (x, y, h) = self.track.place(s, offset);
+        Some([x, y, h, self.track.curvature_at(s)])
+    }
+
     fn entity(&self, name: &str) -> Option<EntityState> {
         let still = |i: usize| self.still.get(i).copied().unwrap_or(0.0).max(0.0);
         if name == "lead" {

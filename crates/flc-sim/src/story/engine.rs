@@ -133,6 +133,12 @@ impl WorldView for View<'_> {
     fn collided(&self, a: &str, b: Option<&str>) -> bool {
         self.world.collided(a, b)
     }
+    fn pose(&self, name: &str) -> Option<[f64; 3]> {
+        self.world.pose(name)
+    }
+    fn place(&self, s: f64, offset: f64) -> Option<[f64; 4]> {
+        self.world.place(s, offset)
+    }
 }
 
 /// The running storyboard: call [`StoryState::step`] once per physics step (before the

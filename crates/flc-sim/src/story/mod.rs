@@ -245,11 +245,12 @@ pub enum Action {
         transition: Transition,
     },
     /// `LaneOffsetAction` (non-continuous): to `offset` (m, + left) from the centre of the lane
-    /// the actor is in when it starts; `relative_to` another entity's offset instead if given.
+    /// the actor is in when it starts; with `of`, to `offset` from that entity's lateral
+    /// position, whatever lanes the two are in (as esmini).
     LaneOffset {
         /// Target offset from the lane centre, m.
         offset: f64,
-        /// `RelativeTargetLaneOffset`: relative to this entity's offset from its lane centre.
+        /// `RelativeTargetLaneOffset`: relative to this entity's lateral position.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         of: Option<String>,
         /// Shape of the change.
@@ -321,6 +322,21 @@ pub enum Action {
         /// The spline's segments, in order.
         segments: Vec<ClothoidSegment>,
     },
+    /// `RoutingAction/FollowTrajectoryAction` with a polyline in `position` following mode
+    /// (esmini's default controller): the actor is put on the polyline at each step, linearly
+    /// between its vertices in time, in centreline coordinates (exact for vertices at one `s`,
+    /// as a crossing pedestrian's, and on straight roads); its speed is the segment's length
+    /// over its time, its heading (relative to the road) interpolated between the vertices'.
+    /// After the last vertex it keeps that speed and heading and moves on along the road, in
+    /// the direction its heading faces (esmini's default controller). Replaces both the
+    /// running longitudinal and lateral actions.
+    Trajectory {
+        /// `time`: vertex times are simulation times (`absolute`) or from the action's start.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        absolute: bool,
+        /// The vertices, times non-decreasing.
+        vertices: Vec<Vertex>,
+    },
     /// `VariableSetAction`.
     VariableSet {
         /// The variable.
@@ -348,6 +364,24 @@ pub enum Action {
     },
 }
 
+/// A vertex of a [`Action::Trajectory`] (`[[...actions.vertices]]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vertex {
+    /// When it is reached, s from the action's start (or simulation time): the file's
+    /// `(time - offset) / scale`.
+    pub t: f64,
+    /// Position of the reference point along the centreline, m.
+    pub s: f64,
+    /// Its lateral offset from the centreline, m (+ left).
+    pub offset: f64,
+    /// Heading relative to the road, rad.
+    pub heading: f64,
+}
+
+/// At most this many vertices in a trajectory.
+pub const MAX_VERTICES: usize = 10_000;
+
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
@@ -355,12 +389,12 @@ fn is_zero(v: &f64) -> bool {
 impl Action {
     /// `true` for speed and longitudinal-distance actions.
     pub fn is_longitudinal(&self) -> bool {
-        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. })
+        matches!(self, Action::Speed { .. } | Action::LongitudinalDistance { .. } | Action::Synchronize { .. } | Action::Trajectory { .. })
     }
 
     /// `true` for lane change and lane offset actions.
     pub fn is_lateral(&self) -> bool {
-        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. })
+        matches!(self, Action::LaneChange { .. } | Action::LaneOffset { .. } | Action::FollowTrajectory { .. } | Action::Trajectory { .. })
     }
 
     /// The entities it names (`of`).
@@ -451,6 +485,24 @@ impl Action {
                 _ => Err(ConfigError::new("add", "give `add` or `multiply`")),
             },
             Action::Controller { .. } => Ok(()),
+            Action::Trajectory { vertices, .. } => {
+                if vertices.is_empty() || vertices.len() > MAX_VERTICES {
+                    return Err(ConfigError::new("vertices", format!("give 1 to {MAX_VERTICES} vertices")));
+                }
+                let mut prev = f64::NEG_INFINITY;
+                for (i, v) in vertices.iter().enumerate() {
+                    let at = |k: &str| format!("vertices[{i}].{k}");
+                    check_range(&at("t"), v.t, -1.0e6, 1.0e6, "s")?;
+                    check_range(&at("s"), v.s, -1.0e6, 1.0e6, "m")?;
+                    check_range(&at("offset"), v.offset, -100.0, 100.0, "m")?;
+                    check_range(&at("heading"), v.heading, -10.0, 10.0, "rad")?;
+                    if v.t < prev {
+                        return Err(ConfigError::new(at("t"), "vertex times must not decrease"));
+                    }
+                    prev = v.t;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -546,6 +598,11 @@ pub struct Story {
     /// not named move their box centre.
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub references: std::collections::BTreeMap<String, [f64; 2]>,
+    /// Each entity's `[max acceleration, max deceleration]` (m/s², OpenSCENARIO's vehicle
+    /// `Performance`): a speed change whose peak rate exceeds them is stretched in time until it
+    /// does not (as esmini). Entities not named change speed as their actions say.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub limits: std::collections::BTreeMap<String, [f64; 2]>,
     /// The acts.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub acts: Vec<Act>,
@@ -651,6 +708,13 @@ impl Story {
             }
             check_range(&format!("story.references.{name}[0]"), r[0], -50.0, 50.0, "m")?;
             check_range(&format!("story.references.{name}[1]"), r[1], -50.0, 50.0, "m")?;
+        }
+        for (name, l) in &self.limits {
+            if !known(name) {
+                return Err(ConfigError::new(format!("story.limits.{name}"), format!("no entity `{name}`")));
+            }
+            check_range(&format!("story.limits.{name}[0]"), l[0], 0.01, 1.0e3, "m/s²")?;
+            check_range(&format!("story.limits.{name}[1]"), l[1], 0.01, 1.0e3, "m/s²")?;
         }
         for (i, a) in self.acts.iter().enumerate() {
             let ak = format!("story.acts[{i}]");

@@ -1,7 +1,7 @@
 //! The kinematic motion a story prescribes for one entity ([`Motion`]): position along the
 //! centreline, lateral offset, speed, and the running longitudinal and lateral actions.
 
-use super::{Action, ClothoidSegment, Dimension, Shape, Transition};
+use super::{Action, ClothoidSegment, Dimension, Shape, Transition, Vertex};
 use crate::trigger::WorldView;
 
 /// A running longitudinal action.
@@ -55,7 +55,8 @@ const LARGE: f64 = 1.0e10;
 /// esmini's `MAX_DECELERATION` of a synchronisation that must stop at once, m/s².
 const SYNC_STOP_DECEL: f64 = -8.0;
 
-/// A continuous `LongitudinalDistanceAction`.
+/// A running `LongitudinalDistanceAction`: kept every step (`continuous`), or until within
+/// [`REACHED_M`] of the distance.
 #[derive(Debug, Clone, PartialEq)]
 struct Keep {
     of: String,
@@ -63,7 +64,12 @@ struct Keep {
     time_gap: Option<f64>,
     freespace: bool,
     ahead: bool,
+    continuous: bool,
 }
+
+/// A non-continuous `LongitudinalDistanceAction` ends in the step its distance is off by less
+/// than this, m (esmini 3.6.0's `LONGITUDINAL_DISTANCE_THRESHOLD`).
+pub const REACHED_M: f64 = 0.1;
 
 /// A running lateral action.
 #[derive(Debug, Clone, PartialEq)]
@@ -82,10 +88,10 @@ struct Lat {
     along_heading: bool,
 }
 
-/// A running `FollowTrajectoryAction`: esmini's polyline of the spline (a vertex every metre
+/// A running `FollowTrajectoryAction` along a spline: esmini's polyline of the spline (a vertex every metre
 /// and one at the end), laid in the road's frame from where the action started.
 #[derive(Debug, Clone, PartialEq)]
-struct Traj {
+struct Spline {
     action: usize,
     /// Vertices `(s, offset, heading relative to the road)`; vertex `k` sits at `k` m along the
     /// polyline's parameter (the last at its whole number of metres, esmini's).
@@ -96,7 +102,7 @@ struct Traj {
     u: f64,
 }
 
-impl Traj {
+impl Spline {
     /// The spline of `segments` from `(s, offset)` facing `heading` (relative to the road),
     /// sampled as esmini's `ClothoidSplineShape::CalculatePolyLine`.
     fn new(action: usize, segments: &[ClothoidSegment], s: f64, offset: f64, heading: f64) -> Self {
@@ -160,7 +166,7 @@ pub fn spline_pose(segments: &[ClothoidSegment], u: f64) -> [f64; 3] {
     if segments.is_empty() {
         return [0.0; 3];
     }
-    Traj::new(0, segments, 0.0, 0.0, 0.0).at(u)
+    Spline::new(0, segments, 0.0, 0.0, 0.0).at(u)
 }
 
 /// The pose `u` m along a clothoid segment `g` from `start` (`[x, y, theta]`, local frame):
@@ -184,6 +190,47 @@ fn clothoid_at(start: [f64; 3], g: &ClothoidSegment, u: f64) -> [f64; 3] {
         }
     }
     [x, y, theta(u)]
+}
+
+/// A running trajectory ([`Action::Trajectory`]).
+#[derive(Debug, Clone, PartialEq)]
+struct Traj {
+    action: usize,
+    /// Time of vertex times' zero, s (0 for absolute times).
+    t0: f64,
+    vertices: Vec<Vertex>,
+}
+
+impl Traj {
+    /// `(s, offset, heading, speed, ended)` at time `t`: linear between the vertices, the
+    /// first before it, the last after it; the speed of the segment in effect (its length in
+    /// centreline coordinates over its time).
+    fn at(&self, t: f64) -> (f64, f64, f64, f64, bool) {
+        // Within a nanosecond of a vertex counts as reached (sums of steps are inexact).
+        let tau = t - self.t0 + 1e-9;
+        let seg_speed = |a: &Vertex, b: &Vertex| {
+            let dt = b.t - a.t;
+            if dt > 0.0 { (b.s - a.s).hypot(b.offset - a.offset) / dt } else { 0.0 }
+        };
+        let n = self.vertices.len();
+        let k = self.vertices.partition_point(|v| v.t <= tau);
+        match (k.checked_sub(1).and_then(|i| self.vertices.get(i)), self.vertices.get(k)) {
+            (Some(a), Some(b)) => {
+                let p = if b.t > a.t { ((tau - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 1.0 };
+                let lerp = |x: f64, y: f64| x + (y - x) * p;
+                (lerp(a.s, b.s), lerp(a.offset, b.offset), lerp(a.heading, b.heading), seg_speed(a, b), false)
+            }
+            (None, Some(b)) => (b.s, b.offset, b.heading, 0.0, false),
+            (Some(a), None) => {
+                let v = match (n.checked_sub(2).and_then(|i| self.vertices.get(i)), self.vertices.last()) {
+                    (Some(x), Some(y)) => seg_speed(x, y),
+                    _ => 0.0,
+                };
+                (a.s, a.offset, a.heading, v, true)
+            }
+            (None, None) => (0.0, 0.0, 0.0, 0.0, true),
+        }
+    }
 }
 
 /// What one step of a [`Motion`] did.
@@ -220,9 +267,17 @@ pub struct Motion {
     own_len: Option<f64>,
     /// Its box centre from the reference point (`s`, `offset`), entity frame, m.
     reference: [f64; 2],
+    /// `[max acceleration, max deceleration]` its speed changes keep to, m/s² (`None`: none).
+    limits: Option<[f64; 2]>,
     long: Option<Long>,
     lat: Option<Lat>,
     traj: Option<Traj>,
+    spline: Option<Spline>,
+    /// The heading is kept (after a trajectory, until a lateral action starts) instead of
+    /// following the lateral motion.
+    hold_heading: bool,
+    /// It reached an end of the road ([`Motion::end_of_road`]).
+    at_end: bool,
 }
 
 impl Motion {
@@ -240,15 +295,50 @@ impl Motion {
             lane_width,
             own_len: None,
             reference: [0.0, 0.0],
+            limits: None,
             long: None,
             lat: None,
             traj: None,
+            spline: None,
+            hold_heading: false,
+            at_end: false,
+        }
+    }
+
+    /// Keeps the entity on a road `length` m long, as esmini's default controller does at a
+    /// road's end: a step that would leave `[0, length]` stops it at the end; a step that
+    /// starts there (`s_before`, within 1 µm) and would leave again marks the end reached (its
+    /// speed still reported), and from the next step on it stands there (speed 0) whatever its
+    /// actions. A running trajectory places the entity itself.
+    pub fn end_of_road(&mut self, s_before: f64, length: f64, dt: f64) {
+        const EPS: f64 = 1e-6;
+        if self.traj.is_some() || self.spline.is_some() || length.is_nan() || length <= 0.0 {
+            return;
+        }
+        if self.at_end {
+            let v = self.speed;
+            self.speed = 0.0;
+            self.accel = if dt > 0.0 { -v / dt } else { 0.0 };
+        }
+        if self.s > length {
+            self.s = length;
+            self.at_end |= s_before >= length - EPS;
+        } else if self.s < 0.0 {
+            self.s = 0.0;
+            self.at_end |= s_before <= EPS;
         }
     }
 
     /// This motion for an entity `length` m long (freespace placements).
     pub fn with_length(mut self, length: f64) -> Self {
         self.own_len = Some(length);
+        self
+    }
+
+    /// This motion for an entity whose speed changes keep to `limits` (`[max acceleration, max
+    /// deceleration]`, m/s²): a transition whose peak rate would exceed them takes longer.
+    pub fn with_limits(mut self, limits: Option<[f64; 2]>) -> Self {
+        self.limits = limits;
         self
     }
 
@@ -264,6 +354,13 @@ impl Motion {
     pub fn with_heading(mut self, heading: f64) -> Self {
         self.heading = heading;
         self.reversed = heading.abs() > std::f64::consts::FRAC_PI_2;
+        self
+    }
+
+    /// This motion keeping its heading relative to the road while no lateral action runs (a
+    /// pedestrian: esmini turns neither its box nor its walking direction with the road).
+    pub fn holding_heading(mut self) -> Self {
+        self.hold_heading = true;
         self
     }
 
@@ -287,6 +384,10 @@ impl Motion {
             self.traj = None;
             hit = true;
         }
+        if self.spline.as_ref().is_some_and(|l| l.action == i) {
+            self.spline = None;
+            hit = true;
+        }
         hit
     }
 
@@ -301,18 +402,31 @@ impl Motion {
     /// A trajectory holds both domains (esmini): any motion action replaces it, and it
     /// replaces both the longitudinal and the lateral action.
     pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
-        let mut replaced = Vec::new();
+        let mut replaced: Vec<usize> = Vec::new();
         if action.is_longitudinal() || action.is_lateral() {
-            replaced.extend(self.traj.take().map(|l| l.action).filter(|&a| a != i));
+            replaced.extend(self.traj.take().map(|x| x.action).filter(|&a| a != i));
+            replaced.extend(self.spline.take().map(|x| x.action).filter(|&a| a != i));
         }
-        if let Action::FollowTrajectory { segments } = action {
-            replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
-            replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
-            self.traj = Some(Traj::new(i, segments, self.s, self.offset, self.heading));
-            return (replaced, false);
+        if action.is_lateral() {
+            self.hold_heading = false;
         }
-        let (r, done) = self.start_one(i, action, t, world);
-        replaced.extend(r);
+        match action {
+            Action::FollowTrajectory { segments } => {
+                replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+                replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+                self.spline = Some(Spline::new(i, segments, self.s, self.offset, self.heading));
+                return (replaced, false);
+            }
+            Action::Trajectory { absolute, vertices } => {
+                replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
+                replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
+                self.traj = Some(Traj { action: i, t0: if *absolute { 0.0 } else { t }, vertices: vertices.clone() });
+                return (replaced, false);
+            }
+            _ => {}
+        }
+        let (other, done) = self.start_one(i, action, t, world);
+        replaced.extend(other);
         (replaced, done)
     }
 
@@ -334,7 +448,16 @@ impl Motion {
                     }
                     (None, None) => (self.speed, None),
                 };
-                let duration = speed_duration(transition, self.speed, target);
+                let mut duration = speed_duration(transition, self.speed, target);
+                if let Some([up, down]) = self.limits {
+                    // esmini (`TransitionDynamics::SetMaxRate`): the transition slowed to the
+                    // entity's performance, its shape kept.
+                    let change = (target - self.speed).abs();
+                    let limit = if target > self.speed { up } else { down };
+                    if duration.is_finite() && duration > 0.0 && limit > 0.0 {
+                        duration = duration.max(transition.shape.peak_slope() * change / limit);
+                    }
+                }
                 self.long = Some(Long {
                     action: i,
                     v0: self.speed,
@@ -363,12 +486,13 @@ impl Motion {
             }
             Action::LaneOffset { offset, of, shape, max_lateral_acc } => {
                 let replaced = self.lat.take().map(|l| l.action).filter(|&a| a != i);
-                let centre = self.lane_of(self.offset) * self.lane_width;
-                let base = match of {
-                    Some(name) => world.entity(name).map_or(0.0, |e| e.lateral - self.lane_of(e.lateral) * self.lane_width),
-                    None => 0.0,
+                // Absolute: from the centre of the lane the entity is in. Relative to an entity:
+                // that entity's lateral position plus `offset`, whatever lane either is in
+                // (esmini keeps the actor's lane and offsets within it, even by a lane or more).
+                let to = match of.as_deref().and_then(|name| world.entity(name)) {
+                    Some(e) => e.lateral + offset,
+                    None => self.lane_of(self.offset) * self.lane_width + offset,
                 };
-                let to = centre + base + offset;
                 let change = (to - self.offset).abs();
                 // Peak lateral acceleration of the shape over a change `c` in time `T`: linear has
                 // none inside (taken as cubic), cubic 6 c / T², sinusoidal pi² c / (2 T²).
@@ -383,7 +507,34 @@ impl Motion {
             }
             Action::LongitudinalDistance { of, distance, time_gap, freespace, ahead, continuous } => {
                 let replaced = self.long.take().map(|l| l.action).filter(|&a| a != i);
-                let keep = Keep { of: of.clone(), distance: *distance, time_gap: *time_gap, freespace: *freespace, ahead: *ahead };
+                let keep = Keep {
+                    of: of.clone(),
+                    distance: *distance,
+                    time_gap: *time_gap,
+                    freespace: *freespace,
+                    ahead: *ahead,
+                    continuous: *continuous,
+                };
+                // With the world's geometry, esmini's way: one correction now (the first one
+                // of an Init action is in the state at t = 0), one at the start of every step
+                // after, until within `REACHED_M` (non-continuous).
+                if let Some(off) = self.reach(&keep, world) {
+                    if *continuous || off >= REACHED_M {
+                        self.long = Some(Long {
+                            action: i,
+                            v0: self.speed,
+                            v1: self.speed,
+                            shape: Shape::Step,
+                            duration: 0.0,
+                            t0: t,
+                            track: None,
+                            keep: Some(keep),
+                            sync: None,
+                        });
+                        return (replaced, false);
+                    }
+                    return (replaced, true);
+                }
                 if let Some(r) = world.entity(of) {
                     // A reached-once time gap is the actor's own speed times the gap (as before);
                     // a kept one `of`'s (esmini).
@@ -595,6 +746,38 @@ impl Motion {
         false
     }
 
+    /// One correction of a distance action as esmini 3.6.0 makes it (`LongDistanceAction::Step`):
+    /// the distance to `k.of` measured along this entity's heading (between the rotated boxes
+    /// with `freespace`: 0 when their projections overlap; else between box centres), the
+    /// wanted one (a time gap times `k.of`'s speed), and the entity moved along its path by
+    /// the difference, at `k.of`'s speed. Returns the difference's size before the move, m
+    /// (`None` when the world gives no geometry: the caller measures along the centreline).
+    fn reach(&mut self, k: &Keep, world: &dyn WorldView) -> Option<f64> {
+        let r = world.entity(&k.of)?;
+        let [xr, yr, hr] = world.pose(&k.of)?;
+        let [x0, y0, h0, kappa] = world.place(self.s, self.offset)?;
+        let yaw = h0 + self.heading;
+        let (c, sn) = (yaw.cos(), yaw.sin());
+        let [rx, ry] = self.reference;
+        let (xa, ya) = (x0 + c * rx - sn * ry, y0 + sn * rx + c * ry);
+        // > 0: `of` is ahead along this entity's heading.
+        let along = c * (xr - xa) + sn * (yr - ya);
+        let distance = if k.freespace {
+            let d = hr - yaw;
+            let half = 0.5 * self.own_len.unwrap_or(r.length) + 0.5 * r.length * d.cos().abs() + 0.5 * r.width * d.sin().abs();
+            (along.abs() - half).max(0.0).copysign(along)
+        } else {
+            along
+        };
+        let want = k.distance.unwrap_or_else(|| k.time_gap.unwrap_or(0.0) * r.speed).abs();
+        let diff = distance - if k.ahead { -want } else { want };
+        let scale = 1.0 - kappa * self.offset;
+        let dir = if self.reversed { -1.0 } else { 1.0 };
+        self.s += dir * if scale > 0.1 { diff / scale } else { diff };
+        self.speed = r.speed.max(0.0);
+        Some(diff.abs())
+    }
+
     /// Puts the reference point where `k` wants it from `r` (distances between box centres,
     /// reference points taken to sit alike in both entities; between boxes with `freespace`),
     /// along the actor's driving direction; a time gap is taken times `v`.
@@ -625,11 +808,34 @@ impl Motion {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
+        if let Some(tr) = &self.traj {
+            let (s, offset, heading, seg_speed, ended) = tr.at(t1);
+            // The speed is the step's displacement over the step (esmini: also a jump to where a
+            // time offset puts the entity at the start), the segment's speed once it ends.
+            let moved = (s - self.s).hypot(offset - self.offset);
+            self.traveled += moved;
+            let speed = if ended || dt <= 0.0 { seg_speed } else { moved / dt };
+            (self.s, self.offset, self.heading, self.speed) = (s, offset, heading, speed);
+            self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
+            if ended {
+                // esmini's default controller takes over: on along the road at that speed, in
+                // the direction the heading faces, the heading kept.
+                out.long_done = Some(tr.action);
+                self.traj = None;
+                self.hold_heading = true;
+                self.reversed = crate::track::wrap(heading).abs() > std::f64::consts::FRAC_PI_2;
+            }
+            return out;
+        }
         let long_action = self.long.as_ref().map(|l| l.action);
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
             // moved on with that speed (esmini's order).
-            if let Some(r) = world.entity(&k.of) {
+            if let Some(off) = self.reach(&k, world) {
+                if !k.continuous && off < REACHED_M {
+                    out.long_done = long_action;
+                }
+            } else if let Some(r) = world.entity(&k.of) {
                 self.keep_at(&k, &r, r.speed);
                 self.speed = r.speed.max(0.0);
             }
@@ -662,7 +868,7 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        if let Some(tr) = self.traj.as_mut() {
+        if let Some(tr) = self.spline.as_mut() {
             // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
             // rest of the step straight on along its last heading, and the action ends.
             let step_len = self.speed * dt;
@@ -680,7 +886,7 @@ impl Motion {
             self.heading = crate::track::wrap(p[2]);
             self.traveled += step_len;
             if out.lat_done.is_some() {
-                self.traj = None;
+                self.spline = None;
                 self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
             }
             return out;
@@ -727,10 +933,14 @@ impl Motion {
         self.traveled += along;
         if self.reversed {
             self.s -= ds;
-            self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            if !self.hold_heading {
+                self.heading = crate::track::wrap(std::f64::consts::PI - lateral);
+            }
         } else {
             self.s += ds;
-            self.heading = lateral;
+            if !self.hold_heading {
+                self.heading = lateral;
+            }
         }
         out
     }
@@ -791,7 +1001,7 @@ mod tests {
     fn a_trajectory_is_laid_from_the_actor_and_sampled_every_metre() {
         // An oncoming actor (heading pi) at s = 100, offset 1.75 turning left (curvature +) moves to
         // -s and to smaller offsets; the polyline has a vertex per metre and one at the end.
-        let tr = Traj::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
+        let tr = Spline::new(0, &[seg(0.01, 0.01, 10.5)], 100.0, 1.75, std::f64::consts::PI);
         assert_eq!(tr.pts.len(), 11);
         let end = tr.pts[10];
         let (dx, dy) = (100.0 * (0.105f64).sin(), 100.0 * (1.0 - (0.105f64).cos()));
