@@ -1610,7 +1610,7 @@ mod tests {
                 "polyline.xosc",
                 "<ClothoidSpline>",
                 "<Polyline><Vertex><Position><WorldPosition x=\"0\" y=\"0\"/></Position></Vertex></Polyline><ClothoidSpline>",
-                "Shape",
+                "without timing",
             ),
             (
                 "noshape.xosc",
