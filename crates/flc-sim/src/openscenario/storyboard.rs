@@ -420,6 +420,14 @@ impl Sb<'_, '_, '_> {
                             start_on_trajectory &= fta.is_none();
                             let action = self.private_action(file, pa, std::slice::from_ref(&who));
                             self.start_trajectory = false;
+                            if let (Some(f), true) = (fta, self.ego_mode == EgoMode::Controller && self.facts(&who).ego) {
+                                self.ctx.warn.note(
+                                    "FollowTrajectoryAction",
+                                    file,
+                                    f,
+                                    "the ego starts at the trajectory's start, then flc's controller drives it along its lane (the path is not followed; --ego-mode scripted follows it)".into(),
+                                );
+                            }
                             if let Some(action) = action? {
                                 acts.push((pa, action));
                             }
