@@ -352,6 +352,49 @@ def through_junction():
                     storyboard(init, [], stops))
 
 
+def trajectory_start():
+    import math
+    ego_s, ego_v, straight, radius, tail = 60.0, 10.0, 80.0, 12.0, 30.0
+    arc = radius * math.pi / 2
+    on_offset, on_v_final, master_s, target_s = 60.0, 8.0, 88.0, 170.0
+    a = (master_s - straight) / radius
+    mx, my = ego_s + straight + radius * math.sin(a), -1.75 + radius * (1 - math.cos(a))
+    comment = header(
+        "trajectory_start", "entities without a TeleportAction start on their Init FollowTrajectoryAction (followingMode follow);",
+        "an untimed 2-point Polyline with initialDistanceOffset; TrajectoryPositions as SynchronizeAction targets",
+        "roads/x_junction.xodr (through_junction.xosc): the route 1 -> 10 -> 2 runs along y = -1.75 (x = s on road 1).",
+        f"Ego: an inline ClothoidSpline from road 1, lane -1, s {ego_s:g} (its first segment's PositionStart): {straight:g} m",
+        f"straight, a left arc of radius {radius:g} m ({arc:.3f} m, a quarter turn), {tail:g} m straight; {ego_v:g} m/s.",
+        "Target: no speed; an inline Polyline from road 2, s 150, t 1.75 (x = 320, facing -x) to road 1, s 0, t 1.75,",
+        f"placed {on_offset:g} m along it (x = {320 - on_offset:g}). From t = 0.5 s a SynchronizeAction (master Ego) brings it",
+        f"{target_s:g} m along its polyline (x = {320 - target_s:g}) when Ego is {master_s:g} m along its spline",
+        f"(x = {mx:.2f}, y = {my:.2f}), final speed {on_v_final:g} m/s; the run ends on a collision or at 14 s.",
+    )
+    start = X("PositionStart", lane_position(-1, f"{ego_s}", road="1"))
+    seg = lambda k, length, *inner: X("ClothoidSplineSegment", *inner, curvatureStart=k, curvatureEnd=k, length=length)
+    spline = X("Trajectory", X("Shape", X("ClothoidSpline", seg("0.0", f"{straight}", start), seg(f"{1 / radius!r}", f"{arc!r}"),
+                                           seg("0.0", f"{tail}"))), name="EgoTurn", closed="false")
+    vertex = lambda road, s_: X("Vertex", X("Position", X("RoadPosition", *([X("Orientation", type="relative", h="3.141592653589793")]
+                                                                           if road == "2" else []), roadId=road, s=s_, t="1.75")))
+    poly = X("Trajectory", X("Shape", X("Polyline", vertex("2", "150.0"), vertex("1", "0.0"))), name="TargetAcross", closed="false")
+    follow = lambda traj, **attrs: X("PrivateAction", X("RoutingAction", X("FollowTrajectoryAction", X("TrajectoryRef", traj),
+                                                                           X("TimeReference", X("None")),
+                                                                           X("TrajectoryFollowingMode", followingMode="follow"), **attrs)))
+    init = [X("Private", follow(spline), speed(f"{ego_v}"), entityRef="Ego"),
+            X("Private", follow(poly, initialDistanceOffset=f"{on_offset}"), entityRef="Target")]
+    at = lambda traj, s_: X("TrajectoryPosition", X("TrajectoryRef", traj), s=s_)
+    sync = X("PrivateAction", X("SynchronizeAction", X("TargetPositionMaster", at(spline, f"{master_s}")),
+                                X("TargetPosition", at(poly, f"{target_s}")),
+                                X("FinalSpeed", X("AbsoluteSpeed", value=f"{on_v_final}")), masterEntityRef="Ego"))
+    stories = [story("TargetStory", "TargetAct", "Target", "TargetSync", [event("TargetSyncEvent", "TargetSyncAction", sync,
+                                                                                condition("HalfSecond", after("0.5")))],
+                     act_start=condition("ActStart", after("0.0")))]
+    stops = [[condition("EgoHitsTarget", collides("Ego", "Target"))], [condition("FourteenSeconds", after("14.0"))]]
+    return document(comment, 2, "trajectory_start: Ego turns across the junction, Target synchronized to meet it", params(),
+                    catalog_locations(vehicle="catalogs"), road_network("roads/x_junction.xodr"),
+                    X("Entities", catalog_object("Ego", "car"), car("Target", "target")), storyboard(init, stories, stops))
+
+
 def distance_action(actor_of, how, continuous="false"):
     """A LongitudinalDistanceAction (entity coordinates, no DynamicConstraints): `how` holds
     `distance` or `timeGap`, `freespace` and `displacement`."""
@@ -439,6 +482,7 @@ FIXTURES = {
     "standing_car.xosc": standing_car,
     "target_brakes.xosc": target_brakes,
     "through_junction.xosc": through_junction,
+    "trajectory_start.xosc": trajectory_start,
 }
 
 

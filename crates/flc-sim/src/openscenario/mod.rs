@@ -452,7 +452,7 @@ fn check_limits(file: &str, entities: Node<'_, '_>, storyboard: Node<'_, '_>) ->
 
 /// The road the ego's initial position names (following relative positions), if any.
 fn road_hint(
-    ctx: &Ctx<'_, '_>,
+    ctx: &mut Ctx<'_, '_>,
     file: &str,
     ego: usize,
     init: &[storyboard::InitState<'_, '_>],
@@ -460,7 +460,14 @@ fn road_hint(
 ) -> Result<Option<String>, ImportError> {
     let mut i = ego;
     for _ in 0..=names.len() {
-        let Some(pos) = init.get(i).and_then(|s| s.position) else { return Ok(None) };
+        let st = init.get(i);
+        if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
+            return storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos, _| match pos.first() {
+                Some(p) => position::road_id(&ctx.params, file, *p),
+                None => Ok(None),
+            });
+        }
+        let Some(pos) = st.and_then(|s| s.position) else { return Ok(None) };
         if let Some(id) = position::road_id(&ctx.params, file, pos)? {
             return Ok(Some(id));
         }
@@ -666,7 +673,12 @@ fn translate(
                 })?,
                 None => n.roads.first().ok_or_else(|| ImportError::at(file, root, "the road file has no road"))?,
             };
-            ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?
+            match init_states.get(ego).filter(|s| s.position.is_none()).and_then(|s| s.trajectory) {
+                Some(fta) => {
+                    storyboard::trajectory_start(ctx, file, fta, |ctx, file, pos, _| ego_route(ctx, file, n, road, pos.first().copied()))?
+                }
+                None => ego_route(ctx, file, n, road, init_states.get(ego).and_then(|s| s.position))?,
+            }
         }
     };
     let poses = place_all(ctx, file, &geo, &defs, &init_states, &osc_names)?;
@@ -803,6 +815,8 @@ fn translate(
         param_vars: BTreeMap::new(),
         skipped_used: false,
         elements: 0,
+        start_trajectory: false,
+        start_offset: 0.0,
     };
     let init_act = sb.init_act(file, init)?;
     let (story_acts, stop) = sb.storyboard(file, board)?;
@@ -950,7 +964,7 @@ fn init_controller(
 /// The world pose of every entity's reference point, from its Init `TeleportAction` (relative
 /// positions after the entity they refer to).
 fn place_all(
-    ctx: &Ctx<'_, '_>,
+    ctx: &mut Ctx<'_, '_>,
     file: &str,
     geo: &Geo,
     defs: &[EntityDef],
@@ -964,7 +978,24 @@ fn place_all(
             if poses.get(i).is_some_and(Option::is_some) {
                 continue;
             }
-            let Some(pos) = init.get(i).and_then(|s| s.position) else { continue };
+            let st = init.get(i);
+            if let Some(fta) = st.and_then(|s| s.trajectory).filter(|_| st.is_some_and(|s| s.position.is_none())) {
+                let p = storyboard::trajectory_start(ctx, file, fta, |ctx, efile, points, offset| {
+                    let mut poses = Vec::with_capacity(points.len());
+                    for p in points {
+                        poses.push(position::resolve(&ctx.params, geo, efile, *p, &|_: &str| None)?);
+                    }
+                    storyboard::along_polyline(&poses, offset).ok_or_else(|| {
+                        ImportError::at(file, fta, format!("initialDistanceOffset = {offset} m is beyond the trajectory's end"))
+                    })
+                })?;
+                if let Some(slot) = poses.get_mut(i) {
+                    *slot = Some(p);
+                    progress = true;
+                }
+                continue;
+            }
+            let Some(pos) = st.and_then(|s| s.position) else { continue };
             let ready = match position::reference(&ctx.params, file, pos)? {
                 None => true,
                 Some(r) => names.iter().position(|n| *n == r).is_none_or(|j| poses.get(j).is_some_and(Option::is_some)),
@@ -990,7 +1021,7 @@ fn place_all(
             None => {
                 let msg = match init.get(i).and_then(|s| s.position) {
                     Some(_) => format!("the position of `{}` refers to entities that wait on each other", d.osc_name),
-                    None => format!("`{}` has no TeleportAction in Init (no initial position)", d.osc_name),
+                    None => format!("`{}` has no TeleportAction and no FollowTrajectoryAction in Init (no initial position)", d.osc_name),
                 };
                 return Err(ImportError { file: d.file.clone(), line: d.line, element: "ScenarioObject".into(), message: msg });
             }
@@ -1374,6 +1405,172 @@ mod tests {
         assert!((y + 1.2467).abs() < 1e-3, "Target at y = {y} (esmini: -1.246668)");
     }
 
+    /// An entity with no TeleportAction starting on its Init trajectory (`follow` mode): the
+    /// text of the scenario, with `fta_attrs` on the action and `first` as the first segment.
+    fn trajectory_start_xosc(fta_attrs: &str, first: &str) -> String {
+        let target = format!(
+            "<Private entityRef=\"Target\"><PrivateAction><RoutingAction><FollowTrajectoryAction{fta_attrs}>\
+             <TrajectoryRef><Trajectory name=\"T\" closed=\"false\"><Shape><ClothoidSpline>{first}\
+             <ClothoidSplineSegment curvatureStart=\"0.02\" curvatureEnd=\"0.02\" length=\"30.0\"/></ClothoidSpline></Shape></Trajectory>\
+             </TrajectoryRef><TimeReference><None/></TimeReference><TrajectoryFollowingMode followingMode=\"follow\"/>\
+             </FollowTrajectoryAction></RoutingAction></PrivateAction><PrivateAction><LongitudinalAction><SpeedAction>\
+             <SpeedActionDynamics dynamicsShape=\"step\" dynamicsDimension=\"time\" value=\"0\"/><SpeedActionTarget>\
+             <AbsoluteTargetSpeed value=\"10\"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Private>\n"
+        );
+        xosc("", &format!("{}{}", car("Ego"), car("Target")), &format!("{}{target}", place("Ego", -1, 10.0, 5.0)), "")
+    }
+
+    const START: &str = "<ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20.0\"><PositionStart>\
+                         <LanePosition roadId=\"1\" laneId=\"-2\" s=\"40.0\" offset=\"0\"/></PositionStart></ClothoidSplineSegment>";
+
+    #[test]
+    fn an_entity_without_teleport_starts_at_its_init_trajectory() {
+        let d = tmp("trajstart");
+        let imp =
+            import(&write(&d, "ok.xosc", &trajectory_start_xosc("", START)), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let run = &imp.runs[0];
+        let target = run.entities.iter().find(|e| e.osc_name == "Target").map(|e| e.flc_name.clone()).expect("Target");
+        let mut sim = crate::Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
+        let at = |sim: &crate::Simulation| sim.scripted_state(&target).map(|st| (st.x, st.y)).expect("state");
+        let (x0, y0) = at(&sim);
+        // The bounding box's centre, 1.4 m ahead of the reference point.
+        assert!((x0 - 41.4).abs() < 1e-9 && (y0 + 5.25).abs() < 1e-9, "start ({x0}, {y0}): lane -2 at s 40");
+        for _ in 0..300 {
+            assert!(sim.step().unwrap_or_else(|e| panic!("{e}")));
+        }
+        // t = 3 s at 10 m/s: 20 m straight, then 10 m of a left arc of radius 50 m.
+        let (x, y) = at(&sim);
+        let (r, a) = (50.0, 10.0 / 50.0_f64);
+        let (xr, yr) = (60.0 + r * a.sin() + 1.4 * a.cos(), -5.25 + r * (1.0 - a.cos()) + 1.4 * a.sin());
+        assert!((x - xr).abs() < 0.05 && (y - yr).abs() < 0.05, "t = 3 s: ({x}, {y}), expected ({xr}, {yr})");
+    }
+
+    #[test]
+    fn a_polyline_start_lies_initial_distance_offset_along_it() {
+        use position::Pose;
+        let pts = [Pose { x: 100.0, y: 1.75, h: 0.0 }, Pose { x: 0.0, y: 1.75, h: 0.0 }, Pose { x: 0.0, y: 51.75, h: 0.0 }];
+        let p = storyboard::along_polyline(&pts, 30.0).expect("on it");
+        assert!((p.x - 70.0).abs() < 1e-12 && (p.y - 1.75).abs() < 1e-12 && (p.h - std::f64::consts::PI).abs() < 1e-12, "{p:?}");
+        let q = storyboard::along_polyline(&pts, 120.0).expect("on the second segment");
+        assert!(q.x.abs() < 1e-12 && (q.y - 21.75).abs() < 1e-12 && (q.h - std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{q:?}");
+        assert!(storyboard::along_polyline(&pts, 150.5).is_none(), "past the end");
+        assert!(storyboard::along_polyline(&pts[..1], 0.0).is_some() && storyboard::along_polyline(&pts[..1], 1.0).is_none());
+        assert!(storyboard::along_polyline(&[], 0.0).is_none());
+        // Through the importer: the placement is checked before the action is read.
+        let d = tmp("polystart");
+        let poly = |offset: &str| {
+            trajectory_start_xosc(&format!(" initialDistanceOffset=\"{offset}\""), START).replace(
+                &format!("<ClothoidSpline>{START}<ClothoidSplineSegment curvatureStart=\"0.02\" curvatureEnd=\"0.02\" length=\"30.0\"/></ClothoidSpline>"),
+                "<Polyline><Vertex><Position><WorldPosition x=\"100\" y=\"1.75\"/></Position></Vertex>\
+                 <Vertex><Position><WorldPosition x=\"0\" y=\"1.75\"/></Position></Vertex></Polyline>",
+            )
+        };
+        for (name, offset, needle) in [
+            ("beyond.xosc", "100.5", "beyond the trajectory's end"),
+            ("neg.xosc", "-1", "initialDistanceOffset"),
+            ("nan.xosc", "NaN", "initialDistanceOffset"),
+        ] {
+            let text = poly(offset);
+            assert!(text.contains("<Polyline>"), "the fixture has a polyline");
+            let e = import(&write(&d, name, &text), &ImportOptions::default()).err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_trajectory_start_refuses_what_it_cannot_place() {
+        let d = tmp("trajstartbad");
+        let cases = [
+            ("offset.xosc", " initialDistanceOffset=\"5\"", START.to_string(), "initialDistanceOffset other than 0"),
+            (
+                "nostart.xosc",
+                "",
+                "<ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20.0\"/>".into(),
+                "PositionStart",
+            ),
+            (
+                "relative.xosc",
+                "",
+                START.replace(
+                    "<LanePosition roadId=\"1\" laneId=\"-2\" s=\"40.0\" offset=\"0\"/>",
+                    "<RelativeObjectPosition entityRef=\"Ego\" dx=\"5\" dy=\"0\"/>",
+                ),
+                "relative to an entity",
+            ),
+            ("badlane.xosc", "", START.replace("laneId=\"-2\"", "laneId=\"-9\""), "-9"),
+        ];
+        for (name, attrs, first, needle) in cases {
+            let text = trajectory_start_xosc(attrs, &first);
+            let e = import(&write(&d, name, &text), &ImportOptions::default()).err().map(|e| e.to_string());
+            let e = e.unwrap_or_else(|| panic!("{name}: imported"));
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+        // A second segment's PositionStart stays refused.
+        let two = format!("{START}{}", START.replace("s=\"40.0\"", "s=\"60.0\""));
+        let e = import(&write(&d, "second.xosc", &trajectory_start_xosc("", &two)), &ImportOptions::default()).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains("PositionStart")), "{e:?}");
+    }
+
+    /// The first `Synchronize` action of `text` (the synchronize fixture, edited): `(master
+    /// target, target)`.
+    fn sync_targets(dir: &Path, name: &str, text: &str) -> Result<(f64, f64), String> {
+        let text = text
+            .replace("path=\"catalogs\"", &format!("path=\"{}\"", fixtures().join("catalogs").display()))
+            .replace("filepath=\"roads/", &format!("filepath=\"{}/", fixtures().join("roads").display()));
+        let imp = import(&write(dir, name, &text), &ImportOptions::default()).map_err(|e| e.to_string())?;
+        let st = story_of(&imp);
+        let a = st.acts.iter().flat_map(|a| &a.groups).flat_map(|g| &g.maneuvers).flat_map(|m| &m.events).flat_map(|e| &e.actions);
+        a.filter_map(|a| match &a.action {
+            Action::Synchronize { master_target, target, .. } => Some((*master_target, *target)),
+            _ => None,
+        })
+        .next()
+        .ok_or_else(|| "no Synchronize".to_string())
+    }
+
+    #[test]
+    fn a_trajectory_position_is_a_synchronize_target() {
+        let d = tmp("trajpos");
+        let text = std::fs::read_to_string(fixtures().join("synchronize.xosc")).expect("fixture");
+        let (m0, t0) = sync_targets(&d, "lane.xosc", &text).expect("fixture");
+        let master = "<LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"250.0\"/>";
+        let target = "<LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"200.0\"/>";
+        assert!(text.contains(master) && text.contains(target));
+        // The master's target 30 m along a straight spline from s 220; the actor's 50 m along a
+        // polyline from s 150 to s 250 of its lane.
+        let spline = "<TrajectoryPosition s=\"30\"><TrajectoryRef><Trajectory name=\"M\" closed=\"false\"><Shape><ClothoidSpline>\
+                      <ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20\"><PositionStart>\
+                      <LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"220.0\"/></PositionStart></ClothoidSplineSegment>\
+                      <ClothoidSplineSegment curvatureStart=\"0\" curvatureEnd=\"0\" length=\"20\"/></ClothoidSpline></Shape>\
+                      </Trajectory></TrajectoryRef></TrajectoryPosition>";
+        let poly = "<TrajectoryPosition s=\"50\"><TrajectoryRef><Trajectory name=\"T\" closed=\"false\"><Shape><Polyline>\
+                    <Vertex><Position><LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"250.0\"/></Position></Vertex>\
+                    <Vertex><Position><LanePosition roadId=\"1\" laneId=\"1\" offset=\"0.0\" s=\"150.0\"/></Position></Vertex>\
+                    </Polyline></Shape></Trajectory></TrajectoryRef></TrajectoryPosition>";
+        let edited = text.replacen(master, spline, 1).replacen(target, poly, 1);
+        let (m1, t1) = sync_targets(&d, "traj.xosc", &edited).unwrap_or_else(|e| panic!("{e}"));
+        assert!((m1 - m0).abs() < 1e-9 && (t1 - t0).abs() < 1e-9, "({m1}, {t1}) against ({m0}, {t0})");
+        // Bad input, named.
+        for (name, from, to, needle) in [
+            ("tpneg.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"-1\"", "s = -1"),
+            ("tpnan.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"NaN\"", "s"),
+            ("tpt.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"50\" t=\"1\"", "t other than 0"),
+            ("tpend.xosc", "TrajectoryPosition s=\"30\"", "TrajectoryPosition s=\"40.5\"", "beyond the trajectory's end"),
+            ("tppend.xosc", "TrajectoryPosition s=\"50\"", "TrajectoryPosition s=\"100.5\"", "beyond the trajectory's end"),
+            ("tpnostart.xosc", "<PositionStart>\n", "<Nope>", "PositionStart"),
+        ] {
+            let bad = edited.replacen(from, to, 1);
+            let bad = if name == "tpnostart.xosc" {
+                bad.replacen("<PositionStart><LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0.0\" s=\"220.0\"/></PositionStart>", "", 1)
+            } else {
+                assert!(bad != edited, "{name}: `{from}` not found");
+                bad
+            };
+            let e = sync_targets(&d, name, &bad).err().unwrap_or_default();
+            assert!(e.contains(needle) && e.contains(name), "{name}: {e}");
+        }
+    }
+
     #[test]
     fn synchronize_and_trajectory_refuse_bad_input_naming_the_element() {
         let d = tmp("sync");
@@ -1406,14 +1603,14 @@ mod tests {
                 "<ClothoidSplineSegment curvatureStart=\"0.005\" curvatureEnd=\"0.005\" length=\"20.0\"><PositionStart><WorldPosition x=\"0\" y=\"0\"/></PositionStart></ClothoidSplineSegment>",
                 "PositionStart",
             ),
-            ("follow.xosc", "followingMode=\"position\"", "followingMode=\"follow\"", "followingMode"),
+            ("follow.xosc", "followingMode=\"position\"", "followingMode=\"sideways\"", "followingMode"),
             ("timing.xosc", "<None/>", "<Timing domainAbsoluteRelative=\"absolute\" scale=\"1\" offset=\"0\"/>", "TimeReference"),
             ("closed.xosc", "closed=\"false\"", "closed=\"true\"", "closed"),
             (
                 "polyline.xosc",
                 "<ClothoidSpline>",
                 "<Polyline><Vertex><Position><WorldPosition x=\"0\" y=\"0\"/></Position></Vertex></Polyline><ClothoidSpline>",
-                "Shape",
+                "without timing",
             ),
             (
                 "noshape.xosc",

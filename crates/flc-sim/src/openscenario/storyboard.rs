@@ -49,6 +49,9 @@ pub struct Facts {
 pub struct InitState<'a, 'i> {
     /// Its `TeleportAction/Position` and the file.
     pub position: Option<Node<'a, 'i>>,
+    /// Its first Init `FollowTrajectoryAction`: without a `TeleportAction` the entity starts at
+    /// the trajectory's first point (as esmini places it when the action starts at t = 0).
+    pub trajectory: Option<Node<'a, 'i>>,
     /// Initial speed, m/s (a `SpeedAction` with a `step` shape or a time of 0).
     pub speed: Option<f64>,
     /// An initial speed relative to another entity (OpenSCENARIO name, delta or factor).
@@ -79,6 +82,12 @@ pub struct Sb<'c, 'a, 't> {
     pub skipped_used: bool,
     /// Storyboard elements built so far.
     pub elements: usize,
+    /// The action being read is the Init `FollowTrajectoryAction` an entity without a
+    /// `TeleportAction` starts on ([`trajectory_start`]): its first segment's `PositionStart`
+    /// is where the entity already is.
+    pub start_trajectory: bool,
+    /// The `initialDistanceOffset` of the `FollowTrajectoryAction` being read, m.
+    pub start_offset: f64,
 }
 
 /// `dynamicsShape`.
@@ -181,6 +190,8 @@ pub fn init_state<'a, 'i>(
                         return Err(ImportError::at(file, t, format!("a second TeleportAction for `{name}` in Init")));
                     }
                     st.position = Some(xml::child(t, "Position").ok_or_else(|| ImportError::at(file, t, "<Position> is missing"))?);
+                } else if let Some(f) = xml::child(pa, "RoutingAction").and_then(|r| xml::child(r, "FollowTrajectoryAction")) {
+                    st.trajectory = st.trajectory.or(Some(f));
                 } else if let Some(sa) = speed_action(pa) {
                     if !immediate_speed(ctx, file, sa)? {
                         continue;
@@ -230,6 +241,112 @@ pub fn init_state<'a, 'i>(
     Ok(out)
 }
 
+/// Runs `f` on the start of the trajectory of the Init `FollowTrajectoryAction` `fta`, with the
+/// trajectory's parameters in scope (a `TrajectoryCatalog` entry's declarations and the
+/// reference's assignments): `f` gets the points to resolve and the distance along them
+/// (`initialDistanceOffset`). A `ClothoidSpline` gives its first segment's `PositionStart`
+/// (offset 0 only); a `Polyline` its vertices' positions. esmini starts the action at t = 0 and
+/// places the entity there, which flc takes as the entity's initial position.
+pub fn trajectory_start<'a, 't, R>(
+    ctx: &mut Ctx<'a, 't>,
+    file: &str,
+    fta: Node<'_, '_>,
+    f: impl FnOnce(&mut Ctx<'a, 't>, &str, &[Node<'_, '_>], f64) -> Result<R, ImportError>,
+) -> Result<R, ImportError> {
+    let offset = ctx.params.num_attr(fta, "initialDistanceOffset", file)?.unwrap_or(0.0);
+    if !offset.is_finite() || offset < 0.0 {
+        return Err(ImportError::at(file, fta, format!("initialDistanceOffset = {offset}: expected a finite distance >= 0")));
+    }
+    let traj = match xml::child(fta, "TrajectoryRef") {
+        Some(r) => only_child(file, r)?,
+        None => xml::elements(fta)
+            .find(|c| matches!(c.tag_name().name(), "Trajectory" | "CatalogReference"))
+            .ok_or_else(|| ImportError::at(file, fta, "<TrajectoryRef> is missing"))?,
+    };
+    let first_point = move |ctx: &mut Ctx<'a, 't>, file: &str, traj: Node<'_, '_>| -> Result<R, ImportError> {
+        if traj.tag_name().name() != "Trajectory" {
+            return Err(ImportError::at(file, traj, "expected a <Trajectory>"));
+        }
+        let shape = xml::child(traj, "Shape").ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+        let shape = only_child(file, shape)?;
+        let points: Vec<Node<'_, '_>> = match shape.tag_name().name() {
+            "ClothoidSpline" => {
+                if offset != 0.0 {
+                    return Err(ImportError::at(
+                        file,
+                        fta,
+                        "a start on a <ClothoidSpline> with an initialDistanceOffset other than 0 is not supported",
+                    ));
+                }
+                let seg = xml::elements(shape).next().ok_or_else(|| ImportError::at(file, shape, "no <ClothoidSplineSegment>"))?;
+                vec![xml::child(seg, "PositionStart").ok_or_else(|| {
+                    ImportError::at(
+                        file,
+                        seg,
+                        "the first segment has no <PositionStart> and the entity no TeleportAction (no initial position)",
+                    )
+                })?]
+            }
+            "Polyline" => {
+                let mut v = Vec::new();
+                for x in xml::elements(shape) {
+                    if v.len() == 10_000 {
+                        return Err(ImportError::at(file, x, "more than 10000 vertices"));
+                    }
+                    v.push(xml::child(x, "Position").ok_or_else(|| ImportError::at(file, x, "<Position> is missing"))?);
+                }
+                if v.is_empty() {
+                    return Err(ImportError::at(file, shape, "no <Vertex>"));
+                }
+                v
+            }
+            other => {
+                return Err(ImportError::at(
+                    file,
+                    shape,
+                    format!("<{other}>: an entity without a TeleportAction may start only on a <ClothoidSpline> or <Polyline>"),
+                ));
+            }
+        };
+        for p in &points {
+            if super::position::reference(&ctx.params, file, *p)?.is_some() {
+                return Err(ImportError::at(file, *p, "a trajectory start relative to an entity is not supported"));
+            }
+        }
+        f(ctx, file, &points, offset)
+    };
+    match traj.tag_name().name() {
+        "CatalogReference" => ctx.catalog_entry(file, traj, &["TrajectoryCatalog"], |ctx, efile, node| first_point(ctx, efile, node)),
+        _ => {
+            ctx.params.push_scope();
+            let r = ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| first_point(ctx, file, traj));
+            ctx.params.pop_scope();
+            r
+        }
+    }
+}
+
+/// The pose `offset` metres along the polyline through `points` (world poses): the heading of
+/// the segment it lies on (a single point: its own pose). `None` past the end.
+pub fn along_polyline(points: &[position::Pose], offset: f64) -> Option<position::Pose> {
+    let first = *points.first()?;
+    if points.len() == 1 {
+        return (offset == 0.0).then_some(first);
+    }
+    let mut left = offset;
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let len = dx.hypot(dy);
+        if left <= len && len > 0.0 {
+            let k = left / len;
+            return Some(position::Pose { x: a.x + k * dx, y: a.y + k * dy, h: dy.atan2(dx) });
+        }
+        left -= len;
+    }
+    None
+}
+
 impl Sb<'_, '_, '_> {
     fn count(&mut self, file: &str, node: Node<'_, '_>) -> Result<(), ImportError> {
         self.elements += 1;
@@ -260,6 +377,7 @@ impl Sb<'_, '_, '_> {
                     "Private" => {
                         let who = self.entity(file, a, "entityRef")?;
                         let mut acts = Vec::new();
+                        let mut start_on_trajectory = !xml::elements(a).any(|pa| xml::child(pa, "TeleportAction").is_some());
                         for pa in xml::elements(a) {
                             if xml::child(pa, "TeleportAction").is_some() {
                                 continue;
@@ -297,7 +415,20 @@ impl Sb<'_, '_, '_> {
                                 }
                                 continue;
                             }
-                            if let Some(action) = self.private_action(file, pa, std::slice::from_ref(&who))? {
+                            let fta = xml::child(pa, "RoutingAction").and_then(|r| xml::child(r, "FollowTrajectoryAction"));
+                            self.start_trajectory = start_on_trajectory && fta.is_some();
+                            start_on_trajectory &= fta.is_none();
+                            let action = self.private_action(file, pa, std::slice::from_ref(&who));
+                            self.start_trajectory = false;
+                            if let (Some(f), true) = (fta, self.ego_mode == EgoMode::Controller && self.facts(&who).ego) {
+                                self.ctx.warn.note(
+                                    "FollowTrajectoryAction",
+                                    file,
+                                    f,
+                                    "the ego starts at the trajectory's start, then flc's controller drives it along its lane (the path is not followed; --ego-mode scripted follows it)".into(),
+                                );
+                            }
+                            if let Some(action) = action? {
                                 acts.push((pa, action));
                             }
                         }
@@ -897,13 +1028,23 @@ impl Sb<'_, '_, '_> {
             _ => None,
         });
         let catalog = xml::elements(node).any(|c| {
-            c.tag_name().name() == "CatalogReference" || (c.tag_name().name() == "TrajectoryRef" && xml::elements(c).any(|t| t.tag_name().name() == "CatalogReference"))
+            c.tag_name().name() == "CatalogReference"
+                || (c.tag_name().name() == "TrajectoryRef" && xml::elements(c).any(|t| t.tag_name().name() == "CatalogReference"))
         });
         let first_shape = inline
             .and_then(|t| xml::elements(t).find(|c| c.tag_name().name() == "Shape"))
             .and_then(|sh| xml::elements(sh).next())
             .map(|x| x.tag_name().name());
-        if catalog || first_shape == Some("ClothoidSpline") { self.follow_spline(file, node) } else { self.follow_polyline(file, node) }
+        let untimed = xml::elements(node)
+            .find(|c| c.tag_name().name() == "TimeReference")
+            .and_then(|t| xml::elements(t).next())
+            .is_some_and(|t| t.tag_name().name() == "None");
+        let untimed_start = self.start_trajectory && untimed && first_shape == Some("Polyline");
+        if catalog || first_shape == Some("ClothoidSpline") || untimed_start {
+            self.follow_spline(file, node)
+        } else {
+            self.follow_polyline(file, node)
+        }
     }
 
     /// `FollowTrajectoryAction` with an inline `Polyline` trajectory (in `TrajectoryRef`, or
@@ -1333,9 +1474,11 @@ impl Sb<'_, '_, '_> {
     /// or from a `TrajectoryCatalog`; on a straight road.
     fn follow_spline(&mut self, file: &str, node: Node<'_, '_>) -> Result<Action, ImportError> {
         let p = &self.ctx.params;
-        if p.num_attr(node, "initialDistanceOffset", file)?.is_some_and(|d| d != 0.0) {
-            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported"));
+        let offset = p.num_attr(node, "initialDistanceOffset", file)?.unwrap_or(0.0);
+        if offset != 0.0 && !self.start_trajectory {
+            return Err(ImportError::at(file, node, "initialDistanceOffset other than 0 is not supported (but on an entity's start)"));
         }
+        self.start_offset = offset;
         let (mut traj, mut timing, mut mode) = (None, None, None);
         for c in xml::elements(node) {
             match c.tag_name().name() {
@@ -1353,9 +1496,8 @@ impl Sb<'_, '_, '_> {
         }
         let mode = mode.ok_or_else(|| ImportError::at(file, node, "<TrajectoryFollowingMode> is missing"))?;
         let m = self.ctx.params.req_enum(mode, "followingMode", file, &["position", "follow"])?;
-        if m != "position" {
-            return Err(ImportError::at(file, mode, "followingMode=\"follow\" is not supported (only \"position\")"));
-        }
+        // A clothoid spline is smooth: "follow" moves the actor as "position" does.
+        let _ = m;
         if !self.straight_track() {
             return Err(ImportError::at(file, node, "a trajectory on a curved road is not supported (flc lays it in the road's frame)"));
         }
@@ -1414,6 +1556,12 @@ impl Sb<'_, '_, '_> {
             }
         }
         let shape = shape.ok_or_else(|| ImportError::at(file, node, "<Shape> is missing"))?;
+        if shape.tag_name().name() == "Polyline" && self.start_trajectory {
+            return self.straight_polyline(file, shape);
+        }
+        if self.start_offset != 0.0 {
+            return Err(ImportError::at(file, shape, "initialDistanceOffset other than 0 is not supported on a <ClothoidSpline>"));
+        }
         if shape.tag_name().name() != "ClothoidSpline" {
             return Err(ImportError::at(
                 file,
@@ -1427,8 +1575,13 @@ impl Sb<'_, '_, '_> {
                 return Err(ImportError::unsupported(file, g));
             }
             if let Some(c) = xml::elements(g).next() {
-                // esmini starts a segment there; flc lays the spline from the actor only.
-                return Err(ImportError::at(file, c, "a segment's <PositionStart> is not supported (the spline starts at the actor)"));
+                // esmini starts a segment there; flc lays the spline from the actor only: the
+                // first segment's start is accepted where the entity was placed at it.
+                if segments.is_empty() && self.start_trajectory && c.tag_name().name() == "PositionStart" && xml::elements(g).count() == 1 {
+                    // fall through: the entity starts there.
+                } else {
+                    return Err(ImportError::at(file, c, "a segment's <PositionStart> is not supported (the spline starts at the actor)"));
+                }
             }
             if p.num_attr(g, "hOffset", file)?.is_some_and(|h| h != 0.0) {
                 return Err(ImportError::at(file, g, "hOffset other than 0 is not supported"));
@@ -1446,6 +1599,46 @@ impl Sb<'_, '_, '_> {
         }
         p.num_attr(shape, "timeEnd", file)?;
         let a = Action::FollowTrajectory { segments };
+        a.validate().map_err(|e| ImportError::at(file, shape, e.to_string()))?;
+        Ok(a)
+    }
+
+    /// An untimed `Polyline` an entity starts on (placed `initialDistanceOffset` along it,
+    /// facing along it): on a straight polyline (its vertices in one line, one direction) the
+    /// actor moves on along it at its own speed, a straight spline of the rest of its length.
+    /// A polyline with corners: error.
+    fn straight_polyline(&mut self, file: &str, shape: Node<'_, '_>) -> Result<Action, ImportError> {
+        let mut poses = Vec::new();
+        for v in xml::elements(shape) {
+            if poses.len() == 10_000 {
+                return Err(ImportError::at(file, v, "more than 10000 vertices"));
+            }
+            if self.ctx.params.num_attr(v, "time", file)?.is_some() {
+                return Err(ImportError::at(file, v, "a vertex time without <Timing> is not supported"));
+            }
+            let p = xml::child(v, "Position").ok_or_else(|| ImportError::at(file, v, "<Position> is missing"))?;
+            poses.push(position::resolve(&self.ctx.params, self.geo, file, p, &|_| None)?);
+        }
+        let mut length = 0.0;
+        let mut heading: Option<f64> = None;
+        for w in poses.windows(2) {
+            let (dx, dy) = (w[1].x - w[0].x, w[1].y - w[0].y);
+            let len = dx.hypot(dy);
+            if len == 0.0 {
+                continue;
+            }
+            let h = dy.atan2(dx);
+            if heading.is_some_and(|h0| crate::track::wrap(h - h0).abs() > 1.0e-9) {
+                return Err(ImportError::at(file, shape, "an untimed <Polyline> with corners is not supported (only a straight one)"));
+            }
+            heading = Some(h);
+            length += len;
+        }
+        let rest = length - self.start_offset;
+        if heading.is_none() || rest <= 0.0 {
+            return Err(ImportError::at(file, shape, format!("nothing of the polyline ({length} m) is left past initialDistanceOffset")));
+        }
+        let a = Action::FollowTrajectory { segments: vec![ClothoidSegment { curvature_start: 0.0, curvature_end: 0.0, length: rest }] };
         a.validate().map_err(|e| ImportError::at(file, shape, e.to_string()))?;
         Ok(a)
     }
@@ -1500,6 +1693,11 @@ impl Sb<'_, '_, '_> {
     /// The track `s` of an absolute target position (a `TargetPosition...` element holding one
     /// position) and the direction it faces along the track (+1 or -1).
     fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+        if let Some(tp) = xml::child(holder, "TrajectoryPosition") {
+            let pose = self.trajectory_position(file, tp)?;
+            let pr = self.track.project(pose.x, pose.y);
+            return Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }));
+        }
         if position::reference(&self.ctx.params, file, holder)?.is_some() {
             return Err(ImportError::at(
                 file,
@@ -1510,6 +1708,92 @@ impl Sb<'_, '_, '_> {
         let pose = position::resolve(&self.ctx.params, self.geo, file, holder, &|_| None)?;
         let pr = self.track.project(pose.x, pose.y);
         Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }))
+    }
+
+    /// The world pose of a `TrajectoryPosition` (`s` m along its trajectory, `t` 0): on a
+    /// `Polyline` through its vertices, on a `ClothoidSpline` from its first segment's
+    /// `PositionStart` (esmini's polyline of the spline, as the actor moves along it).
+    fn trajectory_position(&mut self, file: &str, node: Node<'_, '_>) -> Result<position::Pose, ImportError> {
+        let s = self.ctx.params.req_num(node, "s", file)?;
+        if !s.is_finite() || s < 0.0 {
+            return Err(ImportError::at(file, node, format!("s = {s}: expected a finite distance >= 0")));
+        }
+        if self.ctx.params.num_attr(node, "t", file)?.is_some_and(|t| t != 0.0) {
+            return Err(ImportError::at(file, node, "t other than 0 is not supported"));
+        }
+        let r = xml::child(node, "TrajectoryRef").ok_or_else(|| ImportError::at(file, node, "<TrajectoryRef> is missing"))?;
+        let traj = only_child(file, r)?;
+        let geo = self.geo;
+        let run = |sb: &mut Self, file: &str, traj: Node<'_, '_>| -> Result<position::Pose, ImportError> {
+            let shape = xml::child(traj, "Shape").and_then(|x| xml::elements(x).next());
+            let shape = shape.ok_or_else(|| ImportError::at(file, traj, "<Shape> is missing"))?;
+            let points: Vec<Node<'_, '_>> = match shape.tag_name().name() {
+                "Polyline" => xml::elements(shape).filter_map(|v| xml::child(v, "Position")).take(10_001).collect(),
+                "ClothoidSpline" => xml::elements(shape).next().and_then(|g| xml::child(g, "PositionStart")).into_iter().collect(),
+                _ => Vec::new(),
+            };
+            if points.is_empty() || points.len() > 10_000 {
+                return Err(ImportError::at(
+                    file,
+                    shape,
+                    "a TrajectoryPosition needs a <Polyline> of 1 to 10000 vertices or a <ClothoidSpline> whose first segment has a <PositionStart>",
+                ));
+            }
+            let mut poses = Vec::with_capacity(points.len());
+            for p in &points {
+                if position::reference(&sb.ctx.params, file, *p)?.is_some() {
+                    return Err(ImportError::at(file, *p, "a trajectory relative to an entity is not supported here"));
+                }
+                poses.push(position::resolve(&sb.ctx.params, geo, file, *p, &|_| None)?);
+            }
+            let beyond = || ImportError::at(file, node, format!("s = {s} m is beyond the trajectory's end"));
+            if shape.tag_name().name() == "Polyline" {
+                return along_polyline(&poses, s).ok_or_else(beyond);
+            }
+            let was = (sb.start_trajectory, sb.start_offset);
+            (sb.start_trajectory, sb.start_offset) = (true, 0.0);
+            let a = sb.trajectory(file, traj);
+            (sb.start_trajectory, sb.start_offset) = was;
+            let Action::FollowTrajectory { segments } = a? else { return Err(ImportError::at(file, traj, "expected a <ClothoidSpline>")) };
+            if s > segments.iter().map(|g| g.length).sum::<f64>() + 1.0e-9 {
+                return Err(beyond());
+            }
+            let [x, y, h] = crate::story::spline_pose(&segments, s);
+            let o = poses[0];
+            let (c, sn) = (o.h.cos(), o.h.sin());
+            Ok(position::Pose { x: o.x + x * c - y * sn, y: o.y + x * sn + y * c, h: o.h + h })
+        };
+        match traj.tag_name().name() {
+            "Trajectory" => {
+                self.ctx.params.push_scope();
+                let r = self.ctx.params.declare_in(traj, file, &BTreeMap::new()).and_then(|()| run(self, file, traj));
+                self.ctx.params.pop_scope();
+                r
+            }
+            "CatalogReference" => {
+                let cats = self.ctx.cats;
+                let catalog = self.ctx.params.req_str(traj, "catalogName", file)?;
+                let entry = self.ctx.params.req_str(traj, "entryName", file)?;
+                let (efile, enode) = match cats.find(&["TrajectoryCatalog"], &catalog, &entry)? {
+                    Some(x) => x,
+                    None => return Err(ImportError::at(file, traj, cats.not_found(&catalog, &entry))),
+                };
+                if enode.tag_name().name() != "Trajectory" {
+                    return Err(ImportError::at(&efile, enode, "expected a <Trajectory> entry"));
+                }
+                self.ctx.enter_catalog(file, traj, &catalog, &entry)?;
+                let overrides = super::catalog::assignments(&self.ctx.params, traj, file);
+                let r = overrides.and_then(|o| {
+                    self.ctx.params.push_scope();
+                    let r = self.ctx.params.declare_in(enode, &efile, &o).and_then(|()| run(self, &efile, enode));
+                    self.ctx.params.pop_scope();
+                    r
+                });
+                self.ctx.leave_catalog();
+                r
+            }
+            _ => Err(ImportError::unsupported(file, traj)),
+        }
     }
 
     /// The track position `(s, lateral)` of an absolute `Position` (a relative one is an error:

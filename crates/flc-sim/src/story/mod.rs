@@ -27,7 +27,7 @@ mod engine;
 mod motion;
 
 pub use engine::{Started, StoryState, Transition as StoryTransition};
-pub use motion::{Motion, MotionStep};
+pub use motion::{Motion, MotionStep, spline_pose};
 
 use serde::{Deserialize, Serialize};
 

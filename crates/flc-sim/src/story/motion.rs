@@ -160,6 +160,15 @@ impl Spline {
     }
 }
 
+/// The pose `[x, y, theta]` `u` m along the spline of `segments` laid from the origin along +x,
+/// on esmini's polyline of it (as a running `FollowTrajectoryAction` moves).
+pub fn spline_pose(segments: &[ClothoidSegment], u: f64) -> [f64; 3] {
+    if segments.is_empty() {
+        return [0.0; 3];
+    }
+    Spline::new(0, segments, 0.0, 0.0, 0.0).at(u)
+}
+
 /// The pose `u` m along a clothoid segment `g` from `start` (`[x, y, theta]`, local frame):
 /// theta integrates the linear curvature exactly, x and y by Gauss-Legendre quadrature over
 /// pieces of at most 0.25 m.
@@ -449,8 +458,17 @@ impl Motion {
                         duration = duration.max(transition.shape.peak_slope() * change / limit);
                     }
                 }
-                self.long =
-                    Some(Long { action: i, v0: self.speed, v1: target, shape: transition.shape, duration, t0: t, track, keep: None, sync: None });
+                self.long = Some(Long {
+                    action: i,
+                    v0: self.speed,
+                    v1: target,
+                    shape: transition.shape,
+                    duration,
+                    t0: t,
+                    track,
+                    keep: None,
+                    sync: None,
+                });
                 (replaced, false)
             }
             Action::LaneChange { offset, of, lanes, lane_offset, transition } => {
