@@ -390,7 +390,7 @@ def trajectory_start():
                                                                                 condition("HalfSecond", after("0.5")))],
                      act_start=condition("ActStart", after("0.0")))]
     stops = [[condition("EgoHitsTarget", collides("Ego", "Target"))], [condition("FourteenSeconds", after("14.0"))]]
-    return document(comment, 2, "trajectory_start: Ego turns across the junction, Target synchronized to meet it", params(),
+    return document(comment, 3, "trajectory_start: Ego turns across the junction, Target synchronized to meet it", params(),
                     catalog_locations(vehicle="catalogs"), road_network("roads/x_junction.xodr"),
                     X("Entities", catalog_object("Ego", "car"), car("Target", "target")), storyboard(init, stories, stops))
 
