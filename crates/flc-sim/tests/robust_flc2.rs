@@ -91,11 +91,11 @@ fn failures(kind: ControllerKind, patch: &Patch) -> (usize, Vec<String>, Vec<Str
     (runs.len() / 2, bad, bound)
 }
 
-/// Every suite run the careful driver avoids ends without contact under each impairment. The
-/// careful driver perceives the truth; the only exception allowed is a bound of the perception (a
-/// cut-in first in the detector's path too close to stop in: v2 braked fully from the frame after
-/// it first detected the object, and braking fully from that first frame also ends in contact),
-/// at most one such run per impairment.
+/// Every suite run the careful driver avoids ends without contact under each impairment, with no
+/// exception: a run first detected too late to stop in (v2 braked fully from the frame after it
+/// first detected the object, and braking fully from that first frame also ends in contact) fails
+/// too. Before the neighbour tracker's lane rule R157 4.4_1 p5 was such a run under 0.3 s + 0.3 s
+/// actuators; the tracker now reports the intruder when the careful driver perceives it.
 #[test]
 #[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn v2_avoids_what_the_careful_driver_avoids_under_each_impairment() {
@@ -109,7 +109,7 @@ fn v2_avoids_what_the_careful_driver_avoids_under_each_impairment() {
                 bad.len()
             );
             all.extend(bad.into_iter().map(|b| format!("{law}, {name}: {b}")));
-            if bound.len() > 1 {
+            if !bound.is_empty() {
                 all.push(format!("{law}, {name}: {} runs first detected too late: {bound:?}", bound.len()));
             }
         }
