@@ -231,11 +231,12 @@ impl Default for ControllerKind {
 }
 
 impl ControllerKind {
-    /// Whether this controller's LiDAR lead selection uses the swept-path corridor (issue 46,
-    /// `docs/detector.md`: `detector.swept_half_width`; the simulator fills in the ego's half
+    /// Whether this controller's LiDAR lead selection always uses the swept-path corridor (issue
+    /// 46, `docs/detector.md`: `detector.swept_half_width`; the simulator fills in the ego's half
     /// width plus `sim/path.rs`'s `CORRIDOR_MARGIN` when the scenario leaves it at 0): the robust
-    /// FLC and its odometry variant. The paper's `flc`, the pipeline and the baselines keep the
-    /// paper's corridor.
+    /// FLC and its odometry variant. The paper's `flc`, the pipeline and the baselines use it when
+    /// the ego keeps its lane ([`crate::FollowerConfig::swept_corridor`]) and keep the paper's
+    /// corridor when they steer after the lead (the paper experiment).
     pub fn swept_corridor(self) -> bool {
         matches!(self, ControllerKind::FlcRobust | ControllerKind::FlcRobustOdo)
     }

@@ -261,6 +261,16 @@ impl FollowerConfig {
         }
     }
 
+    /// Whether the LiDAR lead selection uses the ego's swept path plus margin as its corridor
+    /// (issue 46): always for the controllers that ask for it
+    /// ([`ControllerKind::swept_corridor`]), and for every controller of an ego that keeps its
+    /// lane (imported files and the suites): "in my path" is then the lane the ego keeps, and a
+    /// motorbike on the marking reaches into it. An ego steering after its lead (the paper
+    /// experiment) keeps the paper's corridor around the pursuit arc.
+    pub fn swept_corridor(&self) -> bool {
+        self.controller.swept_corridor() || self.steering() == Steering::LaneKeeping
+    }
+
     /// The set speed of the gap laws with no target, m/s: `follower.set_speed`, or the initial
     /// speed.
     pub fn set_speed(&self) -> f64 {

@@ -409,12 +409,12 @@ fn arc_curvature(x: f64, y: f64) -> f64 {
 }
 
 /// The detector's parameters this follower runs: `[detector]`, with the swept-path corridor
-/// of the controllers that use it ([`crate::ControllerKind::swept_corridor`]) set to the
+/// of the followers that use it ([`crate::FollowerConfig::swept_corridor`]) set to the
 /// ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario leaves
 /// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
 fn detector_params(cfg: &FollowerConfig) -> flc_core::DetectorParams {
     let mut p = cfg.detector;
-    if cfg.controller.swept_corridor() && p.swept_half_width == 0.0 {
+    if cfg.swept_corridor() && p.swept_half_width == 0.0 {
         p.swept_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
     }
     p
