@@ -18,8 +18,8 @@ mod common;
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
     ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, NeighbourParams,
-    NeighbourTracker, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController, RobustFallbackController2, RobustFlc2Params,
-    RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
+    NeighbourTracker, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController,
+    RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

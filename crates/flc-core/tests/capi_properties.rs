@@ -7,8 +7,9 @@
 
 use flc_core::capi::*;
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, NeighbourParams, NeighbourTracker, PidController, PidCore, PidParams, Point2,
-    PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, NeighbourParams, NeighbourTracker, PidController, PidCore, PidParams,
+    Point2, PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams,
+    Supervisor, SupervisorParams, V2vMessage,
 };
 use proptest::prelude::*;
 use std::mem::MaybeUninit;
@@ -202,22 +203,24 @@ fn c_neighbour_params() -> impl Strategy<Value = FlcNeighbourParams> {
         (maybe(-1.0, 8.0), maybe(-0.5, 2.0), maybe(-0.5, 3.0), maybe(-1.0, 60.0)),
         (maybe(-0.5, 8.0), maybe(-1.0, 5.0), prop::option::weighted(0.15, 0u8..=120)),
     )
-        .prop_map(|((band, min_width, max_range, wandering), (gate_x, gate_d, full_width, full_range), (max_width, lane_width, max_misses))| {
-            let d = flc_neighbours_params_default();
-            FlcNeighbourParams {
-                band: band.unwrap_or(d.band),
-                min_width: min_width.unwrap_or(d.min_width),
-                max_range: max_range.unwrap_or(d.max_range),
-                wandering: wandering.unwrap_or(d.wandering),
-                gate_x: gate_x.unwrap_or(d.gate_x),
-                gate_d: gate_d.unwrap_or(d.gate_d),
-                full_width: full_width.unwrap_or(d.full_width),
-                full_range: full_range.unwrap_or(d.full_range),
-                max_width: max_width.unwrap_or(d.max_width),
-                lane_width: lane_width.unwrap_or(d.lane_width),
-                max_misses: max_misses.unwrap_or(d.max_misses),
-            }
-        })
+        .prop_map(
+            |((band, min_width, max_range, wandering), (gate_x, gate_d, full_width, full_range), (max_width, lane_width, max_misses))| {
+                let d = flc_neighbours_params_default();
+                FlcNeighbourParams {
+                    band: band.unwrap_or(d.band),
+                    min_width: min_width.unwrap_or(d.min_width),
+                    max_range: max_range.unwrap_or(d.max_range),
+                    wandering: wandering.unwrap_or(d.wandering),
+                    gate_x: gate_x.unwrap_or(d.gate_x),
+                    gate_d: gate_d.unwrap_or(d.gate_d),
+                    full_width: full_width.unwrap_or(d.full_width),
+                    full_range: full_range.unwrap_or(d.full_range),
+                    max_width: max_width.unwrap_or(d.max_width),
+                    lane_width: lane_width.unwrap_or(d.lane_width),
+                    max_misses: max_misses.unwrap_or(d.max_misses),
+                }
+            },
+        )
 }
 
 /// Scan `k` of moving cars `(x, y, dx, dy, width)` (rear faces of 24 points): each car at

@@ -7,8 +7,8 @@ use core::ptr::addr_of_mut;
 use super::storage::{check_ptr, get_mut, init, param_error, storage, tri, write_out};
 use super::{FlcParamError, FlcResult};
 use crate::detector::{
-    CLUSTER_CAPACITY, ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection, Run,
-    column_radii,
+    CLUSTER_CAPACITY, ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection,
+    Run, column_radii,
 };
 use crate::params::ParamError;
 

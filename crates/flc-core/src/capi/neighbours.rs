@@ -153,7 +153,11 @@ pub unsafe extern "C" fn flc_neighbours_update(nb: *mut FlcNeighbours, det: *con
     // SAFETY: caller contract.
     let n = tri!(unsafe { get_mut(nb) });
     let detection = n.update(d.clusters());
-    let o = FlcNeighbourOutput { detection: FlcDetection::from_option(detection), tracks: n.tracks().count(), has_detection: detection.is_some() };
+    let o = FlcNeighbourOutput {
+        detection: FlcDetection::from_option(detection),
+        tracks: n.tracks().count(),
+        has_detection: detection.is_some(),
+    };
     // SAFETY: checked, caller contract.
     unsafe { write_out(out, o) };
     FlcResult::Ok
