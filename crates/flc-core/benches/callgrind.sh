@@ -25,4 +25,5 @@ count supervisor supervisor_steps 10000
 count pursuit pursuit_steps 10000
 count detector900 detector_scans 100
 count detector1800 detector_scans 100
+count tracker1800 tracker_scans 100
 rm -rf "$tmp"

@@ -13,8 +13,9 @@ mod common;
 use common::{Lcg, scan};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidParams, Point2, PurePursuit, PurePursuitParams,
-    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, NeighbourParams, NeighbourTracker, PidController, PidParams, Point2,
+    PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor,
+    SupervisorParams, V2vMessage,
 };
 use std::hint::black_box;
 
@@ -116,6 +117,15 @@ fn detector(c: &mut Criterion) {
         // square root and a division.
         group.bench_with_input(BenchmarkId::new("detect_car_and_rails_curved", n), &pts, |b, pts| {
             b.iter(|| det.detect(black_box(pts), black_box(0.004)))
+        });
+        // The detector followed by the neighbour tracker's update on the scan's clusters (issue 47:
+        // the firmware's per-scan work, goal <= 200 us for 1800 points).
+        let mut nb = NeighbourTracker::new(NeighbourParams::default()).unwrap();
+        group.bench_with_input(BenchmarkId::new("detect_and_track_car_and_rails", n), &pts, |b, pts| {
+            b.iter(|| {
+                det.detect(black_box(pts), black_box(0.0));
+                nb.update(det.clusters())
+            })
         });
     }
     group.finish();

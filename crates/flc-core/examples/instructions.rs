@@ -8,9 +8,9 @@ mod common;
 
 use common::{Lcg, scan};
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, OdometryFallbackController, OdometryFlcParams, PidController, PidParams,
-    Point2, PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams,
-    Supervisor, SupervisorParams, V2vMessage,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, NeighbourParams, NeighbourTracker, OdometryFallbackController,
+    OdometryFlcParams, PidController, PidParams, Point2, PurePursuit, PurePursuitParams, RobustFallbackController,
+    RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
 };
 use std::hint::black_box;
 
@@ -89,7 +89,18 @@ fn detector_scans(det: &mut LeadDetector, pts: &[[f64; 2]]) -> f64 {
     (0..SCANS).map(|_| black_box(det.detect(black_box(pts), 0.0)).detection.map_or(0.0, |d| d.distance)).sum()
 }
 
-/// `instructions [flc|robust|robust2|odo|pid|supervisor|pursuit|detector900|detector1800|all]`: runs one workload
+/// The detector followed by the neighbour tracker's update on the scan's clusters.
+#[inline(never)]
+fn tracker_scans(det: &mut LeadDetector, nb: &mut NeighbourTracker, pts: &[[f64; 2]]) -> f64 {
+    (0..SCANS)
+        .map(|_| {
+            black_box(det.detect(black_box(pts), 0.0));
+            black_box(nb.update(det.clusters())).map_or(0.0, |d| d.distance)
+        })
+        .sum()
+}
+
+/// `instructions [flc|robust|robust2|odo|pid|supervisor|pursuit|detector900|detector1800|tracker1800|all]`: runs one workload
 /// (so that callgrind only has to count that one) or all of them.
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_else(|| "all".into());
@@ -123,6 +134,10 @@ fn main() {
         if run(&format!("detector{n}")) {
             total += detector_scans(&mut det, &scan(42, 30.0, 0.2, 1.9, n, true));
         }
+    }
+    if run("tracker1800") {
+        let mut nb = NeighbourTracker::new(NeighbourParams::default()).unwrap();
+        total += tracker_scans(&mut det, &mut nb, &scan(42, 30.0, 0.2, 1.9, 1800, true));
     }
     println!("{which}: checksum {total}, {STEPS} steps / {SCANS} scans");
 }

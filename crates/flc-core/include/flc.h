@@ -1,9 +1,11 @@
 /*
  * flc.h - C interface of flc-core (fallback longitudinal controller, robust FLC v1 and v2, PID
- * gap controller, supervisor, pure pursuit, LiDAR lead detector). See docs/firmware.md.
+ * gap controller, supervisor, pure pursuit, LiDAR lead detector, neighbour tracker). See
+ * docs/firmware.md.
  *
  * All memory is caller-owned: declare the storage structs (FlcFallback, FlcRobust, FlcRobust2,
- * FlcPid, FlcSupervisor, FlcPursuit, FlcDetector) yourself, initialise them with the *_init functions and pass pointers.
+ * FlcPid, FlcSupervisor, FlcPursuit, FlcDetector, FlcNeighbours) yourself, initialise them with
+ * the *_init functions and pass pointers.
  * Nothing is allocated, no pointer is kept across calls, no function panics or aborts: every
  * function returns an FlcResult.
  */
@@ -51,6 +53,11 @@
  * Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
  */
 #define FLC_DETECTOR_WORDS 8051
+
+/**
+ * Words (8 bytes each) of `FlcNeighbours::storage` (672 bytes).
+ */
+#define FLC_NEIGHBOURS_WORDS 84
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output
@@ -1324,6 +1331,84 @@ typedef struct FlcDetectorOutput {
     bool has_detection;
 } FlcDetectorOutput;
 
+/**
+ * Mirror of the Rust `NeighbourParams`.
+ */
+typedef struct FlcNeighbourParams {
+    /**
+     * Largest offset of a neighbour's near edge from the path, m.
+     */
+    double band;
+    /**
+     * Smallest width across the path of a tracked neighbour, m.
+     */
+    double min_width;
+    /**
+     * Farthest a tracked neighbour is ahead (its rear face), m; 0 tracks nothing.
+     */
+    double max_range;
+    /**
+     * Lateral movement towards the path not read as a cut-in, m (UN R157's wandering zone).
+     */
+    double wandering;
+    /**
+     * Association gate along the path (change of the rear-face x between two scans), m.
+     */
+    double gate_x;
+    /**
+     * Association gate across the path (change of the near edge), m.
+     */
+    double gate_d;
+    /**
+     * Smallest width of a view that measures the band a track occupies (a full view), m.
+     */
+    double full_width;
+    /**
+     * Farthest a full view is taken, m.
+     */
+    double full_range;
+    /**
+     * Widest (and deepest) cluster tracked, m.
+     */
+    double max_width;
+    /**
+     * Width of the lanes, m; 0 turns the lane rule off.
+     */
+    double lane_width;
+    /**
+     * Scans a track is kept without being seen.
+     */
+    uint8_t max_misses;
+} FlcNeighbourParams;
+
+/**
+ * Caller-owned storage of one neighbour tracker (at most 8 tracks). Initialise with
+ * `flc_neighbours_init`.
+ */
+typedef struct FlcNeighbours {
+    uint64_t magic;
+    uint64_t storage[FLC_NEIGHBOURS_WORDS];
+} FlcNeighbours;
+
+/**
+ * Output of `flc_neighbours_update`. `detection` is all zero when `has_detection` is false.
+ */
+typedef struct FlcNeighbourOutput {
+    /**
+     * The nearest intruding neighbour (valid when `has_detection`): its rear face and lateral
+     * centre (sensor frame), `distance` = its rear-face x, for the fallback to follow.
+     */
+    struct FlcDetection detection;
+    /**
+     * Tracks held after the update (at most 8).
+     */
+    size_t tracks;
+    /**
+     * Whether a neighbour intrudes.
+     */
+    bool has_detection;
+} FlcNeighbourOutput;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -1634,6 +1719,42 @@ FlcResult flc_detector_detect(struct FlcDetector *det,
  * `det` is NULL or points to an `FlcDetector`.
  */
 FlcResult flc_detector_reset(struct FlcDetector *det);
+
+/**
+ * The neighbour tracker's default parameters.
+ */
+struct FlcNeighbourParams flc_neighbours_params_default(void);
+
+/**
+ * Validates `*params` and initialises `*nb` (no track).
+ *
+ * # Safety
+ * Each pointer is NULL or valid for reads (`params`) / writes (`nb`, `error`) of its type.
+ */
+FlcResult flc_neighbours_init(struct FlcNeighbours *nb,
+                              const struct FlcNeighbourParams *params,
+                              struct FlcParamError *error);
+
+/**
+ * One scan: call once after each `flc_detector_detect` on `det` (the tracker reads the clusters
+ * of its last scan; `det` is not modified). Updates the tracks and writes the nearest intruding
+ * neighbour, if any, to `*out`. A reset detector has no clusters: every track misses a scan.
+ *
+ * # Safety
+ * `nb` is NULL or points to an `FlcNeighbours`; `det` is NULL or points to an `FlcDetector`;
+ * `out` is NULL or valid for writes.
+ */
+FlcResult flc_neighbours_update(struct FlcNeighbours *nb,
+                                const struct FlcDetector *det,
+                                struct FlcNeighbourOutput *out);
+
+/**
+ * Forgets every track.
+ *
+ * # Safety
+ * `nb` is NULL or points to an `FlcNeighbours`.
+ */
+FlcResult flc_neighbours_reset(struct FlcNeighbours *nb);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -17,9 +17,9 @@ mod common;
 
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
-    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, PidController, PidCore,
-    PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController, RobustFallbackController2, RobustFlc2Params,
-    RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
+    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, NeighbourParams,
+    NeighbourTracker, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController,
+    RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -360,6 +360,52 @@ fn expected() -> Vec<String> {
     det.reset();
     detect(&mut det, "empty", &[], 0.0);
 
+    // Neighbour tracker behind the detector: a car in the next lane, steady for 15 scans, then
+    // changing lanes towards the path (3 m in 40 scans); a scan lost at k = 30; left, then right.
+    let mut det = <LeadDetector>::new(DetectorParams::default()).unwrap();
+    let mut nb = NeighbourTracker::new(NeighbourParams::default()).unwrap();
+    for s in 0..2 {
+        let side = if s == 0 { 1.0 } else { -1.0 };
+        if s == 1 {
+            nb.reset();
+        }
+        for k in 0..60 {
+            let u = if k < 15 {
+                0.0
+            } else if k > 55 {
+                1.0
+            } else {
+                f64::from(k - 15) / 40.0
+            };
+            let yc = side * (3.5 - 3.0 * u);
+            let d = 25.0 - 0.1 * f64::from(k);
+            let pts = if k == 30 { Vec::new() } else { scan(20 + k as u64, d, yc, 1.9, 300, false) };
+            det.detect(&pts, 0.0);
+            let r = nb.update(det.clusters());
+            let t = r.unwrap_or(flc_core::Detection {
+                position: Point2::new(0.0, 0.0),
+                distance: 0.0,
+                width: 0.0,
+                depth: 0.0,
+                points: 0,
+                confidence: 0.0,
+            });
+            let _ = writeln!(
+                o,
+                "nb {s} {k} {} {} {} {} {} {} {} {} {}",
+                u8::from(r.is_some()),
+                x(t.position.x),
+                x(t.position.y),
+                x(t.distance),
+                x(t.width),
+                x(t.depth),
+                x(t.confidence),
+                t.points,
+                nb.tracks().count()
+            );
+        }
+    }
+
     // Error paths: FlcResult codes (0 ok, 1 null_pointer, 2 misaligned, 3 not_initialized,
     // 4 invalid_params, 5 invalid_argument) and the field named by FlcParamError.
     for (what, code, field) in [
@@ -392,6 +438,15 @@ fn expected() -> Vec<String> {
         ("detector_detect_huge_count", 5, ""),
         ("detector_detect_null_self", 1, ""),
         ("supervisor_step_null", 1, ""),
+        ("neighbours_init_max_misses", 4, "max_misses"),
+        ("neighbours_init_wandering", 4, "wandering"),
+        ("neighbours_init_max_width", 4, "max_width"),
+        ("neighbours_update_uninitialised", 3, ""),
+        ("neighbours_update_uninitialised_detector", 3, ""),
+        ("neighbours_update_wrong_detector_type", 3, ""),
+        ("neighbours_update_null_detector", 1, ""),
+        ("neighbours_update_null_out", 1, ""),
+        ("neighbours_reset_null", 1, ""),
     ] {
         let name = ["ok", "null_pointer", "misaligned", "not_initialized", "invalid_params", "invalid_argument"][code];
         let field = if field.is_empty() { String::new() } else { format!(" {field}") };
@@ -418,6 +473,7 @@ fn c_example_outputs_equal_rust() {
         size_of::<LeadDetector>(),
         size_of::<RobustFallbackController>(),
         size_of::<RobustFallbackController2>(),
+        size_of::<NeighbourTracker>(),
     ];
     assert_eq!(sizes.len(), rust.len());
     for (c, r) in sizes.iter().zip(rust) {
@@ -429,11 +485,28 @@ fn c_example_outputs_equal_rust() {
         assert_eq!(g, w, "line {} of the C program differs from Rust", i + 2);
     }
     assert_eq!(got.len(), want.len(), "the C program printed {} lines, Rust {}", got.len(), want.len());
+    // docs/firmware.md's claims table quotes the count ("prints 4 173 lines").
+    let count = want.len().to_string();
+    let (head, tail) = count.split_at(count.len().saturating_sub(3));
+    let count = if head.is_empty() { tail.to_owned() } else { format!("{head} {tail}") };
+    let doc = std::fs::read_to_string(manifest_dir().join("../../docs/firmware.md")).unwrap();
+    assert!(doc.contains(&format!("prints {count} lines")), "docs/firmware.md: the C program prints {count} lines");
     // The sequences exercise every status, both controllers of the supervisor and detections.
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(2) == Some("1")), "the PID never drove");
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(4) == Some("1")), "the supervisor never switched");
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(3) == Some("5")), "never not associated");
     assert!(got.iter().filter(|l| l.starts_with("det ") && l.split(' ').nth(4) == Some("1")).count() >= 4, "too few detections");
+    // The car changing lanes intrudes on either side, and not while it keeps its lane (k < 15).
+    for side in ["0", "1"] {
+        let intruding: Vec<u32> = got
+            .iter()
+            .filter_map(|l| l.strip_prefix("nb "))
+            .map(|l| l.split(' ').collect::<Vec<_>>())
+            .filter(|f| f[0] == side && f[2] == "1")
+            .map(|f| f[1].parse().unwrap())
+            .collect();
+        assert!(intruding.len() >= 10 && intruding.iter().all(|&k| k >= 15), "side {side}: intruding at scans {intruding:?}");
+    }
     // The robust sequences hold for missed frames, confirm jumps and latch on reveals.
     let flag = |prefix: &str, i: usize| got.iter().filter(|l| l.starts_with(prefix) && l.split(' ').nth(i) == Some("1")).count();
     assert!(flag("robt ", 9) > 0 && flag("robt ", 10) > 0, "v1 never revealed / latched");
@@ -481,6 +554,9 @@ fn linked_c_program_contains_no_panic_path() {
         "flc_detector_init",
         "flc_detector_detect",
         "flc_detector_reset",
+        "flc_neighbours_init",
+        "flc_neighbours_update",
+        "flc_neighbours_reset",
     ] {
         assert!(defined(f), "{f} is not in the linked C program");
     }
@@ -555,6 +631,8 @@ fn stack_use_of_every_c_function_is_bounded() {
         ("flc_pursuit_step", 1024),
         ("flc_detector_init", 1024),
         ("flc_detector_detect", 2048),
+        ("flc_neighbours_init", 2048),
+        ("flc_neighbours_update", 1024),
     ];
     for (name, bound) in bounds {
         let used: usize = out

@@ -7,8 +7,9 @@
 
 use flc_core::capi::*;
 use flc_core::{
-    DetectorParams, FallbackController, FlcParams, LeadDetector, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams,
-    RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, V2vMessage,
+    DetectorParams, FallbackController, FlcParams, LeadDetector, NeighbourParams, NeighbourTracker, PidController, PidCore, PidParams,
+    Point2, PurePursuit, PurePursuitParams, RobustFallbackController, RobustFallbackController2, RobustFlc2Params, RobustFlcParams,
+    Supervisor, SupervisorParams, V2vMessage,
 };
 use proptest::prelude::*;
 use std::mem::MaybeUninit;
@@ -99,6 +100,8 @@ fn defaults_mirror_rust() {
     assert_eq!(flc_detector_params_default(), DetectorParams::default().into());
     assert_eq!(FlcParams::try_from(flc_fallback_params_default()), Ok(FlcParams::default()));
     assert_eq!(DetectorParams::try_from(flc_detector_params_default()), Ok(DetectorParams::default()));
+    assert_eq!(flc_neighbours_params_default(), NeighbourParams::default().into());
+    assert_eq!(NeighbourParams::try_from(flc_neighbours_params_default()), Ok(NeighbourParams::default()));
 }
 
 #[test]
@@ -110,6 +113,8 @@ fn storage_sizes_and_alignment() {
     assert!(size_of::<FlcSupervisor>() >= 8 + size_of::<Supervisor>());
     assert!(size_of::<FlcPursuit>() >= 8 + size_of::<PurePursuit>());
     assert!(size_of::<FlcDetector>() >= 8 + size_of::<LeadDetector>());
+    assert!(size_of::<FlcNeighbours>() >= 8 + size_of::<NeighbourTracker>());
+    assert_eq!(align_of::<FlcNeighbours>(), 8);
     assert!(size_of::<FlcDetector>() <= 64 * 1024, "detector storage above 64 KiB");
     assert_eq!(align_of::<FlcDetector>(), 8);
 }
@@ -187,6 +192,111 @@ macro_rules! robust_case {
             prop_assert_eq!(bits(terms), bits((*c.terms()).into()));
         }
     }};
+}
+
+/// A C neighbour-tracker parameter struct: the defaults with some fields perturbed (possibly
+/// invalid: NaN, out of range, `max_width < min_width`, `max_misses > 100`).
+fn c_neighbour_params() -> impl Strategy<Value = FlcNeighbourParams> {
+    let maybe = |lo: f64, hi: f64| prop::option::weighted(0.15, num(lo, hi));
+    (
+        (maybe(-1.0, 10.0), maybe(-0.5, 3.0), maybe(-1.0, 100.0), maybe(-0.5, 2.0)),
+        (maybe(-1.0, 8.0), maybe(-0.5, 2.0), maybe(-0.5, 3.0), maybe(-1.0, 60.0)),
+        (maybe(-0.5, 8.0), maybe(-1.0, 5.0), prop::option::weighted(0.15, 0u8..=120)),
+    )
+        .prop_map(
+            |((band, min_width, max_range, wandering), (gate_x, gate_d, full_width, full_range), (max_width, lane_width, max_misses))| {
+                let d = flc_neighbours_params_default();
+                FlcNeighbourParams {
+                    band: band.unwrap_or(d.band),
+                    min_width: min_width.unwrap_or(d.min_width),
+                    max_range: max_range.unwrap_or(d.max_range),
+                    wandering: wandering.unwrap_or(d.wandering),
+                    gate_x: gate_x.unwrap_or(d.gate_x),
+                    gate_d: gate_d.unwrap_or(d.gate_d),
+                    full_width: full_width.unwrap_or(d.full_width),
+                    full_range: full_range.unwrap_or(d.full_range),
+                    max_width: max_width.unwrap_or(d.max_width),
+                    lane_width: lane_width.unwrap_or(d.lane_width),
+                    max_misses: max_misses.unwrap_or(d.max_misses),
+                }
+            },
+        )
+}
+
+/// Scan `k` of moving cars `(x, y, dx, dy, width)` (rear faces of 24 points): each car at
+/// `(x + k dx, y + k dy)`; `nan` makes one point of each car NaN.
+fn cars_scan(cars: &[(f64, f64, f64, f64, f64)], k: usize, nan: bool) -> Vec<[f64; 2]> {
+    let mut pts = Vec::new();
+    for &(x, y, dx, dy, w) in cars {
+        let (x, y) = (x + k as f64 * dx, y + k as f64 * dy);
+        for i in 0..24 {
+            let px = if nan && i == 5 { f64::NAN } else { x + 0.01 * f64::from(i % 3) };
+            pts.push([px, y - 0.5 * w + w * f64::from(i) / 23.0]);
+        }
+    }
+    pts
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The neighbour tracker through the C API (behind a C detector) equals the Rust tracker
+    /// behind a Rust detector: `*_init` accepts what `NeighbourTracker::new` accepts (naming the
+    /// same field), every update gives the same detection (bit for bit) and track count, with lost
+    /// scans, NaN points and a reset after 20 scans.
+    #[test]
+    fn neighbours_c_equal_rust(
+        cp in c_neighbour_params(),
+        cars in prop::collection::vec((5.0..70.0, -6.0..6.0, -1.0..1.0, -0.3..0.3, 0.5..4.5), 0..4),
+        scans in prop::collection::vec((prop::bool::weighted(0.1), 0u8..10), 4..40),
+    ) {
+        let mut s = MaybeUninit::<FlcNeighbours>::uninit();
+        let mut err = MaybeUninit::<FlcParamError>::uninit();
+        // SAFETY: valid pointers to local memory.
+        let r = unsafe { flc_neighbours_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
+        let mut rust = match NeighbourParams::try_from(cp).and_then(NeighbourTracker::new) {
+            Ok(t) => { prop_assert_eq!(r, FlcResult::Ok); t }
+            Err(e) => {
+                prop_assert_eq!(r, FlcResult::InvalidParams);
+                // SAFETY: written on InvalidParams.
+                let err = unsafe { err.assume_init() };
+                // SAFETY: NUL-terminated by construction.
+                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) };
+                prop_assert_eq!(field.to_str().unwrap(), e.field);
+                return Ok(());
+            }
+        };
+        let mut cdet = Box::new(MaybeUninit::<FlcDetector>::uninit());
+        let dp = flc_detector_params_default();
+        // SAFETY: valid pointers.
+        prop_assert_eq!(unsafe { flc_detector_init(cdet.as_mut_ptr(), &dp, null_mut()) }, FlcResult::Ok);
+        let mut det = Box::new(<LeadDetector>::new(DetectorParams::default()).unwrap());
+        for (k, (nan, lost)) in scans.into_iter().enumerate() {
+            if k == 20 {
+                // SAFETY: initialised storage.
+                prop_assert_eq!(unsafe { flc_neighbours_reset(s.as_mut_ptr()) }, FlcResult::Ok);
+                rust.reset();
+            }
+            let pts = if lost == 0 { Vec::new() } else { cars_scan(&cars, k, nan) };
+            let mut dout = MaybeUninit::uninit();
+            // SAFETY: initialised storage, valid points and output.
+            prop_assert_eq!(unsafe { flc_detector_detect(cdet.as_mut_ptr(), pts.as_ptr().cast(), pts.len(), 0.0, dout.as_mut_ptr()) }, FlcResult::Ok);
+            det.detect(&pts, 0.0);
+            let mut out = MaybeUninit::uninit();
+            // SAFETY: initialised storages, valid output.
+            prop_assert_eq!(unsafe { flc_neighbours_update(s.as_mut_ptr(), cdet.as_ptr(), out.as_mut_ptr()) }, FlcResult::Ok);
+            // SAFETY: written on Ok.
+            let got = unsafe { out.assume_init() };
+            let want = rust.update(det.clusters());
+            prop_assert_eq!(got.has_detection, want.is_some());
+            prop_assert_eq!(got.tracks, rust.tracks().count());
+            if let Some(w) = want {
+                let g = got.detection;
+                prop_assert!(same(g.x, w.position.x) && same(g.y, w.position.y) && same(g.distance, w.distance), "{g:?} {w:?}");
+                prop_assert!(same(g.width, w.width) && same(g.depth, w.depth) && same(g.confidence, w.confidence) && g.points == w.points);
+            }
+        }
+    }
 }
 
 proptest! {

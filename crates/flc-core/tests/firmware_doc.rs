@@ -5,9 +5,10 @@
 
 use core::mem::size_of;
 
-use flc_core::capi::{FlcDetector, FlcFallback, FlcPid, FlcPursuit, FlcRobust, FlcRobust2, FlcSupervisor};
+use flc_core::capi::{FlcDetector, FlcFallback, FlcNeighbours, FlcPid, FlcPursuit, FlcRobust, FlcRobust2, FlcSupervisor};
 use flc_core::{
-    FallbackController, LeadDetector, PidController, PurePursuit, RobustFallbackController, RobustFallbackController2, Supervisor,
+    FallbackController, LeadDetector, NeighbourTracker, PidController, PurePursuit, RobustFallbackController, RobustFallbackController2,
+    Supervisor,
 };
 
 /// `(Rust type, its size, C storage struct, its size)`, as the table names them.
@@ -20,6 +21,7 @@ fn sizes() -> Vec<(&'static str, usize, &'static str, usize)> {
         ("Supervisor", size_of::<Supervisor>(), "FlcSupervisor", size_of::<FlcSupervisor>()),
         ("PurePursuit", size_of::<PurePursuit>(), "FlcPursuit", size_of::<FlcPursuit>()),
         ("LeadDetector", size_of::<LeadDetector>(), "FlcDetector", size_of::<FlcDetector>()),
+        ("NeighbourTracker", size_of::<NeighbourTracker>(), "FlcNeighbours", size_of::<FlcNeighbours>()),
     ]
 }
 
@@ -48,7 +50,7 @@ fn the_static_memory_table_is_what_size_of_gives() {
         checked += 1;
     }
     assert!(wrong.is_empty(), "docs/firmware.md's static memory table differs from size_of:\n{}", wrong.join("\n"));
-    assert_eq!(checked, 7);
+    assert_eq!(checked, 8);
     let kib = size_of::<LeadDetector>() as f64 / 1024.0;
     assert!(doc.contains(&format!("detector {kib:.1} KiB <= 64 KiB")), "docs/firmware.md's claims table: the detector is {kib:.1} KiB");
 }

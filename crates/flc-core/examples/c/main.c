@@ -2,7 +2,7 @@
  * C example and conformance program for the flc-core C interface (include/flc.h).
  *
  * Runs fixed, deterministic input sequences through the FLC, the robust FLC v1 and v2, the PID, the supervisor, the
- * pure-pursuit controller and the lead detector, and prints every output as exact IEEE-754 bit
+ * pure-pursuit controller, the lead detector and the neighbour tracker, and prints every output as exact IEEE-754 bit
  * patterns. tests/c_api.rs builds the static library, compiles this file with the system C
  * compiler, runs it and compares every line with the Rust API on the same inputs (the input
  * generators are mirrored in tests/common/mod.rs). It also exercises the error paths (NULL,
@@ -121,6 +121,7 @@ static FlcSupervisor sup_storage;
 static FlcPursuit pp_storage;
 static FlcDetector det_storage;
 static FlcDetector det2_storage;
+static FlcNeighbours nb_storage;
 static double scan_buf[1800][2];
 
 static void run_fallback(void) {
@@ -333,6 +334,33 @@ static void run_detector(void) {
     detect_and_print(&det_storage, "empty", NULL, 0, 0.0);
 }
 
+/* The neighbour tracker behind the detector: a car in the next lane, steady for 15 scans, then
+ * changing lanes towards the path (3 m in 40 scans) while the ego closes in; a scan lost at k = 30;
+ * on the left, then (after a reset) on the right. */
+static void run_neighbours(void) {
+    FlcDetectorParams dp = flc_detector_params_default();
+    FlcNeighbourParams np = flc_neighbours_params_default();
+    check("flc_detector_init nb", flc_detector_init(&det_storage, &dp, NULL));
+    check("flc_neighbours_init", flc_neighbours_init(&nb_storage, &np, NULL));
+    for (int s = 0; s < 2; s++) {
+        double side = s == 0 ? 1.0 : -1.0;
+        if (s == 1) check("flc_neighbours_reset", flc_neighbours_reset(&nb_storage));
+        for (int k = 0; k < 60; k++) {
+            double u = k < 15 ? 0.0 : (k > 55 ? 1.0 : (double)(k - 15) / 40.0);
+            double yc = side * (3.5 - 3.0 * u);
+            double d = 25.0 - 0.1 * (double)k;
+            size_t n = k == 30 ? 0 : make_scan(scan_buf, (uint64_t)(20 + k), d, yc, 1.9, 300, 0);
+            FlcDetectorOutput o;
+            check("flc_detector_detect nb", flc_detector_detect(&det_storage, n ? &scan_buf[0][0] : NULL, n, 0.0, &o));
+            FlcNeighbourOutput r;
+            check("flc_neighbours_update", flc_neighbours_update(&nb_storage, &det_storage, &r));
+            const FlcDetection *t = &r.detection;
+            printf("nb %d %d %d %016llx %016llx %016llx %016llx %016llx %016llx %zu %zu\n", s, k, (int)r.has_detection, X(t->x),
+                   X(t->y), X(t->distance), X(t->width), X(t->depth), X(t->confidence), t->points, r.tracks);
+        }
+    }
+}
+
 /* ---- error paths ------------------------------------------------------------------------------ */
 
 static void err_line(const char *what, FlcResult r, const FlcParamError *e) {
@@ -416,20 +444,41 @@ static void run_errors(void) {
     err_line("detector_detect_null_self", flc_detector_detect(NULL, aligned, 4, 0.0, &o), NULL);
     err_line("supervisor_step_null", flc_supervisor_step(NULL, false, m, true, 20.0, 10.0, 0.05, &so), NULL);
 
+    static FlcNeighbours zeroed_nb;
+    static FlcDetector zeroed_det;
+    FlcNeighbourParams np = flc_neighbours_params_default();
+    np.max_misses = 200;
+    err_line("neighbours_init_max_misses", flc_neighbours_init(&zeroed_nb, &np, &e), &e);
+    np = flc_neighbours_params_default();
+    np.wandering = NAN;
+    err_line("neighbours_init_wandering", flc_neighbours_init(&zeroed_nb, &np, &e), &e);
+    np = flc_neighbours_params_default();
+    np.min_width = 2.0;
+    np.max_width = 1.5;
+    err_line("neighbours_init_max_width", flc_neighbours_init(&zeroed_nb, &np, &e), &e);
+    FlcNeighbourOutput no;
+    err_line("neighbours_update_uninitialised", flc_neighbours_update(&zeroed_nb, &det_storage, &no), NULL);
+    err_line("neighbours_update_uninitialised_detector", flc_neighbours_update(&nb_storage, &zeroed_det, &no), NULL);
+    err_line("neighbours_update_wrong_detector_type", flc_neighbours_update(&nb_storage, (const FlcDetector *)(const void *)&nb_storage, &no), NULL);
+    err_line("neighbours_update_null_detector", flc_neighbours_update(&nb_storage, NULL, &no), NULL);
+    err_line("neighbours_update_null_out", flc_neighbours_update(&nb_storage, &det_storage, NULL), NULL);
+    err_line("neighbours_reset_null", flc_neighbours_reset(NULL), NULL);
+
     printf("names %s %s %s %s\n", flc_result_name(FLC_RESULT_INVALID_PARAMS), flc_status_name(FLC_STATUS_INVALID_DISTANCE),
            flc_detector_status_name(FLC_DETECTOR_STATUS_EMPTY_SCAN), flc_status_name(200));
     printf("version %s\n", flc_version());
 }
 
 int main(void) {
-    printf("sizes %zu %zu %zu %zu %zu %zu %zu\n", sizeof(FlcFallback), sizeof(FlcPid), sizeof(FlcSupervisor), sizeof(FlcPursuit),
-           sizeof(FlcDetector), sizeof(FlcRobust), sizeof(FlcRobust2));
+    printf("sizes %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(FlcFallback), sizeof(FlcPid), sizeof(FlcSupervisor), sizeof(FlcPursuit),
+           sizeof(FlcDetector), sizeof(FlcRobust), sizeof(FlcRobust2), sizeof(FlcNeighbours));
     run_fallback();
     run_robust();
     run_pid();
     run_supervisor();
     run_pursuit();
     run_detector();
+    run_neighbours();
     run_errors();
     printf("done %d\n", failures);
     return failures == 0 ? 0 : 1;

@@ -50,6 +50,8 @@ static FlcPidParams pid_p;
 static FlcSupervisorParams sup_p;
 static FlcPursuitParams pp_p;
 static FlcDetectorParams det_p;
+static FlcNeighbours nb;
+static FlcNeighbourParams nb_p;
 static double scan[1800][2];
 static size_t scan_n;
 static volatile int sink;
@@ -100,6 +102,12 @@ static void detector_detect(void) {
     sink = flc_detector_detect(&det, &scan[0][0], scan_n, 0.0, &o);
 }
 
+static void neighbours_init(void) { sink = flc_neighbours_init(&nb, &nb_p, NULL); }
+static void neighbours_update(void) {
+    FlcNeighbourOutput o;
+    for (int k = 0; k < 5; k++) sink = flc_neighbours_update(&nb, &det, &o);
+}
+
 int main(void) {
     flc_p = flc_fallback_params_default();
     pid_p = flc_pid_params_default();
@@ -108,6 +116,7 @@ int main(void) {
     sup_p = flc_supervisor_params_default();
     pp_p = flc_pursuit_params_default();
     det_p = flc_detector_params_default();
+    nb_p = flc_neighbours_params_default();
     /* A car's rear face at 20 m plus two guard rails and a field of isolated returns (many clusters). */
     size_t n = 0;
     for (int i = 0; i < 300; i++, n++) {
@@ -136,6 +145,7 @@ int main(void) {
         {"flc_supervisor_init", supervisor_init},   {"flc_supervisor_step", supervisor_step},
         {"flc_pursuit_init", pursuit_init},         {"flc_pursuit_step", pursuit_step},
         {"flc_detector_init", detector_init},       {"flc_detector_detect", detector_detect},
+        {"flc_neighbours_init", neighbours_init},   {"flc_neighbours_update", neighbours_update},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         size_t used = measure(cases[i].f);

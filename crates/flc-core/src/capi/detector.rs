@@ -7,8 +7,8 @@ use core::ptr::addr_of_mut;
 use super::storage::{check_ptr, get_mut, init, param_error, storage, tri, write_out};
 use super::{FlcParamError, FlcResult};
 use crate::detector::{
-    CLUSTER_CAPACITY, ClusterInfo, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection, Run,
-    column_radii,
+    CLUSTER_CAPACITY, ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection,
+    Run, column_radii,
 };
 use crate::params::ParamError;
 
@@ -150,22 +150,25 @@ pub struct FlcDetectorOutput {
     pub has_detection: bool,
 }
 
+impl FlcDetection {
+    /// The mirror of `d`, all zero for `None` (the outputs' `has_detection` says which).
+    pub(super) fn from_option(d: Option<Detection>) -> Self {
+        d.map_or(FlcDetection { x: 0.0, y: 0.0, distance: 0.0, width: 0.0, depth: 0.0, confidence: 0.0, points: 0 }, |d| FlcDetection {
+            x: d.position.x,
+            y: d.position.y,
+            distance: d.distance,
+            width: d.width,
+            depth: d.depth,
+            confidence: d.confidence,
+            points: d.points,
+        })
+    }
+}
+
 impl From<DetectorOutput> for FlcDetectorOutput {
     fn from(o: DetectorOutput) -> Self {
-        let detection =
-            o.detection.map_or(FlcDetection { x: 0.0, y: 0.0, distance: 0.0, width: 0.0, depth: 0.0, confidence: 0.0, points: 0 }, |d| {
-                FlcDetection {
-                    x: d.position.x,
-                    y: d.position.y,
-                    distance: d.distance,
-                    width: d.width,
-                    depth: d.depth,
-                    confidence: d.confidence,
-                    points: d.points,
-                }
-            });
         Self {
-            detection,
+            detection: FlcDetection::from_option(o.detection),
             points_used: o.points_used,
             points_rejected: o.points_rejected,
             clusters: o.clusters,

@@ -1,11 +1,13 @@
 //! C interface (feature `capi`): create / step / reset for the FLC, the robust FLC v1 and v2, the
-//! PID, the supervisor, the pure-pursuit lateral controller and the lead detector.
+//! PID, the supervisor, the pure-pursuit lateral controller, the lead detector and the neighbour
+//! tracker.
 //!
 //! Design (see `docs/firmware.md`):
 //!
 //! * **Caller-owned memory.** Every controller lives in a fixed-size, 8-byte aligned *storage
-//!   struct* (`FlcFallback`, `FlcRobust`, `FlcRobust2`, `FlcPid`, `FlcSupervisor`, `FlcPursuit`, `FlcDetector`) that the
-//!   caller declares (static, stack or inside its own structs). Nothing is ever allocated and no
+//!   struct* (`FlcFallback`, `FlcRobust`, `FlcRobust2`, `FlcPid`, `FlcSupervisor`, `FlcPursuit`,
+//!   `FlcDetector`, `FlcNeighbours`) that the caller declares (static, stack or inside its own
+//!   structs). Nothing is ever allocated and no
 //!   pointer is kept across calls; a storage struct may be copied with `memcpy`.
 //! * **Status codes, never panics.** Every function returns an [`FlcResult`]; every pointer is
 //!   checked for NULL and alignment, every storage struct for a magic word written by `*_init` (so
@@ -16,7 +18,7 @@
 //!   caller passes in are plain `uint8_t` fields validated by `*_init` (an out-of-range value from C
 //!   can then never become an invalid Rust enum); `flc_*_params_default()` return the Rust defaults.
 //!
-//! One file per controller ([`flc`], [`flc_robust`] (v1 and v2), [`pid`], [`supervisor`], [`pure_pursuit`], [`detector`]: its
+//! One file per controller ([`flc`], [`flc_robust`] (v1 and v2), [`pid`], [`supervisor`], [`pure_pursuit`], [`detector`], [`neighbours`]: its
 //! `#[repr(C)]` mirrors, storage struct, conversions and functions); this file holds what they
 //! share (result codes, status, the parameter error, the command, library information) and
 //! [`storage`] the caller-owned-storage machinery, including the one `init` helper behind every
@@ -49,9 +51,12 @@ pub mod pure_pursuit;
 
 pub mod detector;
 
+pub mod neighbours;
+
 pub use detector::*;
 pub use flc::*;
 pub use flc_robust::*;
+pub use neighbours::*;
 pub use pid::*;
 pub use pure_pursuit::*;
 pub use supervisor::*;
