@@ -90,6 +90,30 @@ fn x(v: f64) -> String {
     format!("{:016x}", v.to_bits())
 }
 
+/// A detection as the C program prints it: `has x y distance width depth confidence points`, all
+/// zero when there is none (as the C outputs' `FlcDetection`).
+fn detection(d: Option<flc_core::Detection>) -> String {
+    let t = d.unwrap_or(flc_core::Detection {
+        position: Point2::new(0.0, 0.0),
+        distance: 0.0,
+        width: 0.0,
+        depth: 0.0,
+        points: 0,
+        confidence: 0.0,
+    });
+    format!(
+        "{} {} {} {} {} {} {} {}",
+        u8::from(d.is_some()),
+        x(t.position.x),
+        x(t.position.y),
+        x(t.distance),
+        x(t.width),
+        x(t.depth),
+        x(t.confidence),
+        t.points
+    )
+}
+
 fn cmd(out: &mut String, c: LongitudinalCommand) {
     let _ = write!(out, " {} {} {}", c.status as u8, x(c.speed), x(c.accel));
 }
@@ -320,24 +344,11 @@ fn expected() -> Vec<String> {
         }
         hash_f64(&mut h, curvature);
         let r = d.detect(pts, curvature);
-        let (has, dd) = match r.detection {
-            Some(dd) => (1, dd),
-            None => (
-                0,
-                flc_core::Detection { position: Point2::new(0.0, 0.0), distance: 0.0, width: 0.0, depth: 0.0, points: 0, confidence: 0.0 },
-            ),
-        };
         let _ = writeln!(
             o,
-            "det {label} {h:016x} {} {has} {} {} {} {} {} {} {} {} {} {}",
+            "det {label} {h:016x} {} {} {} {} {}",
             r.status as u8,
-            x(dd.position.x),
-            x(dd.position.y),
-            x(dd.distance),
-            x(dd.width),
-            x(dd.depth),
-            x(dd.confidence),
-            dd.points,
+            detection(r.detection),
             r.points_used,
             r.points_rejected,
             r.clusters
@@ -382,27 +393,7 @@ fn expected() -> Vec<String> {
             let pts = if k == 30 { Vec::new() } else { scan(20 + k as u64, d, yc, 1.9, 300, false) };
             det.detect(&pts, 0.0);
             let r = nb.update(det.clusters());
-            let t = r.unwrap_or(flc_core::Detection {
-                position: Point2::new(0.0, 0.0),
-                distance: 0.0,
-                width: 0.0,
-                depth: 0.0,
-                points: 0,
-                confidence: 0.0,
-            });
-            let _ = writeln!(
-                o,
-                "nb {s} {k} {} {} {} {} {} {} {} {} {}",
-                u8::from(r.is_some()),
-                x(t.position.x),
-                x(t.position.y),
-                x(t.distance),
-                x(t.width),
-                x(t.depth),
-                x(t.confidence),
-                t.points,
-                nb.tracks().count()
-            );
+            let _ = writeln!(o, "nb {s} {k} {} {}", detection(r), nb.tracks().count());
         }
     }
 

@@ -148,6 +148,30 @@ fn detector_init_in_place_equals_new() {
     assert!(!out.has_detection);
 }
 
+/// `*_init`'s result `r` agrees with the Rust constructor's `rust`: `Ok` where it succeeds (the
+/// value, to step on), `InvalidParams` naming the same field (in `err`) where it fails (`None`).
+fn init_agrees<T>(
+    r: FlcResult,
+    rust: Result<T, flc_core::ParamError>,
+    err: &MaybeUninit<FlcParamError>,
+) -> Result<Option<T>, TestCaseError> {
+    match rust {
+        Ok(t) => {
+            prop_assert_eq!(r, FlcResult::Ok);
+            Ok(Some(t))
+        }
+        Err(e) => {
+            prop_assert_eq!(r, FlcResult::InvalidParams);
+            // SAFETY: written on InvalidParams.
+            let err = unsafe { err.assume_init_ref() };
+            // SAFETY: NUL-terminated by construction (`err` outlives the borrow).
+            let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) }.to_str().unwrap().to_owned();
+            prop_assert_eq!(field, e.field);
+            Ok(None)
+        }
+    }
+}
+
 /// One C-equals-Rust case of a robust FLC (v1 or v2): `*_init` accepts exactly what the Rust
 /// constructor accepts (naming the same field), then every step (a reset after 20) gives the same
 /// command and the same terms (`key` picks the compared terms, compared by their exact `Debug`
@@ -158,21 +182,7 @@ macro_rules! robust_case {
         let mut err = MaybeUninit::<FlcParamError>::uninit();
         // SAFETY: valid pointers to local memory.
         let r = unsafe { $init(s.as_mut_ptr(), &$cp, err.as_mut_ptr()) };
-        let mut c = match <$params>::try_from($cp).and_then(<$ctrl>::new) {
-            Ok(c) => {
-                prop_assert_eq!(r, FlcResult::Ok);
-                c
-            }
-            Err(e) => {
-                prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams.
-                let err = unsafe { err.assume_init() };
-                // SAFETY: NUL-terminated by construction (`err` outlives the borrow).
-                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) }.to_str().unwrap().to_owned();
-                prop_assert_eq!(field, e.field);
-                return Ok(());
-            }
-        };
+        let Some(mut c) = init_agrees(r, <$params>::try_from($cp).and_then(<$ctrl>::new), &err)? else { return Ok(()) };
         let key = $key;
         let bits = |t: $cterms| format!("{:?}", key(t)).replace("NaN", "nan");
         for (k, (has, d, v)) in $seq.into_iter().enumerate() {
@@ -254,18 +264,7 @@ proptest! {
         let mut err = MaybeUninit::<FlcParamError>::uninit();
         // SAFETY: valid pointers to local memory.
         let r = unsafe { flc_neighbours_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
-        let mut rust = match NeighbourParams::try_from(cp).and_then(NeighbourTracker::new) {
-            Ok(t) => { prop_assert_eq!(r, FlcResult::Ok); t }
-            Err(e) => {
-                prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams.
-                let err = unsafe { err.assume_init() };
-                // SAFETY: NUL-terminated by construction.
-                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) };
-                prop_assert_eq!(field.to_str().unwrap(), e.field);
-                return Ok(());
-            }
-        };
+        let Some(mut rust) = init_agrees(r, NeighbourParams::try_from(cp).and_then(NeighbourTracker::new), &err)? else { return Ok(()) };
         let mut cdet = Box::new(MaybeUninit::<FlcDetector>::uninit());
         let dp = flc_detector_params_default();
         // SAFETY: valid pointers.
@@ -311,19 +310,7 @@ proptest! {
         let mut err = MaybeUninit::<FlcParamError>::uninit();
         // SAFETY: valid pointers to local memory.
         let r = unsafe { flc_fallback_init(s.as_mut_ptr(), &cp, err.as_mut_ptr()) };
-        let rust = FlcParams::try_from(cp).and_then(FallbackController::new);
-        let mut c = match rust {
-            Ok(c) => { prop_assert_eq!(r, FlcResult::Ok); c }
-            Err(e) => {
-                prop_assert_eq!(r, FlcResult::InvalidParams);
-                // SAFETY: written on InvalidParams.
-                let err = unsafe { err.assume_init() };
-                // SAFETY: NUL-terminated by construction.
-                let field = unsafe { std::ffi::CStr::from_ptr(err.field.as_ptr()) };
-                prop_assert_eq!(field.to_str().unwrap(), e.field);
-                return Ok(());
-            }
-        };
+        let Some(mut c) = init_agrees(r, FlcParams::try_from(cp).and_then(FallbackController::new), &err)? else { return Ok(()) };
         for (has, d, v) in seq {
             let mut out = MaybeUninit::uninit();
             // SAFETY: initialised storage, valid output.
