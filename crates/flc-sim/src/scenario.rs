@@ -201,7 +201,10 @@ impl Scenario {
         check_range("duration", self.duration, 0.01, MAX_DURATION, "s")?;
         check_range("physics_dt", self.physics_dt, 0.0005, 0.05, "s")?;
         self.track.build().map_err(|e| e.within("track"))?;
-        check_range("lead.initial_speed", self.lead.initial_speed, 0.0, 70.0, "m/s")?;
+        // A lead moved by a story may start backwards (an imported file's negative speed, as
+        // esmini plays it); the lead's own speed profile starts forwards.
+        let slowest = if self.story.is_some() { -70.0 } else { 0.0 };
+        check_range("lead.initial_speed", self.lead.initial_speed, slowest, 70.0, "m/s")?;
         if self.lead.absent {
             let bad = if !self.lead.phases.is_empty() {
                 Some("an absent lead has no phases")
@@ -326,7 +329,7 @@ impl Scenario {
         lane_change("lead.phases", &self.lead.phases)?;
         for (i, v) in self.vehicles.iter().enumerate() {
             let key = format!("vehicles[{i}]");
-            v.validate().map_err(|e| e.within(&key))?;
+            v.validate_moved_by(self.story.is_some()).map_err(|e| e.within(&key))?;
             let reserved = v.name == "lead" || v.name == EGO || v.name.starts_with("follower");
             if v.name.trim().is_empty() || reserved {
                 return Err(ConfigError::new(

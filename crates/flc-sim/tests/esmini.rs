@@ -186,9 +186,12 @@ fn scripted_fixtures_match_esmini() {
 
 /// `trajectory_start.xosc`: both entities start on their Init trajectories (no TeleportAction)
 /// where esmini puts them, and Ego, which drives its spline from its first segment's
-/// `PositionStart` through the left turn, follows esmini's path step for step. The Target's
-/// synchronized speed is not compared here: flc's differs from esmini's (the master's distance
-/// to a `TrajectoryPosition` off its road; docs/openscenario.md).
+/// `PositionStart` through the left turn, follows esmini's path step for step. The Target,
+/// synchronized to a `TrajectoryPosition` on Ego's spline, is held to 0.2 m, not 0.05: the
+/// master's distance is measured along its trajectory and its speed projected on the road, as
+/// esmini does (with the distance along the road instead it was 0.94 m off), but a difference
+/// of a few centimetres at the start of the synchronisation is not yet traced
+/// (docs/openscenario.md).
 #[test]
 fn trajectory_starts_and_the_turning_ego_match_esmini() {
     let data = repo().join("tests/data");
@@ -197,17 +200,18 @@ fn trajectory_starts_and_the_turning_ego_match_esmini() {
     let run = &import.runs[0];
     let rows = read_reference(&data.join("esmini/trajectory_start.csv"));
     let mut sim = Simulation::new(&run.scenario).unwrap_or_else(|e| panic!("{e}"));
-    let (mut k, mut worst, mut compared) = (0usize, 0.0f64, 0usize);
+    let (mut k, mut worst, mut compared, mut target) = (0usize, 0.0f64, 0usize, 0.0f64);
     loop {
         for e in &run.entities {
             let st = if e.flc_name == "ego" { sim.follower_state(0).copied() } else { sim.scripted_state(&e.flc_name).copied() };
             let st = st.unwrap_or_else(|| panic!("no entity {}", e.flc_name));
-            if e.osc_name != "Ego" && k > 0 {
-                continue;
-            }
             let Some(&(x, y, _)) = rows.get(&(k, e.osc_name.clone())) else { continue };
             let (c, s) = (st.yaw.cos(), st.yaw.sin());
             let (rx, ry) = (st.x - c * e.ref_offset[0] + s * e.ref_offset[1], st.y - s * e.ref_offset[0] - c * e.ref_offset[1]);
+            if e.osc_name != "Ego" && k > 0 {
+                target = target.max((rx - x).hypot(ry - y));
+                continue;
+            }
             worst = worst.max((rx - x).hypot(ry - y));
             compared += 1;
         }
@@ -220,4 +224,5 @@ fn trajectory_starts_and_the_turning_ego_match_esmini() {
     // Ego into its quarter turn (it starts at 8.0 s; the run ends on the collision at 8.5 s).
     assert!(k > 840 && compared > 840, "{k} steps, {compared} rows compared");
     assert!(worst < 1e-3, "largest position difference {worst} m");
+    assert!(target < 0.2, "the synchronized Target: largest position difference {target} m");
 }

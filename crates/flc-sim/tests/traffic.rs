@@ -302,6 +302,9 @@ fn references_lanes_and_names_are_validated_with_dotted_keys() {
     assert!(e.contains("vehicles[0].phases[0].start.entity") && e.contains("leed"), "{e}");
     let e = err("[[vehicles]]\nname = \"a\"\ns = 50.0\nlane = 2\n");
     assert!(e.contains("vehicles[0].lane") && e.contains("2 lane"), "{e}");
+    // Backwards only in a story (an imported file): the phases' driver starts forwards.
+    let e = err("[[vehicles]]\nname = \"a\"\ns = 50.0\ninitial_speed = -3.0\n");
+    assert!(e.contains("vehicles[0].initial_speed") && e.contains("[0, 70]"), "{e}");
     let e = err("[[vehicles]]\nname = \"lead\"\ns = 50.0\n");
     assert!(e.contains("vehicles[0].name"), "{e}");
     let e = err("[[vehicles]]\nname = \"a\"\ns = 50.0\n[[vehicles]]\nname = \"a\"\ns = 80.0\n");

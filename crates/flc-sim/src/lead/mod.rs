@@ -66,7 +66,8 @@ pub struct ScriptedVehicle {
     /// Initial heading relative to the road, rad (+ left).
     #[serde(default)]
     pub heading: f64,
-    /// Initial speed, m/s.
+    /// Initial speed, m/s (negative only in a story, an imported file: it drives backwards along
+    /// its path, facing `heading`, as esmini plays an OpenSCENARIO entity with a negative speed).
     #[serde(default)]
     pub initial_speed: f64,
     /// Its manoeuvre (empty: it holds its initial speed; with speed 0 it stands).
@@ -78,9 +79,15 @@ impl ScriptedVehicle {
     /// Checks its values (keys relative to the vehicle's table); lanes and triggers are checked
     /// by the scenario, which knows the track and the other entities.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_moved_by(false)
+    }
+
+    /// [`ScriptedVehicle::validate`] for a vehicle moved by a story (`story`: an imported
+    /// OpenSCENARIO file), which may start backwards; its phases' driver starts forwards.
+    pub fn validate_moved_by(&self, story: bool) -> Result<(), ConfigError> {
         check_range("s", self.s, -1.0e6, 1.0e6, "m")?;
         check_range("heading", self.heading, -3.2, 3.2, "rad")?;
-        check_range("initial_speed", self.initial_speed, 0.0, 70.0, "m/s")?;
+        check_range("initial_speed", self.initial_speed, if story { -70.0 } else { 0.0 }, 70.0, "m/s")?;
         if let Some(o) = self.offset {
             check_range("offset", o, -50.0, 50.0, "m")?;
         }

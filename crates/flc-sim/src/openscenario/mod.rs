@@ -734,16 +734,6 @@ fn translate(
             let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
             return Err(ImportError::at(file, at, format!("`{}` is a MiscObject: it cannot have a speed", d.osc_name)));
         }
-        if speed_of(i) < 0.0 {
-            // esmini plays it (the entity reverses along the road, facing forward); flc's motions
-            // only go forward.
-            let at = init_states.get(i).and_then(|st| st.position).unwrap_or(entities);
-            return Err(ImportError::at(
-                file,
-                at,
-                format!("`{}` starts at {:.3} m/s: a negative speed (driving backwards) is not supported", d.osc_name, speed_of(i)),
-            ));
-        }
     }
     let (Some(ed), Some(ep)) = (defs.get(ego), placed.get(ego)) else {
         return Err(ImportError::at(file, entities, "no ego"));
@@ -1818,10 +1808,33 @@ mod tests {
         // The ego alone: it runs, nothing is in front, it keeps its speed.
         let text = xosc("", &car("Ego"), &place("Ego", -1, 20.0, 10.0), "");
         let imp = import(&write(&d, "alone.xosc", &text), &opts).expect("alone");
-        // A negative initial speed: one line naming the entity and the speed.
-        let back = xosc("", &car("Ego"), &place("Ego", -1, 20.0, -2.5), "");
-        let e = import(&write(&d, "back.xosc", &back), &opts).expect_err("backwards");
-        assert!(e.to_string().contains("`Ego` starts at -2.500 m/s: a negative speed"), "{e}");
+        // A negative speed (esmini 3.6.0 plays it so): the target drives backwards along its lane,
+        // still facing forward, 2.5 m/s x 2 s = 5 m.
+        let back = xosc("", &ents, &format!("{}{}", place("Ego", -1, 20.0, 10.0), place("Target", -1, 60.0, -2.5)), "");
+        let imp_back = import(&write(&d, "back.xosc", &back), &opts).expect("backwards");
+        let mut sim = crate::sim::Simulation::new(&imp_back.runs[0].scenario).expect("sim");
+        let start = sim.scripted_state("lead").map(|st| st.x).unwrap_or(f64::NAN);
+        while sim.time() < 2.0 - 1e-9 {
+            sim.step().expect("step");
+        }
+        let st = sim.scripted_state("lead").expect("target").clone();
+        assert!((start - st.x - 5.0).abs() < 1e-6 && st.speed == -2.5 && st.yaw.abs() < 1e-12, "{start} -> {st:?}");
+        // A relative target speed below zero (ALKS 4.3_1's varying speed at a slow ego): from
+        // t = 1 s the target runs 2 m/s backwards, the ego's 10 m/s less 12.
+        let slower = "<Action name=\"X\"><PrivateAction><LongitudinalAction><SpeedAction><SpeedActionDynamics dynamicsShape=\"step\" \
+                      dynamicsDimension=\"time\" value=\"0\"/><SpeedActionTarget><RelativeTargetSpeed entityRef=\"Ego\" value=\"-12\" \
+                      speedTargetValueType=\"delta\" continuous=\"false\"/></SpeedActionTarget></SpeedAction></LongitudinalAction></PrivateAction></Action>";
+        let text = xosc("", &ents, &init, &story("Target", slower, &at_time(1.0)));
+        let imp_slower = import(&write(&d, "slower.xosc", &text), &opts).expect("slower");
+        let mut sim = crate::sim::Simulation::new(&imp_slower.runs[0].scenario).expect("sim");
+        let mut xs = Vec::new();
+        while sim.time() < 3.0 - 1e-9 {
+            sim.step().expect("step");
+            xs.push((sim.time(), sim.scripted_state("lead").map(|st| (st.x, st.speed)).unwrap_or((f64::NAN, f64::NAN))));
+        }
+        let (_, (x_end, v_end)) = xs[xs.len() - 1];
+        let (_, (x_2, _)) = xs[xs.len() - 101];
+        assert!(v_end == -2.0 && (x_2 - x_end - 2.0).abs() < 1e-6, "{:?}", &xs[xs.len() - 3..]);
         let mut s = imp.runs[0].scenario.clone();
         s.duration = 5.0;
         let r = crate::runner::run(&s).expect("run");

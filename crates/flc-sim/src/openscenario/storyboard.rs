@@ -1672,7 +1672,7 @@ impl Sb<'_, '_, '_> {
                 _ => return Err(ImportError::unsupported(file, c)),
             }
         }
-        let (Some((ms, mdir)), Some((ts, _))) = (master_target, target) else {
+        let (Some((ms, mdir, master_point)), Some((ts, _, _))) = (master_target, target) else {
             return Err(ImportError::at(file, node, "give <TargetPositionMaster> and <TargetPosition>"));
         };
         // The master is measured by its box centre (`s` of the world view): its target moves by
@@ -1681,6 +1681,7 @@ impl Sb<'_, '_, '_> {
         Ok(Action::Synchronize {
             master,
             master_target,
+            master_point,
             target: ts,
             final_speed,
             steady_time,
@@ -1691,12 +1692,13 @@ impl Sb<'_, '_, '_> {
     }
 
     /// The track `s` of an absolute target position (a `TargetPosition...` element holding one
-    /// position) and the direction it faces along the track (+1 or -1).
-    fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64), ImportError> {
+    /// position), the direction it faces along the track (+1 or -1), and for a position on a
+    /// trajectory (`TrajectoryPosition`) the point `[s, offset]` itself.
+    fn target_s(&mut self, file: &str, holder: Node<'_, '_>) -> Result<(f64, f64, Option<[f64; 2]>), ImportError> {
         if let Some(tp) = xml::child(holder, "TrajectoryPosition") {
             let pose = self.trajectory_position(file, tp)?;
             let pr = self.track.project(pose.x, pose.y);
-            return Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }));
+            return Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }, Some([pr.s, pr.lateral_offset])));
         }
         if position::reference(&self.ctx.params, file, holder)?.is_some() {
             return Err(ImportError::at(
@@ -1707,7 +1709,7 @@ impl Sb<'_, '_, '_> {
         }
         let pose = position::resolve(&self.ctx.params, self.geo, file, holder, &|_| None)?;
         let pr = self.track.project(pose.x, pose.y);
-        Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }))
+        Ok((pr.s, if (pose.h - pr.heading).cos() < 0.0 { -1.0 } else { 1.0 }, None))
     }
 
     /// The world pose of a `TrajectoryPosition` (`s` m along its trajectory, `t` 0): on a

@@ -293,6 +293,12 @@ pub enum Action {
         master: String,
         /// The master's target, track `s` of its box centre, m.
         master_target: f64,
+        /// The master's target as a point `[s, offset]` (track, of its reference point) when the
+        /// file gives it on a trajectory (`TrajectoryPosition`): while the master follows a
+        /// trajectory, its distance is measured along that trajectory to where the point projects
+        /// onto it (esmini's trajectory coordinates), not along the road.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        master_point: Option<[f64; 2]>,
         /// The actor's target, track `s` of its reference point, m.
         target: f64,
         /// Final speed, m/s.
@@ -316,8 +322,9 @@ pub enum Action {
     /// position`: the spline is laid from the actor's position and heading when the action
     /// starts, sampled every metre (esmini's polyline), and the actor's reference point moves
     /// along it at the actor's speed; past its end the rest of the step continues straight
-    /// and the action ends. It holds both domains (it stops a running speed action). On a
-    /// straight road only (the spline is laid in the road's frame).
+    /// and the action ends. It holds the lateral domain only (esmini without a time
+    /// reference): a speed action runs beside it and sets the speed it moves at, a lateral
+    /// action replaces it. On a straight road only (the spline is laid in the road's frame).
     FollowTrajectory {
         /// The spline's segments, in order.
         segments: Vec<ClothoidSegment>,

@@ -39,6 +39,7 @@ enum SyncMode {
 struct Sync {
     master: String,
     master_target: f64,
+    master_point: Option<[f64; 2]>,
     target: f64,
     final_speed: Option<f64>,
     steady: Option<f64>,
@@ -103,6 +104,24 @@ struct Spline {
 }
 
 impl Spline {
+    /// The parameter (m along the polyline) of the point of it nearest to `p` (`[s, offset]`).
+    fn project(&self, p: [f64; 2]) -> Option<f64> {
+        let n = self.pts.len();
+        let param = |k: usize| if k + 1 == n { self.length } else { k as f64 };
+        let mut best: Option<(f64, f64)> = None;
+        for k in 0..n.saturating_sub(1) {
+            let (a, b) = (self.pts[k], self.pts[k + 1]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len2 = dx * dx + dy * dy;
+            let f = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let d = (p[0] - a[0] - f * dx).hypot(p[1] - a[1] - f * dy);
+            if best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, param(k) + f * (param(k + 1) - param(k))));
+            }
+        }
+        best.map(|(_, u)| u)
+    }
+
     /// The spline of `segments` from `(s, offset)` facing `heading` (relative to the road),
     /// sampled as esmini's `ClothoidSplineShape::CalculatePolyLine`.
     fn new(action: usize, segments: &[ClothoidSegment], s: f64, offset: f64, heading: f64) -> Self {
@@ -329,6 +348,21 @@ impl Motion {
         }
     }
 
+    /// The master and its target point of a running synchronisation that measures the master
+    /// along its trajectory (`Action::Synchronize::master_point`).
+    pub fn sync_master_point(&self) -> Option<(&str, [f64; 2])> {
+        let y = self.long.as_ref()?.sync.as_ref()?;
+        Some((y.master.as_str(), y.master_point?))
+    }
+
+    /// How far ahead along the trajectory this entity follows (a running spline) the point
+    /// `[s, offset]` projects onto it, from where the entity is now, m; `None` when it follows
+    /// none. The spline is laid on a straight road: `(s, offset)` is a Cartesian frame.
+    pub fn ahead_on_trajectory(&self, point: [f64; 2]) -> Option<f64> {
+        let tr = self.spline.as_ref()?;
+        Some(tr.project(point)? - tr.u.min(tr.length))
+    }
+
     /// This motion for an entity `length` m long (freespace placements).
     pub fn with_length(mut self, length: f64) -> Self {
         self.own_len = Some(length);
@@ -399,20 +433,22 @@ impl Motion {
     /// Starts action `i` (`action`) at time `t`, reading reference entities from `world`.
     /// Returns the actions of the same domains it replaces (to be ended as stopped), and whether
     /// the action already ended (a step transition, a placement). Non-motion actions do nothing.
-    /// A trajectory holds both domains (esmini): any motion action replaces it, and it
-    /// replaces both the longitudinal and the lateral action.
+    /// A timed trajectory holds both domains (esmini): any motion action replaces it, and it
+    /// replaces both the longitudinal and the lateral action. A trajectory without time
+    /// reference (a spline, [`Action::FollowTrajectory`]) holds the lateral domain only, as
+    /// esmini reads it (`ScenarioReader.cpp`: `DOMAIN_MASK_LAT` for `TimingDomain::NONE`): a
+    /// lateral action replaces it, a speed action runs beside it and sets the speed it moves at.
     pub fn start(&mut self, i: usize, action: &Action, t: f64, world: &dyn WorldView) -> (Vec<usize>, bool) {
         let mut replaced: Vec<usize> = Vec::new();
         if action.is_longitudinal() || action.is_lateral() {
             replaced.extend(self.traj.take().map(|x| x.action).filter(|&a| a != i));
-            replaced.extend(self.spline.take().map(|x| x.action).filter(|&a| a != i));
         }
         if action.is_lateral() {
+            replaced.extend(self.spline.take().map(|x| x.action).filter(|&a| a != i));
             self.hold_heading = false;
         }
         match action {
             Action::FollowTrajectory { segments } => {
-                replaced.extend(self.long.take().map(|l| l.action).filter(|&a| a != i));
                 replaced.extend(self.lat.take().map(|l| l.action).filter(|&a| a != i));
                 self.spline = Some(Spline::new(i, segments, self.s, self.offset, self.heading));
                 return (replaced, false);
@@ -441,7 +477,7 @@ impl Motion {
                         let (d, f) = (delta.unwrap_or(0.0), factor.unwrap_or(1.0));
                         let v = if factor.is_some() { v_of * f } else { v_of + d };
                         (
-                            v.max(0.0),
+                            v,
                             continuous
                                 .then(|| (name.clone(), if factor.is_some() { 0.0 } else { d }, if factor.is_some() { f } else { 1.0 })),
                         )
@@ -563,6 +599,7 @@ impl Motion {
             Action::Synchronize {
                 master,
                 master_target,
+                master_point,
                 target,
                 final_speed,
                 steady_time,
@@ -576,6 +613,7 @@ impl Motion {
                 let mut sync = Sync {
                     master: master.clone(),
                     master_target: *master_target,
+                    master_point: *master_point,
                     target: *target,
                     final_speed: *final_speed,
                     steady,
@@ -618,7 +656,9 @@ impl Motion {
     /// step of 0: no entity has moved yet, so none has a velocity).
     fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView, still: bool) -> bool {
         let Some(m) = world.entity(&y.master) else { return false };
-        let md = y.master_target - m.s;
+        // A master following a trajectory is measured along it (esmini: `CS_TRAJECTORY`).
+        let along = y.master_point.and_then(|p| world.ahead_on_trajectory(&y.master, p));
+        let md = along.unwrap_or(y.master_target - m.s);
         let dir_master = if md < 0.0 { -1.0 } else { 1.0 };
         let (mut master_dist, mut dist) = (md.abs(), (y.target - self.s).abs());
         let mut done =
@@ -628,7 +668,13 @@ impl Motion {
         dist = (dist - y.tolerance).max(SMALL);
         master_dist = (master_dist - y.tolerance_master).max(SMALL);
         let mut t_master = LARGE;
-        let master_speed = if still { 0.0 } else { dir_master * m.speed };
+        // esmini projects the master's velocity on the road's s axis (`GetVelS`): a master
+        // turning off the road's direction closes in on its target more slowly along `s`.
+        let along_road = match (world.pose(&y.master), world.place(m.s, m.lateral)) {
+            (Some([_, _, yaw]), Some([_, _, road, _])) => (yaw - road).cos().abs(),
+            _ => 1.0,
+        };
+        let master_speed = if still { 0.0 } else { dir_master * m.speed * along_road };
         if master_speed > SMALL {
             t_master = master_dist / master_speed;
             if t_master < dt {
@@ -774,7 +820,7 @@ impl Motion {
         let scale = 1.0 - kappa * self.offset;
         let dir = if self.reversed { -1.0 } else { 1.0 };
         self.s += dir * if scale > 0.1 { diff / scale } else { diff };
-        self.speed = r.speed.max(0.0);
+        self.speed = r.speed;
         Some(diff.abs())
     }
 
@@ -837,7 +883,7 @@ impl Motion {
                 }
             } else if let Some(r) = world.entity(&k.of) {
                 self.keep_at(&k, &r, r.speed);
-                self.speed = r.speed.max(0.0);
+                self.speed = r.speed;
             }
         } else if let Some(mut y) = self.long.as_ref().and_then(|l| l.sync.clone()) {
             let done = self.sync_step(&mut y, dt, world, false);
@@ -856,13 +902,15 @@ impl Motion {
                 match &l.track {
                     Some((name, d, f)) => {
                         if let Some(e) = world.entity(name) {
-                            v = (e.speed * f + d).max(0.0);
+                            v = e.speed * f + d;
                         }
                     }
                     None => out.long_done = Some(l.action),
                 }
             }
-            self.speed = v.max(0.0);
+            // A negative speed drives the entity backwards along its path, facing as it
+            // faces (esmini 3.6.0; OpenSCENARIO's target speeds are any `Double`).
+            self.speed = v;
         }
         if out.long_done.is_some() {
             self.long = None;
@@ -870,8 +918,12 @@ impl Motion {
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
         if let Some(tr) = self.spline.as_mut() {
             // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
-            // rest of the step straight on along its last heading, and the action ends.
-            let step_len = self.speed * dt;
+            // rest of the step straight on along its last heading, and the action ends. esmini
+            // steps actions in storyboard order: a trajectory before the speed action in that
+            // order (an Init trajectory under a story's synchronisation) moves at the speed of
+            // the step before.
+            let earlier = long_action.is_some_and(|a| tr.action < a);
+            let step_len = if earlier { v_prev * dt } else { self.speed * dt };
             let u_prev = tr.u.min(tr.length);
             tr.u += step_len;
             let mut p = tr.at(tr.u);
@@ -906,7 +958,7 @@ impl Motion {
             let p = if l.extent <= 0.0 || l.shape == Shape::Step {
                 1.0
             } else if l.by_distance {
-                (self.traveled + step_len - l.x0) / l.extent
+                (self.traveled + step_len.abs() - l.x0) / l.extent
             } else {
                 (t1 - l.t0) / l.extent
             };
@@ -917,7 +969,7 @@ impl Motion {
             }
             if l.along_heading {
                 let d = self.offset - offset_prev;
-                along = (step_len * step_len - d * d).max(0.0).sqrt();
+                along = (step_len * step_len - d * d).max(0.0).sqrt().copysign(step_len);
             }
         }
         if out.lat_done.is_some() {
@@ -929,8 +981,10 @@ impl Motion {
         // angle of its lateral motion.
         let scale = 1.0 - curvature * self.offset;
         let ds = if scale > 0.1 { along / scale } else { along };
-        let lateral = if ds > 1e-9 { ((self.offset - offset_prev) / ds).atan() } else { 0.0 };
-        self.traveled += along;
+        // Backwards (a negative speed) the entity still faces forward: the angle of its lateral
+        // motion is taken against the distance covered, whichever way.
+        let lateral = if ds.abs() > 1e-9 { ((self.offset - offset_prev) / ds.abs()).atan() } else { 0.0 };
+        self.traveled += along.abs();
         if self.reversed {
             self.s -= ds;
             if !self.hold_heading {
