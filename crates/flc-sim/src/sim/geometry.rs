@@ -51,11 +51,20 @@ pub(super) fn grid_points<'a>(
     buf
 }
 
-/// Bumper-to-bumper distance along the front vehicle's heading (the "gap").
-pub(super) fn bumper_gap(front: &VehicleState, front_length: f64, back: &VehicleState, back_length: f64) -> f64 {
+/// Bumper-to-bumper distance along the front vehicle's heading (the "gap"); to a body crossing the
+/// back one's course (headings more than 45° apart), along the back one's heading to the front
+/// body's extent along it (`front_length` x `front_width`, m).
+pub(super) fn bumper_gap(front: &VehicleState, (front_length, front_width): (f64, f64), back: &VehicleState, back_length: f64) -> f64 {
     let (dx, dy) = (front.x - back.x, front.y - back.y);
-    let centre = dx * front.yaw.cos() + dy * front.yaw.sin();
-    centre - front_length / 2.0 - back_length / 2.0
+    let rel = wrap_angle(front.yaw - back.yaw);
+    if rel.is_nan() || rel.cos().abs() >= std::f64::consts::FRAC_1_SQRT_2 {
+        let centre = dx * front.yaw.cos() + dy * front.yaw.sin();
+        return centre - front_length / 2.0 - back_length / 2.0;
+    }
+    // A body crossing the back one's course (more than 45° apart, a pedestrian walking across):
+    // along the back one's heading, to the front body's extent along it.
+    let centre = dx * back.yaw.cos() + dy * back.yaw.sin();
+    centre - 0.5 * (front_length * rel.cos().abs() + front_width * rel.sin().abs()) - back_length / 2.0
 }
 
 pub(super) fn wrap_angle(a: f64) -> f64 {

@@ -149,7 +149,7 @@ struct State {
     /// For each follower whose controller sees the scene as a human does
     /// ([`crate::ControllerKind::perceives_truth`]): the vehicle in front as it sees it
     /// ([`path::human_front`]), reused.
-    human_fronts: Vec<Option<(VehicleState, f64)>>,
+    human_fronts: Vec<Option<(VehicleState, f64, f64)>>,
     /// Start and stop triggers.
     triggers: Triggers,
     /// `[story]`: its runtime and the motions of the entities it drives.
@@ -498,15 +498,18 @@ impl<O: Observer> Simulation<O> {
     pub fn ground_truth(&self, k: usize) -> Option<GroundTruth> {
         let st = &self.state;
         let f = st.followers.get(k.wrapping_sub(1))?;
-        let (front, front_len) = match (st.fronts.get(k - 1), k.checked_sub(2)) {
+        let (front, front_len, front_width) = match (st.fronts.get(k - 1), k.checked_sub(2)) {
             (Some(fr), _) => fr.seen(),
-            (None, None) => (*st.lead.state(), st.scenario.lead.vehicle.length),
-            (None, Some(j)) => (*st.followers[j].vehicle.state(), st.followers[j].cfg.follower.vehicle.length),
+            (None, None) => (*st.lead.state(), st.scenario.lead.vehicle.length, st.scenario.lead.vehicle.width),
+            (None, Some(j)) => {
+                let v = &st.followers[j].cfg.follower.vehicle;
+                (*st.followers[j].vehicle.state(), v.length, v.width)
+            }
         };
         let fs = f.vehicle.state();
         Some(GroundTruth {
             t: st.t,
-            gap: bumper_gap(&front, front_len, fs, f.cfg.follower.vehicle.length),
+            gap: bumper_gap(&front, (front_len, front_width), fs, f.cfg.follower.vehicle.length),
             front_speed: front.speed,
             front_accel: front.accel,
             speed: fs.speed,
@@ -615,16 +618,16 @@ impl<O: Observer> Simulation<O> {
         for (k, f) in self.state.followers.iter_mut().enumerate() {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
-            let (front_state, front_len) = self.state.fronts[k].seen();
+            let (front_state, front_len, front_width) = self.state.fronts[k].seen();
             if let Some(scan) = f.lidar.tick(t, &self.state.world, f.body, &fs) {
                 // The ground truth ideal perception gets; a human-like reference only what is in
                 // front of it (`None`: nothing).
                 let truth = match self.state.human_fronts.get(k) {
-                    Some(Some((hs, hl))) => Some((bumper_gap(hs, *hl, &fs, len), hs.speed)),
+                    Some(Some((hs, hl, hw))) => Some((bumper_gap(hs, (*hl, *hw), &fs, len), hs.speed)),
                     Some(None) => None,
                     // Nothing in front (an absent lead and nothing in path).
                     None if front_state.speed.is_nan() => None,
-                    None => Some((bumper_gap(&front_state, front_len, &fs, len), front_state.speed)),
+                    None => Some((bumper_gap(&front_state, (front_len, front_width), &fs, len), front_state.speed)),
                 };
                 f.control_tick(t, &scan.points, &fs, &self.state.track, (self.state.source, self.state.lead_weight), truth);
                 if f.index == 1 {
@@ -729,10 +732,10 @@ impl<O: Observer> Simulation<O> {
             let fs = *f.vehicle.state();
             let len = f.cfg.follower.vehicle.length;
             let fronts = self.state.fronts[k];
-            let (front, _) = fronts.seen();
+            let (front, _, _) = fronts.seen();
             // The gap to the vehicle in path (none: NaN), and to the one followed in the string.
-            let gap = fronts.in_path.map_or(f64::NAN, |(st, l)| bumper_gap(&st, l, &fs, len));
-            let lead_gap = bumper_gap(&fronts.string.0, fronts.string.1, &fs, len);
+            let gap = fronts.in_path.map_or(f64::NAN, |(st, l, w)| bumper_gap(&st, (l, w), &fs, len));
+            let lead_gap = bumper_gap(&fronts.string.0, (fronts.string.1, fronts.string.2), &fs, len);
             collided |= f.collision.is_some();
             all_still &= fs.speed < 0.05;
             let rec = f.record(self.state.t, &self.state.track, (gap, lead_gap), &front, &fs);
@@ -850,7 +853,7 @@ impl<O: Observer> Simulation<O> {
             let traffic = st.traffic.iter().map(|t| Object { state: *t.vehicle.state(), length: t.params.length, width: t.params.width });
             let string = k.checked_sub(1).map_or(lead_string, |j| object(&st.followers[j]));
             let in_path = nearest_in_path(&st.track, &ego, lead_there.into_iter().chain(traffic).chain(ahead));
-            st.fronts.push(Fronts { in_path, string: (string.state, string.length) });
+            st.fronts.push(Fronts { in_path, string: (string.state, string.length, string.width) });
         }
     }
 
@@ -1051,15 +1054,15 @@ const NOTHING: VehicleState =
 
 struct Fronts {
     /// The vehicle in its path ([`path::nearest_in_path`]); `None`: nothing is.
-    in_path: Option<(VehicleState, f64)>,
+    in_path: Option<(VehicleState, f64, f64)>,
     /// The vehicle it follows in the string (the lead for the first follower), wherever it is.
-    string: (VehicleState, f64),
+    string: (VehicleState, f64, f64),
 }
 
 impl Fronts {
     /// The vehicle in front as ideal perception and the records' front columns take it: the one
     /// in path, else the one followed in the string.
-    fn seen(&self) -> (VehicleState, f64) {
+    fn seen(&self) -> (VehicleState, f64, f64) {
         self.in_path.unwrap_or(self.string)
     }
 }

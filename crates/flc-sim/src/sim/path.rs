@@ -76,6 +76,12 @@ pub(super) struct Located {
     /// Its lateral speed across the road, m/s (+ left): its speed times the sine of its heading
     /// relative to the road.
     pub(super) t_speed: f64,
+    /// Its speed along the road, m/s: its speed times the cosine of its heading relative to the
+    /// road.
+    pub(super) s_speed: f64,
+    /// It faces more than 45° away from the road's direction: it is crossing the road (a
+    /// pedestrian walking across, a car at a junction), not driving along it.
+    pub(super) crossing: bool,
     /// Half its extent across the road, m: `(L |sin h| + W cos h) / 2` for its body `L` x `W`
     /// turned by `h` from the road (half its width when it is parallel to the road).
     pub(super) half_width: f64,
@@ -93,6 +99,8 @@ pub(super) struct EgoPath<'a> {
     t: f64,
     /// Half the ego's width, m.
     half_width: f64,
+    /// The ego's speed along the road, m/s.
+    speed: f64,
     params: PathParams,
 }
 
@@ -102,7 +110,8 @@ impl<'a> EgoPath<'a> {
     pub(super) fn new(track: &'a Track, ego: &VehicleState, width: f64, params: PathParams) -> Self {
         let p = track.project(ego.x, ego.y);
         let lane_centre = nearest_lane_offset(track, p.lateral_offset);
-        Self { track, s: p.s, lane_centre, t: p.lateral_offset - lane_centre, half_width: width / 2.0, params }
+        let speed = ego.speed * wrap(ego.yaw - p.heading).cos();
+        Self { track, s: p.s, lane_centre, t: p.lateral_offset - lane_centre, half_width: width / 2.0, speed, params }
     }
 
     /// The same path, its body's extent across the road that of a box `length` m long turned by
@@ -121,6 +130,8 @@ impl<'a> EgoPath<'a> {
             ds: p.s - self.s,
             t: p.lateral_offset - self.lane_centre,
             t_speed: o.state.speed * h.sin(),
+            s_speed: o.state.speed * h.cos(),
+            crossing: h.cos().abs() < std::f64::consts::FRAC_1_SQRT_2,
             half_width: half_extent(o.length, o.width, h),
         }
     }
@@ -147,6 +158,24 @@ impl<'a> EgoPath<'a> {
         let leaving = l.t.abs() > w && l.t.signum() * l.t_speed > self.params.leaving_speed;
         !leaving && (l.t.abs() < self.track.lane_width - w || self.in_corridor(l))
     }
+
+    /// Whether a careful driver reads an object at `l` (ahead) as crossing into its path: it is
+    /// crossing the road ([`Located::crossing`]), walking or driving towards the ego's lane
+    /// faster than the leaving speed, and it reaches the swept-path corridor no later than the
+    /// ego reaches it (its lateral gap to the corridor over its lateral speed, against the
+    /// distance over the closing speed along the road). The lane rule reads lateral movement
+    /// of traffic along the road; a pedestrian stepping onto the road from the kerb is seen
+    /// as soon as it walks on a course into the path, as a driver watching it would.
+    pub(super) fn crossing_into(&self, l: &Located) -> bool {
+        let side = l.t - self.t;
+        let towards = -side.signum() * l.t_speed;
+        let closing = self.speed - l.s_speed;
+        if !l.crossing || towards <= self.params.leaving_speed || closing <= 0.0 {
+            return false;
+        }
+        let gap = (side.abs() - l.half_width - self.half_width - self.params.corridor_margin).max(0.0);
+        gap / towards <= l.ds / closing
+    }
 }
 
 /// The vehicle in the ego's path among `candidates` (ground truth: the nearest whose centre is
@@ -154,46 +183,47 @@ impl<'a> EgoPath<'a> {
 /// length; `None` if there is none. An object beside the ego (bumper gap <= 0) whose body does
 /// not overlap the ego's across the road is being passed, not in front: so the gap to the vehicle
 /// in path is negative only when the bodies overlap both ways (a contact).
-pub(super) fn nearest_in_path(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
+pub(super) fn nearest_in_path(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64, f64)> {
     let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default()).with_length(&ego.state, ego.length);
-    let mut best: Option<(f64, VehicleState, f64)> = None;
+    let mut best: Option<(f64, VehicleState, f64, f64)> = None;
     for o in candidates {
         let l = path.locate(&o);
         if l.ds > 0.0
             && path.in_corridor(&l)
             && best.is_none_or(|b| l.ds < b.0)
             && ((l.t - path.t).abs() < l.half_width + path.half_width + CONTACT_TOLERANCE
-                || bumper_gap(&o.state, o.length, &ego.state, ego.length) > 0.0)
+                || bumper_gap(&o.state, (o.length, o.width), &ego.state, ego.length) > 0.0)
         {
-            best = Some((l.ds, o.state, o.length));
+            best = Some((l.ds, o.state, o.length, o.width));
         }
     }
-    best.map(|(_, st, len)| (st, len))
+    best.map(|(_, st, len, w)| (st, len, w))
 }
 
 /// The vehicle in front of `ego` as a careful human driver sees it, and its length: the nearest
-/// vehicle ahead along the road that it reads as in its lane ([`EgoPath::seen_in_lane`]); with
+/// vehicle ahead along the road that it reads as in its lane ([`EgoPath::seen_in_lane`]) or as
+/// crossing into its path ([`EgoPath::crossing_into`]); with
 /// none, the nearest read as leaving the lane whose body still overlaps the band the ego's body
 /// sweeps (a driver looks past a cut-out at what it reveals, but does not drive into a vehicle
 /// still in its way: a lead swerving wide at walking pace, ALKS 4.1_2). `None`: nothing in front.
-pub(super) fn human_front(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64)> {
+pub(super) fn human_front(track: &Track, ego: &Object, candidates: impl Iterator<Item = Object>) -> Option<(VehicleState, f64, f64)> {
     let path = EgoPath::new(track, &ego.state, ego.width, PathParams::default());
-    let mut best: Option<(f64, VehicleState, f64)> = None;
-    let mut in_the_way: Option<(f64, VehicleState, f64)> = None;
+    let mut best: Option<(f64, VehicleState, f64, f64)> = None;
+    let mut in_the_way: Option<(f64, VehicleState, f64, f64)> = None;
     for o in candidates {
         let l = path.locate(&o);
         if l.ds <= 0.0 {
             continue;
         }
-        if path.seen_in_lane(&l) {
+        if path.seen_in_lane(&l) || path.crossing_into(&l) {
             if best.is_none_or(|b| l.ds < b.0) {
-                best = Some((l.ds, o.state, o.length));
+                best = Some((l.ds, o.state, o.length, o.width));
             }
         } else if path.overlaps_body(&l) && in_the_way.is_none_or(|b| l.ds < b.0) {
-            in_the_way = Some((l.ds, o.state, o.length));
+            in_the_way = Some((l.ds, o.state, o.length, o.width));
         }
     }
-    best.or(in_the_way).map(|(_, st, len)| (st, len))
+    best.or(in_the_way).map(|(_, st, len, w)| (st, len, w))
 }
 
 /// Half the extent across the road of a `length` x `width` box turned by `h` from it, m.
@@ -285,6 +315,45 @@ mod tests {
     }
 
     #[test]
+    fn a_pedestrian_walking_into_the_path_is_seen_before_it_reaches_the_lane() {
+        // UN R157 4.2.3: a pedestrian 5 m right of the ego lane's centre walks across at 5 km/h
+        // and reaches it when the ego, at 60 km/h, does (3.6 s). Straight part of the track.
+        let track = curve(1000.0, true);
+        let ego = Object {
+            state: { let (x, y, h) = track.place(20.0, 0.0); VehicleState { x, y, yaw: h, speed: 60.0 / 3.6, ..VehicleState::default() } },
+            length: CAR.0,
+            width: CAR.1,
+        };
+        let path = EgoPath::new(&track, &ego.state, CAR.1, PathParams::default());
+        let walker = |ds: f64, t: f64, heading: f64, speed: f64| {
+            let (x, y, h) = track.place(20.0 + ds, t);
+            Object { state: VehicleState { x, y, yaw: h + heading, speed, ..VehicleState::default() }, length: 0.3, width: 0.5 }
+        };
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        // (what, ds, t, heading, speed, crossing into the path)
+        let cases = [
+            ("walking towards the lane, arriving with the ego", 60.0, -5.0, half_pi, 5.0 / 3.6, true),
+            ("the same from the left", 60.0, 5.0, -half_pi, 5.0 / 3.6, true),
+            ("walking away from the lane", 60.0, -5.0, -half_pi, 5.0 / 3.6, false),
+            ("standing at the kerb", 60.0, -5.0, half_pi, 0.0, false),
+            ("walking towards, too far aside to arrive before the ego passes", 20.0, -5.0, half_pi, 5.0 / 3.6, false),
+        ];
+        for (what, ds, t, heading, speed, into) in cases {
+            let o = walker(ds, t, heading, speed);
+            let l = path.locate(&o);
+            assert_eq!(path.crossing_into(&l), into, "{what}: {l:?}");
+            assert_eq!(human_front(&track, &ego, std::iter::once(o)).is_some(), into, "{what}");
+            // Not in the lane by the lane rule (that one reads traffic along the road).
+            assert!(!path.seen_in_lane(&l), "{what}");
+        }
+        // A car drifting towards the lane along the road is left to the lane rule (R157's
+        // wandering zone), however fast it closes in.
+        let drifting = at(&track, 50.0, track.lane_width - 0.2, -0.05, CAR);
+        let l = path.locate(&drifting);
+        assert!(!l.crossing && !path.crossing_into(&l), "{l:?}");
+    }
+
+    #[test]
     fn a_lead_swerving_wide_is_dropped_only_once_out_of_the_way_or_when_something_is_revealed() {
         for radius in [250.0, 1000.0] {
             for left in [true, false] {
@@ -350,14 +419,14 @@ mod tests {
         // A motorbike on the marking, its centre 1 m ahead of the ego's: bumper gap < 0, in the
         // corridor (0.45 m from the ego's body), not overlapping across the road: being passed.
         let beside = at(&track, 121.0, track.lane_width / 2.0, STANDING, BIKE);
-        assert!(bumper_gap(&beside.state, BIKE.0, &ego.state, CAR.0) < 0.0);
+        assert!(bumper_gap(&beside.state, BIKE, &ego.state, CAR.0) < 0.0);
         assert!(nearest_in_path(&track, &ego, std::iter::once(beside)).is_none());
         // 5 m ahead it is in front (gap 1.55 m).
         let ahead = at(&track, 125.0, track.lane_width / 2.0, STANDING, BIKE);
         assert!(nearest_in_path(&track, &ego, std::iter::once(ahead)).is_some());
         // Overlapping across the road and along it: a contact, still the vehicle in path.
         let hit = at(&track, 123.0, 1.0, STANDING, BIKE);
-        assert!(bumper_gap(&hit.state, BIKE.0, &ego.state, CAR.0) < 0.0);
+        assert!(bumper_gap(&hit.state, BIKE, &ego.state, CAR.0) < 0.0);
         assert!(nearest_in_path(&track, &ego, std::iter::once(hit)).is_some());
     }
 }
