@@ -146,6 +146,7 @@ pub fn segment(seed: u64, controller: ControllerKind, neighbours: bool) -> Scena
     s.lead.offset = 0.0;
     s.lead.initial_speed = v;
     s.lead.phases = Vec::new();
+    s.name = format!("neighbours-{seed} ({shape}, {:.0} km/h)", v / KMH);
     if !neighbours {
         return s;
     }
@@ -189,9 +190,6 @@ pub fn segment(seed: u64, controller: ControllerKind, neighbours: bool) -> Scena
             k += 1;
         }
     }
-    // Keep the vehicles out of the lead's and the ego's way at the start (they are in other
-    // lanes; nothing to do) and report the shape in the name.
-    s.name = format!("neighbours-{seed} ({shape}, {:.0} km/h)", v / KMH);
     s
 }
 
