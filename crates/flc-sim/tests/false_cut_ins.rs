@@ -110,7 +110,13 @@ fn a_real_cut_in_is_counted() {
         let mut shapes = Vec::new();
         for &k in &seeds {
             let sc = cut_in_segment(k, c);
-            let shape = if sc.name.contains("straight") { "straight" } else if sc.name.contains("S-bend") { "S-bend" } else { "arc" };
+            let shape = if sc.name.contains("straight") {
+                "straight"
+            } else if sc.name.contains("S-bend") {
+                "S-bend"
+            } else {
+                "arc"
+            };
             if shapes.contains(&shape) {
                 continue;
             }
@@ -123,18 +129,5 @@ fn a_real_cut_in_is_counted() {
             assert!(t > 10.0 && t < 13.5, "{} {}: counted at {t:.2} s, the lane change runs 10-13 s", c.as_str(), sc.name);
         }
         assert_eq!(shapes.len(), 3, "seeds 0-7 cover the three roads: {shapes:?}");
-    }
-}
-
-#[test]
-#[ignore]
-fn debug_segment() {
-    let k: u64 = std::env::var("SEG").unwrap().parse().unwrap();
-    let sc = segment(k, ControllerKind::FlcRobust, true);
-    let r = run(&sc).expect("run");
-    let s = &r.series;
-    eprintln!("{} {:?}", sc.name, switches(&r));
-    for i in (0..s.len()).step_by(5) {
-        eprintln!("SER t={:.2} det={:.2} lead_gap={:.2} gap={:.2} a={:.2} lat={:.2}", s.t[i], s.detected_distance[i], s.lead_gap[i], s.gap[i], s.follower_accel[i], s.lateral_offset[i]);
     }
 }

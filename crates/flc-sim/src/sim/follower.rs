@@ -171,7 +171,11 @@ impl Follower {
     ) -> (Frame, flc_core::DetectorOutput) {
         let steering = self.cfg.steering();
         let mount = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
-        let points = if steering == Steering::LaneKeeping { lane_frame(points, fs, track, mount, self.path_curvature, &mut self.lane_buf) } else { points };
+        let points = if steering == Steering::LaneKeeping {
+            lane_frame(points, fs, track, mount, self.path_curvature, &mut self.lane_buf)
+        } else {
+            points
+        };
         let det = self
             .detector
             .detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
@@ -180,20 +184,7 @@ impl Follower {
         // vehicle in front as it sees it (`human_front`; `None` when there is none).
         let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let mut detection = det.detection;
-        let nb = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters()));
-        if std::env::var_os("FLC_DEBUG_NB").is_some() {
-            let s = track.project(fs.x, fs.y).s;
-            eprintln!("DBG t={t:.2} s={s:.1} kappa={:.5} k+40={:.5} det={:?} nb={:?}", self.path_curvature, track.curvature_at(s + 40.0), det.detection.map(|d| (d.distance, d.position.y)), nb.map(|d| (d.distance, d.position.y)));
-            for c in self.detector.clusters() {
-                eprintln!("DBG  cl x={:.1}..{:.1} d={:.2}..{:.2} pts={} rej={:?}", c.x_min, c.x_max, c.d_min, c.d_max, c.points, c.rejection);
-            }
-            if let Some(n) = self.neighbours.as_ref() {
-                for tr in n.tracks() {
-                    eprintln!("DBG    id={} x={:.1} y={:.2} near={:.2} far={:.2} close={:.2} w={:.2} full={} intr={} miss={}", tr.id, tr.x, tr.y, tr.near, tr.near_far, tr.near_close, tr.width, tr.full, tr.intruding, tr.misses);
-                }
-            }
-        }
-        if let Some(intruder) = nb {
+        if let Some(intruder) = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters())) {
             if detection.is_none_or(|d| intruder.distance < d.distance) {
                 detection = Some(intruder);
             }
