@@ -34,7 +34,7 @@ fn switches(r: &RunResult) -> Switches {
     let mut off = false;
     for i in 0..s.len() {
         let (d, g) = (s.detected_distance[i], s.lead_gap[i]);
-        let now = d.is_finite() && !((d - g).abs() <= OFF_LEAD);
+        let now = d.is_finite() && (g.is_nan() || (d - g).abs() > OFF_LEAD);
         if now {
             out.steps += 1;
             if !off {
@@ -63,37 +63,54 @@ fn extra_braking(with: &RunResult, alone: &RunResult) -> (f64, f64) {
 
 const CONTROLLERS: [ControllerKind; 2] = [ControllerKind::FlcRobust, ControllerKind::FlcRobustOdo];
 
+/// One segment's outcome.
+struct Outcome {
+    controller: ControllerKind,
+    name: String,
+    switches: Switches,
+    /// The ego's braking beyond the segment's without neighbours (m/s²) and when (s).
+    braking: (f64, f64),
+    contact: bool,
+}
+
 #[test]
 fn an_hour_of_three_lane_traffic_has_no_false_cut_in() {
     let jobs: Vec<(ControllerKind, u64)> = CONTROLLERS.iter().flat_map(|&c| (0..SEGMENTS).map(move |k| (c, k))).collect();
-    let results: Vec<(ControllerKind, u64, String, Switches, (f64, f64), bool)> = jobs
+    let results: Vec<Outcome> = jobs
         .par_iter()
-        .map(|&(c, k)| {
-            let sc = segment(k, c, true);
+        .map(|&(controller, k)| {
+            let sc = segment(k, controller, true);
             let with = run(&sc).expect("run");
-            let alone = run(&segment(k, c, false)).expect("run");
-            (c, k, sc.name.clone(), switches(&with), extra_braking(&with, &alone), with.collision.is_some())
+            let alone = run(&segment(k, controller, false)).expect("run");
+            Outcome {
+                controller,
+                name: sc.name.clone(),
+                switches: switches(&with),
+                braking: extra_braking(&with, &alone),
+                contact: with.collision.is_some(),
+            }
         })
         .collect();
     let mut failures = Vec::new();
     for c in CONTROLLERS {
-        let mine: Vec<_> = results.iter().filter(|r| r.0 == c).collect();
-        let count: usize = mine.iter().map(|r| r.3.count).sum();
-        let steps: usize = mine.iter().map(|r| r.3.steps).sum();
-        let worst = mine.iter().max_by(|a, b| a.4.0.total_cmp(&b.4.0)).expect("segments");
-        let first = mine.iter().filter_map(|r| r.3.first.map(|t| (t, &r.2))).next();
+        let mine: Vec<&Outcome> = results.iter().filter(|r| r.controller == c).collect();
+        let count: usize = mine.iter().map(|r| r.switches.count).sum();
+        let steps: usize = mine.iter().map(|r| r.switches.steps).sum();
+        let worst = mine.iter().max_by(|a, b| a.braking.0.total_cmp(&b.braking.0)).expect("segments");
+        let first = mine.iter().find_map(|r| r.switches.first.map(|t| (t, &r.name)));
         eprintln!(
             "{}: {count} false target switches ({steps} steps off the lead) in {SEGMENTS} min; largest braking beyond the segment \
              without neighbours {:.2} m/s² ({} at {:.1} s); first switch {first:?}",
             c.as_str(),
-            worst.4.0,
-            worst.2,
-            worst.4.1
+            worst.braking.0,
+            worst.name,
+            worst.braking.1
         );
-        for r in mine.iter().filter(|r| r.3.count > 0 || r.4.0 > MAX_NEIGHBOUR_BRAKING || r.5) {
-            eprintln!("  {} {}: {:?}, extra braking {:.2} m/s² at {:.1} s, contact {}", r.1, r.2, r.3, r.4.0, r.4.1, r.5);
+        let bad = |r: &Outcome| r.switches.count > 0 || r.braking.0 > MAX_NEIGHBOUR_BRAKING || r.contact;
+        for r in mine.iter().filter(|r| bad(r)) {
+            eprintln!("  {}: {:?}, braking {:.2} m/s² at {:.1} s, contact {}", r.name, r.switches, r.braking.0, r.braking.1, r.contact);
         }
-        if count > 0 || worst.4.0 > MAX_NEIGHBOUR_BRAKING || mine.iter().any(|r| r.5) {
+        if mine.iter().any(|r| bad(r)) {
             failures.push(c.as_str());
         }
     }
