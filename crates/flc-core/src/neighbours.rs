@@ -29,7 +29,8 @@
 //! ```
 //!
 //! it has come `wandering` closer than the farthest it has been and its centre is `wandering`
-//! inside the middle of the next lane (the ego keeping its lane's centre). A car weaving about
+//! inside the middle of the next lane (the ego keeping its lane's centre), on a view at least
+//! `full_width` wide (the centre of a car partly out of the field of view is not its centre). A car weaving about
 //! the next lane's centre, or keeping steadily off it, meets one condition only. A slow (5 s)
 //! lane change on the wet road (4 m/s²) was reported by the band rule alone about 0.25 s after
 //! the careful driver perceived it, too late to stop. (The detector's swept-path corridor,
@@ -232,9 +233,18 @@ impl NeighbourTracker {
     /// The lane rule: the track's near edge has come more than `wandering` towards the path from
     /// the farthest it has been, and its lateral centre (on the path) is more than `wandering`
     /// inside the middle of the next lane (`lane_width` from the path).
+    ///
+    /// Only on a view at least `full_width` wide: the centre of a narrower one is that of the
+    /// part in view. A car the ego passes, weaving +-0.3 m in the next lane, leaves the sensor's
+    /// field of view from its outer side when it is beside the ego (its rear face 2 m ahead, 1.3 m
+    /// of it in view): its near edge stayed, the centre of the part in view came 0.2 m in and the
+    /// rule read it as a cut-in (`tests/false_cut_ins.rs`, straight road).
     fn left_its_lane(p: &NeighbourParams, t: &NeighbourTrack, c: &ClusterInfo) -> bool {
         let centre = libm::fabs(0.5 * (c.d_min + c.d_max));
-        p.lane_width > 0.0 && t.near_far - libm::fabs(t.near) > p.wandering && centre < p.lane_width - p.wandering
+        p.lane_width > 0.0
+            && c.width() >= p.full_width
+            && t.near_far - libm::fabs(t.near) > p.wandering
+            && centre < p.lane_width - p.wandering
     }
 
     /// One scan: `clusters` are the detector's clusters of that scan
@@ -472,6 +482,24 @@ mod tests {
             };
             assert_eq!(n.update(&[c]), None, "scan {k}");
         }
+    }
+
+    #[test]
+    fn a_weaving_car_partly_out_of_view_beside_the_ego_does_not_intrude() {
+        // Weaving +-0.3 m about the next lane's centre (near edge 2.25-2.85 m), then beside the
+        // ego at its inner extreme with only 1.3 m of its rear face in view (the field of view
+        // cuts its outer side): the centre of the part in view is 3.1 m off the path, inside
+        // `lane_width - wandering`, but the view is too narrow to place its centre.
+        let mut n = tracker();
+        for k in 0..100 {
+            let t = 3.5 + 0.3 * libm::sin(f64::from(k) * 0.1);
+            assert_eq!(n.update(&[car(20.0 - 0.15 * f64::from(k), t)]), None, "scan {k}");
+        }
+        for k in 0..5 {
+            assert_eq!(n.update(&[cluster(4.0 - 0.4 * f64::from(k), 2.4, 3.7 - 0.1 * f64::from(k))]), None, "scan {k}");
+        }
+        // The same view in full width is read as a cut-in (the lane rule).
+        assert!(n.update(&[cluster(2.0, 2.35, 3.85)]).is_some());
     }
 
     #[test]

@@ -37,6 +37,7 @@ pub mod gym;
 mod lead;
 mod lidar;
 mod metrics;
+pub mod neighbour_traffic;
 pub mod no_target;
 mod noise;
 pub mod openscenario;
