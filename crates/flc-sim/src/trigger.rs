@@ -574,11 +574,6 @@ pub trait WorldView {
     fn place(&self, _s: f64, _offset: f64) -> Option<[f64; 4]> {
         None
     }
-    /// How far ahead of entity `name`, along the trajectory it follows, the point `[s, offset]`
-    /// (track) projects onto that trajectory, m (default: none, it follows no trajectory).
-    fn ahead_on_trajectory(&self, _name: &str, _point: [f64; 2]) -> Option<f64> {
-        None
-    }
 }
 
 fn longitudinal() -> DistanceType {

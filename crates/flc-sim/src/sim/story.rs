@@ -156,21 +156,20 @@ impl StoryRun {
         let ego = self.ego();
         // Distances along a master's trajectory, from the motions at the start of the step (esmini
         // steps every action before any entity moves).
-        let mut answers = Vec::new();
-        for m in &self.motions {
-            if let Some((name, point)) = m.sync_master_point() {
-                if let Some(d) = slot(name).and_then(|k| self.motions.get(k)).and_then(|mm| mm.ahead_on_trajectory(point)) {
-                    answers.push((name.to_string(), point, d));
-                }
-            }
-        }
-        let along = Along { world, answers: &answers };
-        let world: &dyn WorldView = if answers.is_empty() { world } else { &along };
+        let ahead: Vec<Option<f64>> = self
+            .motions
+            .iter()
+            .map(|m| {
+                let (name, point) = m.sync_master_point()?;
+                self.motions.get(slot(name)?)?.ahead_on_trajectory(point)
+            })
+            .collect();
         for j in 0..self.motions.len() {
             if j == ego && !self.ego_scripted {
                 continue;
             }
             let m = &mut self.motions[j];
+            m.set_master_ahead(ahead.get(j).copied().flatten());
             let kappa = track.curvature_at(m.s);
             let s_before = m.s;
             let out = m.step(t, dt, kappa, world);
@@ -199,43 +198,5 @@ impl StoryRun {
     pub(super) fn tracking(&self, j: usize, p: &VehicleParams, speed: f64) -> Option<(f64, f64)> {
         let m = self.motions.get(j)?;
         Some((m.accel + TRACK_GAIN * (m.speed - speed) + p.resistance(speed), m.offset))
-    }
-}
-
-/// The ground truth with the distances along the trajectories the story's masters follow
-/// ([`WorldView::ahead_on_trajectory`]), answered from the motions.
-struct Along<'a> {
-    world: &'a dyn WorldView,
-    /// `(entity, point, distance ahead)`.
-    answers: &'a [(String, [f64; 2], f64)],
-}
-
-impl WorldView for Along<'_> {
-    fn entity(&self, name: &str) -> Option<crate::trigger::EntityState> {
-        self.world.entity(name)
-    }
-    fn phase(&self, name: &str, phase: usize) -> crate::trigger::PhaseStatus {
-        self.world.phase(name, phase)
-    }
-    fn element(&self, name: &str) -> Option<crate::trigger::ElementStatus> {
-        self.world.element(name)
-    }
-    fn element_of(&self, name: &str, kind: Option<crate::trigger::ElementKind>) -> Option<crate::trigger::ElementStatus> {
-        self.world.element_of(name, kind)
-    }
-    fn variable(&self, name: &str) -> Option<crate::trigger::VarValue> {
-        self.world.variable(name)
-    }
-    fn collided(&self, a: &str, b: Option<&str>) -> bool {
-        self.world.collided(a, b)
-    }
-    fn pose(&self, name: &str) -> Option<[f64; 3]> {
-        self.world.pose(name)
-    }
-    fn place(&self, s: f64, offset: f64) -> Option<[f64; 4]> {
-        self.world.place(s, offset)
-    }
-    fn ahead_on_trajectory(&self, name: &str, point: [f64; 2]) -> Option<f64> {
-        self.answers.iter().find(|(n, p, _)| n == name && *p == point).map(|a| a.2)
     }
 }

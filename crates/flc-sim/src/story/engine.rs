@@ -139,9 +139,6 @@ impl WorldView for View<'_> {
     fn place(&self, s: f64, offset: f64) -> Option<[f64; 4]> {
         self.world.place(s, offset)
     }
-    fn ahead_on_trajectory(&self, name: &str, point: [f64; 2]) -> Option<f64> {
-        self.world.ahead_on_trajectory(name, point)
-    }
 }
 
 /// The running storyboard: call [`StoryState::step`] once per physics step (before the

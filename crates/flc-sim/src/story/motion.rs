@@ -40,6 +40,9 @@ struct Sync {
     master: String,
     master_target: f64,
     master_point: Option<[f64; 2]>,
+    /// How far ahead along its trajectory the master's target is this step
+    /// ([`Motion::set_master_ahead`]).
+    master_ahead: Option<f64>,
     target: f64,
     final_speed: Option<f64>,
     steady: Option<f64>,
@@ -348,6 +351,14 @@ impl Motion {
         }
     }
 
+    /// Tells a running synchronisation how far ahead along its master's trajectory the master's
+    /// target is this step (`None`: the master follows no trajectory; measured along the road).
+    pub fn set_master_ahead(&mut self, ahead: Option<f64>) {
+        if let Some(y) = self.long.as_mut().and_then(|l| l.sync.as_mut()) {
+            y.master_ahead = ahead;
+        }
+    }
+
     /// The master and its target point of a running synchronisation that measures the master
     /// along its trajectory (`Action::Synchronize::master_point`).
     pub fn sync_master_point(&self) -> Option<(&str, [f64; 2])> {
@@ -614,6 +625,7 @@ impl Motion {
                     master: master.clone(),
                     master_target: *master_target,
                     master_point: *master_point,
+                    master_ahead: None,
                     target: *target,
                     final_speed: *final_speed,
                     steady,
@@ -657,8 +669,7 @@ impl Motion {
     fn sync_step(&mut self, y: &mut Sync, dt: f64, world: &dyn WorldView, still: bool) -> bool {
         let Some(m) = world.entity(&y.master) else { return false };
         // A master following a trajectory is measured along it (esmini: `CS_TRAJECTORY`).
-        let along = y.master_point.and_then(|p| world.ahead_on_trajectory(&y.master, p));
-        let md = along.unwrap_or(y.master_target - m.s);
+        let md = y.master_point.and(y.master_ahead).unwrap_or(y.master_target - m.s);
         let dir_master = if md < 0.0 { -1.0 } else { 1.0 };
         let (mut master_dist, mut dist) = (md.abs(), (y.target - self.s).abs());
         let mut done =
