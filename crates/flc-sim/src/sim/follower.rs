@@ -171,11 +171,7 @@ impl Follower {
     ) -> (Frame, flc_core::DetectorOutput) {
         let steering = self.cfg.steering();
         let mount = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
-        let points = if steering == Steering::LaneKeeping {
-            lane_frame(points, fs, track, mount, self.path_curvature, &mut self.lane_buf)
-        } else {
-            points
-        };
+        let points = if steering == Steering::LaneKeeping { lane_frame(points, fs, track, mount, &mut self.lane_buf) } else { points };
         let det = self
             .detector
             .detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
@@ -374,13 +370,9 @@ impl Follower {
     }
 }
 
-/// Samples of the lane ahead in [`lane_frame`]: every `LANE_STEP` m of forward distance.
-const LANE_SAMPLES: usize = 106;
-const LANE_STEP: f64 = 2.0;
-
 /// Lane keeping: the scan `points` (sensor frame of a LiDAR mounted at `(mx, my)` on a vehicle at `fs`) turned by the lane's heading at the sensor
 /// relative to the vehicle's, so that the detector's corridor (an arc tangent to its x axis,
-/// of the lane's curvature at the ego, `kappa`) runs along the lane at the ego's lateral position: the ego's swept
+/// of the lane's curvature) runs along the lane at the ego's lateral position: the ego's swept
 /// path if it keeps its lane. Without the turn the corridor left the lane on a curve: the
 /// sensor sits `mount_x` ahead of the body centre (its lane tangent turned by `mount_x / R`)
 /// and the body of the kinematic bicycle is turned out of the curve by its slip angle (together
@@ -389,60 +381,23 @@ const LANE_STEP: f64 = 2.0;
 /// heading is that of the chord over +-5 m of the sensor's projection (the centreline is a
 /// polyline). The detector's output (distances, positions, clusters) is in that frame; the
 /// distances ahead change by less than 1 - cos of the turn (1e-4 at 0.015 rad).
-///
-/// Where the lane's curvature changes ahead, the arc leaves the lane: on an S-bend of R = 1000 m
-/// (curvature +-0.001 1/m) by up to `0.002 x^2 / 2` = 1.6 m at 40 m beyond the change. A car
-/// keeping the next lane then seemed to drift towards the path (the neighbour tracker took it for
-/// a cut-in) and the lead to leave the corridor (`tests/false_cut_ins.rs`). So each point is also
-/// moved across by the lane's offset from that arc at its forward distance (the simulator's
-/// stand-in for a camera lane model: it reads the track; lane centre sampled every 2 m up to
-/// 210 m ahead, the last offset beyond). On a road of constant curvature the offset is nil (the
-/// sampling's chords: millimetres) and the scan is the turned one; the shift keeps each point's
-/// forward distance.
 fn lane_frame<'a>(
     points: &'a [[f64; 2]],
     fs: &VehicleState,
     track: &Track,
     (mx, my): (f64, f64),
-    kappa: f64,
     buf: &'a mut Vec<[f64; 2]>,
 ) -> &'a [[f64; 2]] {
     let (c, sn) = (fs.yaw.cos(), fs.yaw.sin());
-    let (px, py) = (fs.x + c * mx - sn * my, fs.y + sn * mx + c * my);
-    let proj = track.project(px, py);
-    let s = proj.s;
+    let s = track.project(fs.x + c * mx - sn * my, fs.y + sn * mx + c * my).s;
     let ((x0, y0, _), (x1, y1, _)) = (track.place(s - 5.0, 0.0), track.place(s + 5.0, 0.0));
-    let h = (y1 - y0).atan2(x1 - x0);
-    // The lane's frame at the sensor: x along the lane's heading there.
-    let (ch, sh) = (h.cos(), h.sin());
-    // The lane's centre ahead (at the sensor's lateral offset) in that frame, by arc length; its
-    // offset from the arc of curvature `kappa` tangent to x at the sensor.
-    let mut lane = [[0.0_f64; 2]; LANE_SAMPLES];
-    for (k, q) in lane.iter_mut().enumerate() {
-        let (wx, wy, _) = track.place(s + LANE_STEP * k as f64, proj.lateral_offset);
-        let (gx, gy) = (wx - px, wy - py);
-        let (x, y) = (ch * gx + sh * gy, -sh * gx + ch * gy);
-        *q = [x, y - 0.5 * kappa * x * x];
+    let turn = wrap_angle((y1 - y0).atan2(x1 - x0) - fs.yaw);
+    if turn == 0.0 {
+        return points;
     }
-    let shift = |x: f64| -> f64 {
-        let k = lane.partition_point(|q| q[0] <= x);
-        if k == 0 {
-            return 0.0;
-        }
-        if k >= LANE_SAMPLES {
-            return lane[LANE_SAMPLES - 1][1];
-        }
-        let (a, b) = (lane[k - 1], lane[k]);
-        let t = ((x - a[0]) / (b[0] - a[0]).max(1e-9)).clamp(0.0, 1.0);
-        a[1] + t * (b[1] - a[1])
-    };
-    let turn = wrap_angle(h - fs.yaw);
     let (ct, st) = (turn.cos(), turn.sin());
     buf.clear();
-    buf.extend(points.iter().map(|&[x, y]| {
-        let (x, y) = (x * ct + y * st, -x * st + y * ct);
-        [x, y - shift(x)]
-    }));
+    buf.extend(points.iter().map(|&[x, y]| [x * ct + y * st, -x * st + y * ct]));
     buf
 }
 
