@@ -32,10 +32,14 @@
 //!    wandering zone) well before the detector finds it in the path, and before rule 1 can see
 //!    its jump. An intruder nearer than the V2V lead, `x_i < g_s - jump_m` with `g_s` the lead's
 //!    gap (the detected distance; without a detection, the dead-reckoned sender gap or the
-//!    tracked gap; without either, any intruder), is between the ego and the sender: the object
+//!    tracked gap), is between the ego and the sender: the object
 //!    the ego must follow is not the sender, not associated. The margin `jump_m` keeps the lead
 //!    itself (the tracker may hold it too, at the detector's distance) from counting; a car that
 //!    cuts in is its own length (>= 3 m) nearer. An intruder beyond the lead changes nothing.
+//!    With no gap of the sender yet (never detected), the V2V-predicted gap of rule 3 stands in,
+//!    with the position gate as the margin (`x_i < g_v2v - gate`); without positions the rule
+//!    cannot tell: the intruder may be the sender itself (a car with V2V cutting in ahead of
+//!    an empty lane, as in UN R157's cut-in cases), which the rules 1-3 then associate.
 //!    The rule compares positions of the same tick only (no timestamp, no speed).
 //!
 //! The thresholds and their derivation are in `docs/v2v-and-metrics.md`. No state depends on
@@ -237,13 +241,16 @@ impl Association {
     }
 
     /// Rule 4: `intruder` is nearer than the sender's gap by more than `jump_m` (the gap: the
-    /// detection `d`, else the dead-reckoned sender gap, else the tracked gap; with none of them,
-    /// any intruder is).
-    fn intruder_nearer(&self, intruder: Option<f64>, d: Option<f64>) -> bool {
+    /// detection `d`, else the dead-reckoned sender gap, else the tracked gap); with none of
+    /// them, nearer than the V2V-predicted gap `predicted` (rule 3) by more than the position
+    /// gate. Nothing known of where the sender is: the rule cannot tell (the intruder may be the
+    /// sender itself, a V2V car cutting in ahead of an empty lane).
+    fn intruder_nearer(&self, intruder: Option<f64>, d: Option<f64>, predicted: Option<f64>, v_s: f64) -> bool {
         let Some(x) = intruder.filter(|x| x.is_finite()) else { return false };
-        match d.or(self.sender_gap).or(self.track) {
-            Some(g) => x < g - self.params.jump_m,
-            None => true,
+        match (d.or(self.sender_gap).or(self.track), predicted) {
+            (Some(g), _) => x < g - self.params.jump_m,
+            (None, Some(g)) => x < g - self.params.gate_m(v_s),
+            (None, None) => false,
         }
     }
 
@@ -272,11 +279,17 @@ impl Association {
             *g += closing;
             self.since_anchor += dt;
         }
+        // The V2V-predicted gap (rule 3), when the message carries the sender's position and the
+        // own fix is known.
+        let predicted = match (input.sender, input.own_fix) {
+            (Some(s), Some(own)) => Some(predicted_gap(s, v_s, input.message_age.max(0.0), &own)).filter(|g| g.is_finite()),
+            _ => None,
+        };
         let Some(d) = d else {
             // No detection: keep the decision (rule 4 aside), carry the expected change to the
             // next one.
             self.jumped = false;
-            if self.intruder_nearer(input.intruder, None) {
+            if self.intruder_nearer(input.intruder, None, predicted, v_s) {
                 self.state = AssociationState::NotAssociated;
             }
             return self.state;
@@ -288,13 +301,7 @@ impl Association {
             _ => Some(d),
         };
 
-        let in_gate = match (input.sender, input.own_fix) {
-            (Some(s), Some(own)) => {
-                let g = predicted_gap(s, v_s, input.message_age.max(0.0), &own);
-                !g.is_finite() || libm::fabs(d - g) <= p.gate_m(v_s)
-            }
-            _ => true,
-        };
+        let in_gate = predicted.is_none_or(|g| libm::fabs(d - g) <= p.gate_m(v_s));
         let matches_dead_reckoning = self.sender_gap.is_none_or(|g| libm::fabs(d - g) <= p.jump_m + p.speed_error_mps * self.since_anchor);
         self.state = match self.state {
             // The same object as before unless it jumped.
@@ -322,7 +329,7 @@ impl Association {
         // Rule 4: an intruder nearer than the sender is what the ego must follow. The detection
         // still anchors the sender's gap when it is the sender (above), so that the PID can take
         // over again once the intruder has gone or is the detected object.
-        if self.intruder_nearer(input.intruder, Some(d)) {
+        if self.intruder_nearer(input.intruder, Some(d), predicted, v_s) {
             self.state = AssociationState::NotAssociated;
         }
         self.state
@@ -422,10 +429,17 @@ mod tests {
         // keeps the decision, one nearer breaks it.
         assert_eq!(a.step(&with_intruder(None, Some(45.0))), AssociationState::Associated);
         assert_eq!(a.step(&with_intruder(None, Some(30.0))), AssociationState::NotAssociated);
-        // Nothing known of the sender's gap (no detection yet): any intruder is nearer.
-        let mut b = Association::new(AssociationParams::default()).unwrap();
-        assert_eq!(b.step(&with_intruder(None, None)), AssociationState::Unknown);
-        assert_eq!(b.step(&with_intruder(None, Some(60.0))), AssociationState::NotAssociated);
+        // Nothing known of the sender's gap (no detection yet): the V2V-predicted gap (55.5 m,
+        // gate 6 sqrt(2) + 2 = 10.5 m) stands in; without positions the rule cannot tell.
+        let p = AssociationParams { gnss_sigma_m: 1.0, ..Default::default() };
+        let sender = SenderState { station_id: 7, x: 60.0, y: 0.0, heading: 0.0, accel: 0.0, length: 4.5 };
+        let own = OwnFix { x: 0.0, y: 0.0, heading: 0.0 };
+        let located = |x| AssociationInput { sender: Some(&sender), own_fix: Some(own), ..with_intruder(None, Some(x)) };
+        for (x, state) in [(56.0, AssociationState::Unknown), (46.0, AssociationState::Unknown), (44.0, AssociationState::NotAssociated)] {
+            let mut b = Association::new(p).unwrap();
+            assert_eq!(b.step(&with_intruder(None, Some(x))), AssociationState::Unknown, "intruder at {x} m, no position");
+            assert_eq!(b.step(&located(x)), state, "intruder at {x} m, the sender predicted at 55.5 m");
+        }
         // Without V2V, or with association off, there is nothing to break.
         let none = AssociationInput { sender_speed: None, ..with_intruder(Some(40.0), Some(10.0)) };
         assert_eq!(a.step(&none), AssociationState::Unknown);
