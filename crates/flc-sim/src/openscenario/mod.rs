@@ -1817,7 +1817,7 @@ mod tests {
         while sim.time() < 2.0 - 1e-9 {
             sim.step().expect("step");
         }
-        let st = sim.scripted_state("lead").expect("target").clone();
+        let st = sim.scripted_state("lead").expect("target");
         assert!((start - st.x - 5.0).abs() < 1e-6 && st.speed == -2.5 && st.yaw.abs() < 1e-12, "{start} -> {st:?}");
         // A relative target speed below zero (ALKS 4.3_1's varying speed at a slow ego): from
         // t = 1 s the target runs 2 m/s backwards, the ego's 10 m/s less 12.
