@@ -1645,6 +1645,26 @@ FlcResult flc_supervisor_step(struct FlcSupervisor *sup,
                               struct FlcSupervisorOutput *out);
 
 /**
+ * `flc_supervisor_step` with the distance to a neighbour entering the path (the intruder of
+ * `flc_neighbours_update`, bumper-to-bumper like `distance`, in m; ignored unless
+ * `has_intruder`): an intruder nearer than the V2V sender breaks the association and the FLC,
+ * driving at once, follows it (Rust `Supervisor::step_frame`).
+ *
+ * # Safety
+ * `sup` is NULL or points to an `FlcSupervisor`; `out` is NULL or valid for writes.
+ */
+FlcResult flc_supervisor_step_intruder(struct FlcSupervisor *sup,
+                                       bool has_v2v,
+                                       struct FlcV2vMessage v2v,
+                                       bool has_distance,
+                                       double distance,
+                                       double own_speed,
+                                       double dt,
+                                       bool has_intruder,
+                                       double intruder,
+                                       struct FlcSupervisorOutput *out);
+
+/**
  * Back to the initial state (FLC driving, no V2V).
  *
  * # Safety

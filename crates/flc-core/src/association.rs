@@ -27,6 +27,20 @@
 //!    front of the vehicle's bounding box). It is coarse on purpose (25.5 m + 3.6 m at 3 m GNSS
 //!    sigma and 130 km/h): it catches a wrong object at start-up and, when the dead reckoning
 //!    has grown too wide, an object far from the sender; it never decides a cut-in.
+//! 4. **Intruder.** A car entering the lane is reported by the neighbour tracker
+//!    ([`crate::NeighbourTracker`]: its near edge has come towards the ego's path by more than the
+//!    wandering zone) well before the detector finds it in the path, and before rule 1 can see
+//!    its jump. An intruder nearer than the V2V lead, `x_i < g_s - jump_m` with `g_s` the lead's
+//!    gap (the detected distance; without a detection, the dead-reckoned sender gap or the
+//!    tracked gap), is between the ego and the sender: the object
+//!    the ego must follow is not the sender, not associated. The margin `jump_m` keeps the lead
+//!    itself (the tracker may hold it too, at the detector's distance) from counting; a car that
+//!    cuts in is its own length (>= 3 m) nearer. An intruder beyond the lead changes nothing.
+//!    With no gap of the sender yet (never detected), the V2V-predicted gap of rule 3 stands in,
+//!    with the position gate as the margin (`x_i < g_v2v - gate`); without positions the rule
+//!    cannot tell: the intruder may be the sender itself (a car with V2V cutting in ahead of
+//!    an empty lane, as in UN R157's cut-in cases), which the rules 1-3 then associate.
+//!    The rule compares positions of the same tick only (no timestamp, no speed).
 //!
 //! The thresholds and their derivation are in `docs/v2v-and-metrics.md`. No state depends on
 //! time other than through ticks and the caller's `dt`; no input can make it panic.
@@ -142,7 +156,8 @@ pub enum AssociationState {
     Unknown = 0,
     /// The detected object is the V2V sender.
     Associated = 1,
-    /// The detected object is not the V2V sender (a new object after a jump, or outside the gate).
+    /// The detected object is not the V2V sender (a new object after a jump, or outside the gate),
+    /// or an intruding neighbour is nearer than the sender (rule 4).
     NotAssociated = 2,
 }
 
@@ -174,6 +189,9 @@ pub struct AssociationInput<'a> {
     pub own_fix: Option<OwnFix>,
     /// Time since the previous tick, s.
     pub dt: f64,
+    /// Distance to the nearest intruding neighbour ([`crate::NeighbourTracker::update`]), m, on
+    /// the same scale as `distance` (`None`: none). Rule 4.
+    pub intruder: Option<f64>,
 }
 
 /// The association rule's state.
@@ -222,6 +240,20 @@ impl Association {
         Self { params, state: AssociationState::Unknown, track: None, sender_gap: None, since_anchor: 0.0, jumped: false }
     }
 
+    /// Rule 4: `intruder` is nearer than the sender's gap by more than `jump_m` (the gap: the
+    /// detection `d`, else the dead-reckoned sender gap, else the tracked gap); with none of
+    /// them, nearer than the V2V-predicted gap `predicted` (rule 3) by more than the position
+    /// gate. Nothing known of where the sender is: the rule cannot tell (the intruder may be the
+    /// sender itself, a V2V car cutting in ahead of an empty lane).
+    fn intruder_nearer(&self, intruder: Option<f64>, d: Option<f64>, predicted: Option<f64>, v_s: f64) -> bool {
+        let Some(x) = intruder.filter(|x| x.is_finite()) else { return false };
+        match (d.or(self.sender_gap).or(self.track), predicted) {
+            (Some(g), _) => x < g - self.params.jump_m,
+            (None, Some(g)) => x < g - self.params.gate_m(v_s),
+            (None, None) => false,
+        }
+    }
+
     /// One tick: returns the decision (also kept as [`Self::state`]).
     pub fn step(&mut self, input: &AssociationInput<'_>) -> AssociationState {
         let p = self.params;
@@ -247,9 +279,19 @@ impl Association {
             *g += closing;
             self.since_anchor += dt;
         }
+        // The V2V-predicted gap (rule 3), when the message carries the sender's position and the
+        // own fix is known.
+        let predicted = match (input.sender, input.own_fix) {
+            (Some(s), Some(own)) => Some(predicted_gap(s, v_s, input.message_age.max(0.0), &own)).filter(|g| g.is_finite()),
+            _ => None,
+        };
         let Some(d) = d else {
-            // No detection: keep the decision, carry the expected change to the next one.
+            // No detection: keep the decision (rule 4 aside), carry the expected change to the
+            // next one.
             self.jumped = false;
+            if self.intruder_nearer(input.intruder, None, predicted, v_s) {
+                self.state = AssociationState::NotAssociated;
+            }
             return self.state;
         };
         self.jumped = self.track.is_some_and(|g| libm::fabs(d - g) > p.jump_m);
@@ -259,13 +301,7 @@ impl Association {
             _ => Some(d),
         };
 
-        let in_gate = match (input.sender, input.own_fix) {
-            (Some(s), Some(own)) => {
-                let g = predicted_gap(s, v_s, input.message_age.max(0.0), &own);
-                !g.is_finite() || libm::fabs(d - g) <= p.gate_m(v_s)
-            }
-            _ => true,
-        };
+        let in_gate = predicted.is_none_or(|g| libm::fabs(d - g) <= p.gate_m(v_s));
         let matches_dead_reckoning = self.sender_gap.is_none_or(|g| libm::fabs(d - g) <= p.jump_m + p.speed_error_mps * self.since_anchor);
         self.state = match self.state {
             // The same object as before unless it jumped.
@@ -290,6 +326,12 @@ impl Association {
             self.sender_gap = Some(d);
             self.since_anchor = 0.0;
         }
+        // Rule 4: an intruder nearer than the sender is what the ego must follow. The detection
+        // still anchors the sender's gap when it is the sender (above), so that the PID can take
+        // over again once the intruder has gone or is the detected object.
+        if self.intruder_nearer(input.intruder, Some(d), predicted, v_s) {
+            self.state = AssociationState::NotAssociated;
+        }
         self.state
     }
 }
@@ -301,7 +343,16 @@ mod tests {
     const DT: f64 = 0.05;
 
     fn input(d: Option<f64>, v_o: f64, v_s: f64) -> AssociationInput<'static> {
-        AssociationInput { distance: d, own_speed: v_o, sender_speed: Some(v_s), sender: None, message_age: 0.0, own_fix: None, dt: DT }
+        AssociationInput {
+            distance: d,
+            own_speed: v_o,
+            sender_speed: Some(v_s),
+            sender: None,
+            message_age: 0.0,
+            own_fix: None,
+            dt: DT,
+            intruder: None,
+        }
     }
 
     #[test]
@@ -331,6 +382,69 @@ mod tests {
         assert_eq!(a.step(&input(Some(25.1), 20.0, 20.0)), AssociationState::Associated);
         // A cut-out that reveals a car further ahead: a jump up, not the sender.
         assert_eq!(a.step(&input(Some(45.0), 20.0, 20.0)), AssociationState::NotAssociated);
+    }
+
+    /// `input` with an intruding neighbour at `x` m.
+    fn with_intruder(d: Option<f64>, x: Option<f64>) -> AssociationInput<'static> {
+        AssociationInput { intruder: x, ..input(d, 25.0, 20.0) }
+    }
+
+    #[test]
+    fn an_intruder_nearer_than_the_sender_breaks_the_association() {
+        let mut a = Association::new(AssociationParams::default()).unwrap();
+        // The lead closes at 5 m/s from 40 m.
+        let mut d = 40.0;
+        let next = |a: &mut Association, d: &mut f64, x: Option<f64>| {
+            *d += (20.0 - 25.0) * DT;
+            a.step(&with_intruder(Some(*d), x))
+        };
+        for _ in 0..10 {
+            assert_eq!(next(&mut a, &mut d, None), AssociationState::Associated);
+        }
+        // A car entering the lane 20 m ahead, the lead (continuous, no jump) at 39 m: not the
+        // sender that the ego must follow, at once.
+        assert_eq!(next(&mut a, &mut d, Some(20.0)), AssociationState::NotAssociated);
+        assert!(!a.jumped());
+        for _ in 0..40 {
+            assert_eq!(next(&mut a, &mut d, Some(20.0)), AssociationState::NotAssociated);
+        }
+        // It turns away (no longer intruding): the detection is the sender, associated again.
+        assert_eq!(next(&mut a, &mut d, None), AssociationState::Associated);
+        // One intruding beyond the lead, or the lead itself reported by the tracker at the
+        // detector's distance (give or take the detector's noise): nothing changes.
+        for offset in [10.0, -0.05, -1.0] {
+            let x = d - 5.0 * DT + offset;
+            assert_eq!(next(&mut a, &mut d, Some(x)), AssociationState::Associated, "intruder at {x} m, lead at {d} m");
+        }
+        // The same car 4.5 m nearer (its length) is between them.
+        let x = d - 5.0 * DT - 4.5;
+        assert_eq!(next(&mut a, &mut d, Some(x)), AssociationState::NotAssociated);
+    }
+
+    #[test]
+    fn without_a_detection_an_intruder_is_compared_with_the_dead_reckoned_sender() {
+        let mut a = Association::new(AssociationParams::default()).unwrap();
+        a.step(&with_intruder(Some(40.0), None));
+        // The lead not detected on this scan (dead-reckoned at 39.75 m): an intruder beyond it
+        // keeps the decision, one nearer breaks it.
+        assert_eq!(a.step(&with_intruder(None, Some(45.0))), AssociationState::Associated);
+        assert_eq!(a.step(&with_intruder(None, Some(30.0))), AssociationState::NotAssociated);
+        // Nothing known of the sender's gap (no detection yet): the V2V-predicted gap (55.5 m,
+        // gate 6 sqrt(2) + 2 = 10.5 m) stands in; without positions the rule cannot tell.
+        let p = AssociationParams { gnss_sigma_m: 1.0, ..Default::default() };
+        let sender = SenderState { station_id: 7, x: 60.0, y: 0.0, heading: 0.0, accel: 0.0, length: 4.5 };
+        let own = OwnFix { x: 0.0, y: 0.0, heading: 0.0 };
+        let located = |x| AssociationInput { sender: Some(&sender), own_fix: Some(own), ..with_intruder(None, Some(x)) };
+        for (x, state) in [(56.0, AssociationState::Unknown), (46.0, AssociationState::Unknown), (44.0, AssociationState::NotAssociated)] {
+            let mut b = Association::new(p).unwrap();
+            assert_eq!(b.step(&with_intruder(None, Some(x))), AssociationState::Unknown, "intruder at {x} m, no position");
+            assert_eq!(b.step(&located(x)), state, "intruder at {x} m, the sender predicted at 55.5 m");
+        }
+        // Without V2V, or with association off, there is nothing to break.
+        let none = AssociationInput { sender_speed: None, ..with_intruder(Some(40.0), Some(10.0)) };
+        assert_eq!(a.step(&none), AssociationState::Unknown);
+        let mut off = Association::new(AssociationParams { enabled: false, ..Default::default() }).unwrap();
+        assert_eq!(off.step(&with_intruder(Some(40.0), Some(10.0))), AssociationState::Associated);
     }
 
     #[test]
@@ -392,7 +506,7 @@ mod tests {
             let s = SenderState { station_id: 1, x: f64::NAN, y: 1e308, heading: f64::INFINITY, accel: 0.0, length: 4.0 };
             for (d, v, vs, dt) in seq {
                 let own = OwnFix { x: v, y: 0.0, heading: dt };
-                a.step(&AssociationInput { distance: d, own_speed: v, sender_speed: vs, sender: Some(&s), message_age: dt, own_fix: Some(own), dt });
+                a.step(&AssociationInput { distance: d, own_speed: v, sender_speed: vs, sender: Some(&s), message_age: dt, own_fix: Some(own), dt, intruder: d.map(|x| x - 3.0) });
             }
         }
     }

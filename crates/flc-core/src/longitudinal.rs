@@ -15,7 +15,7 @@
 //! use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
 //!
 //! let mut law: Box<dyn LongitudinalController + Send> = Box::new(FallbackController::new(FlcParams::paper())?);
-//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None, travelled: None });
+//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None, travelled: None, intruder: None });
 //! // Eqs. (2)-(5): dist_s = 25 - 16 - 4 = 5, a = 5 (1 - cos(5 pi / 11)) = 4.2884...
 //! assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
 //! assert_eq!(out.terms.get("dist_s"), Some(5.0));
@@ -123,12 +123,18 @@ pub struct Frame {
     /// odometry variant of the robust FLC, `flc_robust_odo`; `None`: no odometry). A clock-free
     /// signal: only its change between frames is used.
     pub travelled: Option<f64>,
+    /// Distance to the nearest neighbour entering the ego's path ([`crate::NeighbourTracker`]'s
+    /// intruder), bumper-to-bumper like `distance`, m (`None`: none, or no tracker). Read only by
+    /// the supervisor: its association rule (rule 4, an intruder nearer than the V2V sender) and
+    /// its FLC, which follows the nearer of `distance` and `intruder`. The robust FLCs are given
+    /// the intruder as their `distance` by the caller.
+    pub intruder: Option<f64>,
 }
 
 impl Frame {
     /// A frame without V2V.
     pub const fn new(distance: Option<f64>, own_speed: f64, dt: f64) -> Self {
-        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None, travelled: None }
+        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None, travelled: None, intruder: None }
     }
 }
 
@@ -330,6 +336,7 @@ mod tests {
             lead_speed: None,
             own_fix: None,
             travelled: None,
+            intruder: None,
         }
     }
 

@@ -15,7 +15,10 @@
 //! * V2V that is fresh but whose sender is not the object the detector reports
 //!   ([`crate::association`]: a car cut in, a cut-out revealed another one) counts as not fresh:
 //!   PID -> FLC at once (reason [`SwitchReason::NotAssociated`]), and back only after
-//!   `return_after` consecutive fresh messages with the sender associated again.
+//!   `return_after` consecutive fresh messages with the sender associated again;
+//! * so does a neighbour entering the path nearer than the sender (the intruder of
+//!   [`crate::NeighbourTracker`], given in [`Frame::intruder`]): the FLC then follows it, as the
+//!   robust FLC does, before the detector finds it in the path.
 
 use crate::association::{Association, AssociationInput, AssociationParams, AssociationState, OwnFix, SenderState};
 use crate::command::LongitudinalCommand;
@@ -171,6 +174,19 @@ impl Supervisor {
         dt: f64,
         own_fix: Option<OwnFix>,
     ) -> SupervisorOutput {
+        self.step_frame(&Frame { v2v, own_fix, ..Frame::new(distance, own_speed, dt) })
+    }
+
+    /// One control tick from a whole [`Frame`]: `v2v`, `distance`, `own_speed`, `dt`, `own_fix`
+    /// as in [`Self::step_with_fix`], and `intruder`, the distance to a neighbour entering the
+    /// path ([`crate::NeighbourTracker`]). An intruder nearer than the V2V sender breaks the
+    /// association ([`crate::association`], rule 4): the FLC drives at once and, like the FLC of
+    /// the robust family, follows the intruder (the nearer of `distance` and `intruder`); the PID
+    /// keeps the detector's distance to the sender. Back to the PID as for any other loss of
+    /// association, after `return_after` fresh messages with the sender associated again.
+    pub fn step_frame(&mut self, frame: &Frame) -> SupervisorOutput {
+        let (v2v, distance, own_speed, dt, own_fix) = (frame.v2v, frame.distance, frame.own_speed, frame.dt, frame.own_fix);
+        let intruder = frame.intruder.filter(|x| x.is_finite());
         self.receive(v2v);
         let fresh = self.age <= self.params.max_age_ticks;
         let tick = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
@@ -182,6 +198,7 @@ impl Supervisor {
             message_age: f64::from(self.age.min(1_000_000)) * tick,
             own_fix,
             dt,
+            intruder,
         });
         let not_associated = fresh && association == AssociationState::NotAssociated;
         if not_associated {
@@ -189,7 +206,13 @@ impl Supervisor {
             self.fresh_count = 0;
         }
 
-        let flc = self.flc.step(distance, own_speed);
+        // The FLC follows whatever is nearest in front: an intruder nearer than the detection.
+        let nearest = match (distance, intruder) {
+            (Some(d), Some(x)) if x < d => Some(x),
+            (None, Some(x)) => Some(x),
+            _ => distance,
+        };
+        let flc = self.flc.step(nearest, own_speed);
         // Without any lead speed the PID is stepped with zero relative speed; its output is then
         // only logged (the FLC drives until V2V has been fresh for `return_after` messages).
         let lead_speed = self.lead_speed.unwrap_or(own_speed);
@@ -288,7 +311,7 @@ impl SupervisorOutput {
     }
 }
 
-/// The pipeline through the common interface: `step(frame.v2v, distance, own_speed, dt)`.
+/// The pipeline through the common interface: [`Supervisor::step_frame`].
 ///
 /// ```
 /// use flc_core::{ActiveController, Frame, LongitudinalController, Supervisor, SupervisorParams, SwitchReason};
@@ -305,7 +328,7 @@ impl SupervisorOutput {
 /// ```
 impl LongitudinalController for Supervisor {
     fn step(&mut self, frame: &Frame) -> ControlOutput {
-        let o = Supervisor::step_with_fix(self, frame.v2v, frame.distance, frame.own_speed, frame.dt, frame.own_fix);
+        let o = Supervisor::step_frame(self, frame);
         ControlOutput {
             command: o.command,
             terms: o.to_terms(),
@@ -430,6 +453,58 @@ mod tests {
         let mut w = Supervisor::new(SupervisorParams::default()).unwrap();
         w.step(msg(u32::MAX), Some(20.0), 10.0, DT);
         assert_eq!(w.step(msg(0), Some(20.0), 10.0, DT).v2v_age_ticks, 0);
+    }
+
+    #[test]
+    fn an_intruder_nearer_than_the_sender_hands_over_to_the_flc_which_follows_it() {
+        let frame = |seq: u32, intruder: Option<f64>| Frame { v2v: msg(seq), intruder, ..Frame::new(Some(20.0), 10.0, DT) };
+        let mut s = Supervisor::new(SupervisorParams::default()).unwrap();
+        for seq in 1..=6 {
+            let active = s.step_frame(&frame(seq, None)).active;
+            assert_eq!(active == ActiveController::Pid, seq >= 5, "seq {seq}");
+        }
+        // A car entering the path 9 m ahead, the sender at 20 m: the FLC at once, on the car.
+        let out = s.step_frame(&frame(7, Some(9.0)));
+        assert_eq!((out.active, out.reason, out.switched), (ActiveController::Flc, SwitchReason::NotAssociated, true));
+        assert_eq!(out.association, AssociationState::NotAssociated);
+        let mut on_car = FallbackController::new(FlcParams::paper()).unwrap();
+        let mut on_lead = FallbackController::new(FlcParams::paper()).unwrap();
+        let (car, lead) = (on_car.step(Some(9.0), 10.0), on_lead.step(Some(20.0), 10.0));
+        assert!(car.accel < lead.accel, "{car:?} vs {lead:?}");
+        // The supervisor's FLC has been stepped on the lead so far: compare with the same history.
+        let mut twin = FallbackController::new(FlcParams::paper()).unwrap();
+        for _ in 1..=6 {
+            twin.step(Some(20.0), 10.0);
+        }
+        assert_eq!(out.command, twin.step(Some(9.0), 10.0));
+        // An intruder beyond the sender changes nothing; one nearer keeps the FLC; when it has
+        // gone, the PID drives again after `return_after` messages.
+        let mut t = Supervisor::new(SupervisorParams::default()).unwrap();
+        for seq in 1..=6 {
+            t.step_frame(&frame(seq, None));
+        }
+        let out = t.step_frame(&frame(7, Some(40.0)));
+        assert_eq!((out.active, out.association), (ActiveController::Pid, AssociationState::Associated));
+        for seq in 8..=20 {
+            assert_eq!(s.step_frame(&frame(seq, Some(9.0))).active, ActiveController::Flc);
+        }
+        let back: [ActiveController; 6] = core::array::from_fn(|k| s.step_frame(&frame(21 + k as u32, None)).active);
+        assert_eq!(
+            back,
+            [
+                ActiveController::Flc,
+                ActiveController::Flc,
+                ActiveController::Flc,
+                ActiveController::Flc,
+                ActiveController::Pid,
+                ActiveController::Pid
+            ]
+        );
+        // `step` and the trait's step without an intruder are `step_frame` with none.
+        let (mut a, mut b) = (Supervisor::new(SupervisorParams::default()).unwrap(), Supervisor::new(SupervisorParams::default()).unwrap());
+        for seq in 1..=8 {
+            assert_eq!(a.step(msg(seq), Some(20.0), 10.0, DT), b.step_frame(&frame(seq, None)));
+        }
     }
 
     #[test]

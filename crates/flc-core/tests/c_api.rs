@@ -17,7 +17,7 @@ mod common;
 
 use common::{FNV_OFFSET, Lcg, SPECIAL, hash_f64, scan};
 use flc_core::{
-    ActiveController, DetectorParams, FallbackController, FlcParams, GainSet, LeadDetector, LongitudinalCommand, NeighbourParams,
+    ActiveController, DetectorParams, FallbackController, FlcParams, Frame, GainSet, LeadDetector, LongitudinalCommand, NeighbourParams,
     NeighbourTracker, PidController, PidCore, PidParams, Point2, PurePursuit, PurePursuitParams, Reprojection, RobustFallbackController,
     RobustFallbackController2, RobustFlc2Params, RobustFlcParams, Supervisor, SupervisorParams, SwitchReason, V2vMessage,
 };
@@ -279,7 +279,15 @@ fn expected() -> Vec<String> {
         if k == 450 {
             s.reset();
         }
-        let r = s.step(has_v2v.then_some(V2vMessage::speed_only(lead_speed, seq)), has_dist.then_some(dist), own, 0.05);
+        // A neighbour entering the path at half the distance on ticks 100-129, beyond the lead on
+        // 130-139 (`flc_supervisor_step_intruder`).
+        let intruder = (100..140).contains(&k).then_some(if k < 130 { 0.5 * dist } else { 2.0 * dist });
+        let frame = Frame {
+            v2v: has_v2v.then_some(V2vMessage::speed_only(lead_speed, seq)),
+            intruder,
+            ..Frame::new(has_dist.then_some(dist), own, 0.05)
+        };
+        let r = s.step_frame(&frame);
         let active = match r.active {
             ActiveController::Flc => 0,
             ActiveController::Pid => 1,
@@ -539,6 +547,7 @@ fn linked_c_program_contains_no_panic_path() {
         "flc_pid_terms",
         "flc_supervisor_init",
         "flc_supervisor_step",
+        "flc_supervisor_step_intruder",
         "flc_supervisor_reset",
         "flc_pursuit_init",
         "flc_pursuit_step",
@@ -618,6 +627,7 @@ fn stack_use_of_every_c_function_is_bounded() {
         ("flc_pid_step", 1024),
         ("flc_supervisor_init", 4096),
         ("flc_supervisor_step", 2048),
+        ("flc_supervisor_step_intruder", 2048),
         ("flc_pursuit_init", 1024),
         ("flc_pursuit_step", 1024),
         ("flc_detector_init", 1024),

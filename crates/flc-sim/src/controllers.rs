@@ -241,6 +241,15 @@ impl ControllerKind {
         matches!(self, ControllerKind::FlcRobust | ControllerKind::FlcRobustOdo)
     }
 
+    /// Whether this controller runs the neighbour tracker after each detector scan
+    /// (`flc_core::NeighbourTracker`: a car entering the ego's path seen before the detector
+    /// finds it in the path): the robust FLC and its odometry variant, which follow the intruder
+    /// like a lead in the path, and the pipeline, whose association rule hands the ego to its FLC
+    /// when an intruder is nearer than the V2V sender (the FLC then follows it).
+    pub fn tracks_neighbours(self) -> bool {
+        self.swept_corridor() || self == ControllerKind::Pipeline
+    }
+
     /// Parses the name used in scenario files and on the CLI.
     pub fn parse(s: &str) -> Result<Self, ConfigError> {
         Self::ALL.iter().copied().find(|k| k.as_str() == s).ok_or_else(|| {

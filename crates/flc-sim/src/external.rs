@@ -181,6 +181,7 @@ impl ExternalFollower {
                 lead_speed,
                 own_fix: None,
                 travelled: Some(self.odometer * self.cfg.follower.odometry_scale),
+                intruder: None,
             });
             self.speed_cmd = Some(o.command.speed);
             self.out.switches += u32::from(o.switched);

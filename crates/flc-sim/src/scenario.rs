@@ -153,8 +153,8 @@ pub struct Scenario {
     /// The lead detector.
     pub detector: DetectorParams,
     /// Objects beside the path (issue 47, `flc_core::NeighbourTracker`): used by the controllers
-    /// with the swept-path corridor (`flc-robust`, `flc-robust-odo`). Written out only when it
-    /// differs from the defaults.
+    /// that track them ([`ControllerKind::tracks_neighbours`]: `flc-robust`, `flc-robust-odo`,
+    /// `pipeline`). Written out only when it differs from the defaults.
     #[serde(skip_serializing_if = "is_default_neighbours")]
     pub neighbours: NeighbourParams,
     /// The lateral controller (Eq. (1)).

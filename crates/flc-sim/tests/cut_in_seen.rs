@@ -62,23 +62,27 @@ fn flc_robust_sees_the_measured_cut_ins_coming() {
 /// No false cut-ins (a short stand-in for issue 47's hour of traffic): a car weaving ±0.3 m in
 /// the next lane 25 m ahead at the ego's speed, and a car overtaking in the next lane from 30 m
 /// behind at 30 km/h more: flc-robust is never given a distance and drives exactly as with the
-/// car starting far behind and slower (never in view).
+/// car starting far behind and slower (never in view). So does the pipeline, which runs the
+/// same tracker (its FLC drives here: no V2V; an intruder would be followed).
 #[test]
 fn flc_robust_takes_no_weaving_or_overtaking_neighbour_for_a_cut_in() {
-    let weave: Vec<Phase> = (0..12)
-        .map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { LW - 0.3 } else { LW + 0.3 }), lane: None, duration: 2.0 })
-        .collect();
-    let scenario = |ahead: f64, car_kmh: f64, phases: &[Phase]| {
-        let mut s = two_lanes(Road::Straight, ControllerKind::FlcRobust, 100.0, ahead, LW, car_kmh);
-        s.duration = 24.0;
-        s.lead.phases = phases.iter().cloned().map(Into::into).collect();
-        run(&s).expect("run")
-    };
-    let alone = scenario(-500.0, 60.0, &[]);
-    for (what, r) in [("weaving", scenario(25.0, 100.0, &weave)), ("overtaking", scenario(-30.0, 130.0, &[]))] {
-        assert!(r.collision.is_none(), "{what}: {:?}", r.collision);
-        let seen = r.series.detected_distance.iter().filter(|d| d.is_finite()).count();
-        assert_eq!(seen, 0, "{what}: given a distance in {seen} steps");
-        assert_eq!(r.series.follower_speed, alone.series.follower_speed, "{what}: changed the ego's speed");
+    for controller in [ControllerKind::FlcRobust, ControllerKind::Pipeline] {
+        let weave: Vec<Phase> = (0..12)
+            .map(|k| Phase::LaneChange { offset: Some(if k % 2 == 0 { LW - 0.3 } else { LW + 0.3 }), lane: None, duration: 2.0 })
+            .collect();
+        let scenario = |ahead: f64, car_kmh: f64, phases: &[Phase]| {
+            let mut s = two_lanes(Road::Straight, controller, 100.0, ahead, LW, car_kmh);
+            s.duration = 24.0;
+            s.lead.phases = phases.iter().cloned().map(Into::into).collect();
+            run(&s).expect("run")
+        };
+        let alone = scenario(-500.0, 60.0, &[]);
+        for (what, r) in [("weaving", scenario(25.0, 100.0, &weave)), ("overtaking", scenario(-30.0, 130.0, &[]))] {
+            let what = format!("{} {what}", controller.as_str());
+            assert!(r.collision.is_none(), "{what}: {:?}", r.collision);
+            let seen = r.series.detected_distance.iter().filter(|d| d.is_finite()).count();
+            assert_eq!(seen, 0, "{what}: given a distance in {seen} steps");
+            assert_eq!(r.series.follower_speed, alone.series.follower_speed, "{what}: changed the ego's speed");
+        }
     }
 }

@@ -261,7 +261,15 @@ static void run_supervisor(void) {
         hash_f64(&h, own);
         if (k == 450) check("flc_supervisor_reset", flc_supervisor_reset(&sup_storage));
         FlcSupervisorOutput o;
-        check("flc_supervisor_step", flc_supervisor_step(&sup_storage, has_v2v, m, has_dist, dist, own, 0.05, &o));
+        /* A neighbour entering the path at half the distance on ticks 100-129 (and on 130-139,
+           at its double: beyond the lead). */
+        int has_intruder = k >= 100 && k < 140;
+        double intruder = k < 130 ? 0.5 * dist : 2.0 * dist;
+        if (has_intruder)
+            check("flc_supervisor_step_intruder",
+                  flc_supervisor_step_intruder(&sup_storage, has_v2v, m, has_dist, dist, own, 0.05, true, intruder, &o));
+        else
+            check("flc_supervisor_step", flc_supervisor_step(&sup_storage, has_v2v, m, has_dist, dist, own, 0.05, &o));
         printf("sup %zu %u %u %d %u %u %u", k, (unsigned)o.active, (unsigned)o.reason, (int)o.switched,
                (unsigned)o.v2v_age_ticks, (unsigned)o.fresh_count, (unsigned)o.association);
         print_cmd(&o.command);

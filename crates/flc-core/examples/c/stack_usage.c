@@ -91,6 +91,14 @@ static void supervisor_step(void) {
     }
     sink = flc_supervisor_step(&sup, false, m, true, 18.0, 10.0, 0.05, &o);
 }
+static void supervisor_step_intruder(void) {
+    FlcSupervisorOutput o;
+    FlcV2vMessage m = {10.0, 0};
+    for (uint32_t k = 1; k < 12; k++) {
+        m.seq = k;
+        sink = flc_supervisor_step_intruder(&sup, true, m, true, 18.0, 10.0, 0.05, k > 8, 9.0, &o);
+    }
+}
 static void pursuit_init(void) { sink = flc_pursuit_init(&pp, &pp_p, NULL); }
 static void pursuit_step(void) {
     FlcSteeringCommand s;
@@ -143,6 +151,7 @@ int main(void) {
         {"flc_robust2_init", robust2_init},         {"flc_robust2_step", robust2_step},
         {"flc_pid_init", pid_init},                 {"flc_pid_step", pid_step},
         {"flc_supervisor_init", supervisor_init},   {"flc_supervisor_step", supervisor_step},
+        {"flc_supervisor_step_intruder", supervisor_step_intruder},
         {"flc_pursuit_init", pursuit_init},         {"flc_pursuit_step", pursuit_step},
         {"flc_detector_init", detector_init},       {"flc_detector_detect", detector_detect},
         {"flc_neighbours_init", neighbours_init},   {"flc_neighbours_update", neighbours_update},

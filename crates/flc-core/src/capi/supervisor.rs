@@ -6,6 +6,7 @@ use core::ptr;
 use super::storage::{check_ptr, get_mut, init, storage, tri, write_out};
 use super::{FlcFallbackParams, FlcLongitudinalCommand, FlcParamError, FlcPidParams, FlcResult};
 use crate::association::{AssociationParams, AssociationState};
+use crate::longitudinal::Frame;
 use crate::params::ParamError;
 use crate::supervisor::{ActiveController, Supervisor, SupervisorOutput, SupervisorParams, SwitchReason, V2vMessage};
 
@@ -280,6 +281,41 @@ pub unsafe extern "C" fn flc_supervisor_step(
     let s = tri!(unsafe { get_mut(sup) });
     let msg = has_v2v.then_some(V2vMessage::speed_only(v2v.lead_speed, v2v.seq));
     let o = s.step(msg, has_distance.then_some(distance), own_speed, dt);
+    // SAFETY: checked, caller contract.
+    unsafe { write_out(out, o.into()) };
+    FlcResult::Ok
+}
+
+/// `flc_supervisor_step` with the distance to a neighbour entering the path (the intruder of
+/// `flc_neighbours_update`, bumper-to-bumper like `distance`, in m; ignored unless
+/// `has_intruder`): an intruder nearer than the V2V sender breaks the association and the FLC,
+/// driving at once, follows it (Rust `Supervisor::step_frame`).
+///
+/// # Safety
+/// `sup` is NULL or points to an `FlcSupervisor`; `out` is NULL or valid for writes.
+#[unsafe(no_mangle)]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn flc_supervisor_step_intruder(
+    sup: *mut FlcSupervisor,
+    has_v2v: bool,
+    v2v: FlcV2vMessage,
+    has_distance: bool,
+    distance: f64,
+    own_speed: f64,
+    dt: f64,
+    has_intruder: bool,
+    intruder: f64,
+    out: *mut FlcSupervisorOutput,
+) -> FlcResult {
+    tri!(check_ptr(out.cast_const()));
+    // SAFETY: caller contract.
+    let s = tri!(unsafe { get_mut(sup) });
+    let frame = Frame {
+        v2v: has_v2v.then_some(V2vMessage::speed_only(v2v.lead_speed, v2v.seq)),
+        intruder: has_intruder.then_some(intruder),
+        ..Frame::new(has_distance.then_some(distance), own_speed, dt)
+    };
+    let o = s.step_frame(&frame);
     // SAFETY: checked, caller contract.
     unsafe { write_out(out, o.into()) };
     FlcResult::Ok

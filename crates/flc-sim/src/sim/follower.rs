@@ -6,7 +6,7 @@ use super::drive::{DriveCommand, Driven};
 use super::geometry::{centreline_pursuit, centreline_steer, grid_points, wrap_angle};
 use super::links::{follower_stream, sub_seed};
 use super::path::nearest_lane_offset;
-use crate::controllers::BoxedLaw;
+use crate::controllers::{BoxedLaw, ControllerKind};
 use crate::error::SimError;
 use crate::follower::{FollowerConfig, LostLeadSteering, Perception, Steering};
 use crate::gnss::GnssError;
@@ -37,9 +37,10 @@ pub(super) struct Follower {
     /// Its own GNSS error (the fix the association rule compares the sender's position with).
     pub(super) gnss: GnssError,
     pub(super) detector: Box<LeadDetector>,
-    /// Objects beside the path, for the controllers whose lead selection uses the swept-path
-    /// corridor ([`crate::ControllerKind::swept_corridor`], issue 47): an intruding one is
-    /// followed like a lead in the path when it is nearer.
+    /// Objects beside the path, for the controllers that track them
+    /// ([`crate::ControllerKind::tracks_neighbours`], issue 47): an intruding one is followed like
+    /// a lead in the path when it is nearer (the robust FLCs: as their distance; the pipeline: as
+    /// the frame's intruder, which its association rule and its FLC read).
     pub(super) neighbours: Option<NeighbourTracker>,
     pub(super) pursuit: PurePursuit,
     /// Lost-lead steering `hold_lane`: the lane keeper (pure pursuit of a point on the lane
@@ -106,7 +107,7 @@ impl Follower {
             v2v_lead,
             gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
             detector: Box::new(<LeadDetector>::new(detector_params(&cfg))?),
-            neighbours: if cfg.controller.swept_corridor() { Some(NeighbourTracker::new(cfg.neighbours)?) } else { None },
+            neighbours: if cfg.controller.tracks_neighbours() { Some(NeighbourTracker::new(cfg.neighbours)?) } else { None },
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
             held_lane: None,
@@ -180,11 +181,16 @@ impl Follower {
         // vehicle in front as it sees it (`human_front`; `None` when there is none).
         let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let mut detection = det.detection;
-        if let Some(intruder) = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters())) {
-            if detection.is_none_or(|d| intruder.distance < d.distance) {
-                detection = Some(intruder);
+        let intruder = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters()));
+        // The pipeline gets the intruder beside the detection (its supervisor decides); the robust
+        // FLCs follow it as their lead when it is nearer.
+        let separate = self.cfg.controller == ControllerKind::Pipeline;
+        if let Some(i) = intruder.filter(|_| !separate) {
+            if detection.is_none_or(|d| i.distance < d.distance) {
+                detection = Some(i);
             }
         }
+        let intruder = intruder.filter(|_| separate && !ideal).map(|i| i.distance - self.distance_offset);
         let (distance, lead_speed) =
             if ideal { (truth.map(|x| x.0), truth.map(|x| x.1)) } else { (detection.map(|d| d.distance - self.distance_offset), None) };
         self.detected = distance;
@@ -241,6 +247,7 @@ impl Follower {
                 lead_speed,
                 own_fix,
                 travelled: Some(fs.odometer * self.cfg.follower.odometry_scale),
+                intruder,
             },
             det,
         )
