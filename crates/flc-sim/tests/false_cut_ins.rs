@@ -74,7 +74,7 @@ struct Outcome {
 }
 
 #[test]
-#[ignore = "fails today: 14 false switches (flc-robust) and 12 (odometry variant), neighbour braking 7.9 m/s², nearly all on S-bends (the lane-frame shift breaks the detector's see-through test); run with --ignored"]
+#[ignore = "fails today: 163 false switches (flc-robust), 167 (odometry variant), neighbour braking 8.3 m/s², nearly all on S-bends (the detector's path, an arc of the lane's curvature at the ego, leaves the lane where the curvature changes; shifting the scan by the lane's offset cut them to 10 / 8 but lost a lead on the marking of a published R = 250 m road); run with --ignored"]
 fn an_hour_of_three_lane_traffic_has_no_false_cut_in() {
     let jobs: Vec<(ControllerKind, u64)> = CONTROLLERS.iter().flat_map(|&c| (0..SEGMENTS).map(move |k| (c, k))).collect();
     let results: Vec<Outcome> = jobs
