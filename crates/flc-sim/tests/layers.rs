@@ -177,7 +177,7 @@ const SIM_LAYERS: &[&[&str]] = &[
     &["sim", "external"],
     &["record", "trajectory", "report", "paper_verdict", "svg"],
     &["runner", "gym"],
-    &["sweep", "suite", "frequency_response", "detection_study", "cut_in_grid"],
+    &["sweep", "suite", "frequency_response", "detection_study", "cut_in_grid", "neighbour_traffic"],
     &["stream"],
 ];
 
