@@ -276,14 +276,8 @@ pub unsafe extern "C" fn flc_supervisor_step(
     dt: f64,
     out: *mut FlcSupervisorOutput,
 ) -> FlcResult {
-    tri!(check_ptr(out.cast_const()));
-    // SAFETY: caller contract.
-    let s = tri!(unsafe { get_mut(sup) });
-    let msg = has_v2v.then_some(V2vMessage::speed_only(v2v.lead_speed, v2v.seq));
-    let o = s.step(msg, has_distance.then_some(distance), own_speed, dt);
-    // SAFETY: checked, caller contract.
-    unsafe { write_out(out, o.into()) };
-    FlcResult::Ok
+    // SAFETY: caller contract (that of `flc_supervisor_step_intruder`), without an intruder.
+    unsafe { flc_supervisor_step_intruder(sup, has_v2v, v2v, has_distance, distance, own_speed, dt, false, f64::NAN, out) }
 }
 
 /// `flc_supervisor_step` with the distance to a neighbour entering the path (the intruder of
