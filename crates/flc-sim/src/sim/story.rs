@@ -156,20 +156,17 @@ impl StoryRun {
         let ego = self.ego();
         // Distances along a master's trajectory, from the motions at the start of the step (esmini
         // steps every action before any entity moves).
-        let ahead: Vec<Option<f64>> = self
-            .motions
-            .iter()
-            .map(|m| {
-                let (name, point) = m.sync_master_point()?;
-                self.motions.get(slot(name)?)?.ahead_on_trajectory(point)
-            })
-            .collect();
+        // (No allocation: each synchronisation is told before any motion steps.)
+        for j in 0..self.motions.len() {
+            let Some((name, point)) = self.motions[j].sync_master_point() else { continue };
+            let ahead = slot(name).and_then(|k| self.motions.get(k)).and_then(|mm| mm.ahead_on_trajectory(point));
+            self.motions[j].set_master_ahead(ahead);
+        }
         for j in 0..self.motions.len() {
             if j == ego && !self.ego_scripted {
                 continue;
             }
             let m = &mut self.motions[j];
-            m.set_master_ahead(ahead.get(j).copied().flatten());
             let kappa = track.curvature_at(m.s);
             let s_before = m.s;
             let out = m.step(t, dt, kappa, world);
