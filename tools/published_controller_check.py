@@ -449,7 +449,9 @@ def flc_dims(flc: Path, file: Path, perm: int | None, names: set[str], timeout: 
     import tomllib
 
     with tempfile.TemporaryDirectory(prefix="pubctl-convert-") as tmp:
-        code, out, err = pc.run([str(flc), "convert", str(file), "--out", tmp, "-q"], ROOT, timeout)
+        # Only the run asked for: converting a whole distribution imports every permutation.
+        one = [] if perm is None else ["--permutation", str(perm)]
+        code, out, err = pc.run([str(flc), "convert", str(file), *one, "--out", tmp, "-q"], ROOT, timeout)
         if code != 0:
             return {}
         tomls = sorted(Path(tmp).glob("*.toml"))

@@ -184,12 +184,11 @@ impl Vehicle {
         self.state.speed = if speed.is_finite() { speed.max(0.0) } else { 0.0 };
     }
 
-    /// Puts the vehicle at `state` (a story moving it kinematically, [`crate::story::Motion`]);
-    /// actuator states are kept.
+    /// Puts the vehicle at `state` (a story moving it kinematically, [`crate::story::Motion`]),
+    /// its odometer included (the story counts the path it moves it along); actuator states are
+    /// kept.
     pub fn set_state(&mut self, state: VehicleState) {
-        // The wheels turn as the body moves: the odometer advances by the displacement.
-        let odometer = self.state.odometer + (state.x - self.state.x).hypot(state.y - self.state.y);
-        self.state = VehicleState { odometer, ..state };
+        self.state = state;
     }
 
     /// The parameters.

@@ -90,6 +90,36 @@ fn permutations_and_one_permutation() {
     assert_eq!(err.lines().count(), 1, "{err}");
 }
 
+/// `scenario convert --permutation I` writes the twin of run I alone, the same text as the
+/// whole distribution's conversion gives for it; out of range: exit 2 with one line.
+#[test]
+fn convert_one_permutation() {
+    let f = "tests/data/openscenario/distribution_2x2.xosc";
+    let dir = std::env::temp_dir().join(format!("flc-convert-perm-{}", std::process::id()));
+    let (all, one) = (dir.join("all"), dir.join("one"));
+    let a = scenario(&["convert", f, "--out", all.to_str().expect("path"), "-q"]);
+    let o = scenario(&["convert", f, "--permutation", "2", "--out", one.to_str().expect("path"), "-q"]);
+    assert!(a.status.success() && o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let list = |d: &std::path::Path| {
+        let mut v: Vec<_> = std::fs::read_dir(d).expect("dir").map(|e| e.expect("entry").path()).collect();
+        v.sort();
+        v
+    };
+    let (every, single) = (list(&all), list(&one));
+    assert_eq!((every.len(), single.len()), (4, 1));
+    let name = single[0].file_name().expect("name").to_owned();
+    let twin = all.join(&name);
+    assert!(twin.exists(), "{name:?} is not among the whole conversion's files {every:?}");
+    assert_eq!(std::fs::read(&single[0]).expect("read"), std::fs::read(&twin).expect("read"));
+    assert!(std::fs::read_to_string(&single[0]).expect("read").contains("p2 "), "not run 2");
+    let bad = scenario(&["convert", f, "--permutation", "4"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("permutation") && err.contains('4'), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn max_duration_cuts_with_a_line_and_a_field() {
     let f = "tests/data/openscenario/target_brakes.xosc";

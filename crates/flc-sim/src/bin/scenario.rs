@@ -148,6 +148,10 @@ enum Command {
         /// several give one file per controller (with --out).
         #[arg(long, value_name = "NAME", value_delimiter = ',')]
         controllers: Option<Vec<String>>,
+        /// A distribution: convert only permutation I (0-based, as esmini's
+        /// --param_permutation), without importing the others.
+        #[arg(long, value_name = "I")]
+        permutation: Option<usize>,
         /// No import warnings and no list of the files written on stderr.
         #[arg(long, short)]
         quiet: bool,
@@ -419,7 +423,9 @@ fn is_xosc(path: &std::path::Path) -> bool {
 
 /// The runs of a `.xosc` file (one per distribution combination, times each controller of
 /// `--controllers`); warnings go to stderr unless `--quiet`.
-fn import_xosc(path: &std::path::Path, flags: &ImportFlags<'_>) -> Result<Vec<Imported>, String> {
+/// The runs of `path` (only run `permutation` of a distribution when given), one set per
+/// controller of `--controllers`.
+fn import_xosc(path: &std::path::Path, flags: &ImportFlags<'_>, permutation: Option<usize>) -> Result<Vec<Imported>, String> {
     let opts = import_options(flags.xosc)?;
     let controllers = match flags.controllers {
         None => vec![None],
@@ -433,19 +439,30 @@ fn import_xosc(path: &std::path::Path, flags: &ImportFlags<'_>) -> Result<Vec<Im
     for (k, c) in controllers.into_iter().enumerate() {
         // One import per controller (the importer owns what a controller implies: V2V, set
         // speeds); its warnings are the same every time: printed once.
-        let import = openscenario::import(path, &ImportOptions { controller: c, ..opts.clone() }).map_err(|e| e.to_string())?;
+        let copts = ImportOptions { controller: c, ..opts.clone() };
+        let (runs, warnings) = match permutation {
+            Some(i) => {
+                let source = openscenario::Source::open(path, &copts).map_err(|e| e.to_string())?;
+                let (run, warnings) = source.run(i).map_err(|e| e.to_string())?;
+                (vec![run], warnings)
+            }
+            None => {
+                let import = openscenario::import(path, &copts).map_err(|e| e.to_string())?;
+                (import.runs, import.warnings)
+            }
+        };
         if k == 0 && !flags.quiet {
-            for w in &import.warnings {
+            for w in &warnings {
                 eprintln!("warning: {w}");
             }
         }
-        out.extend(import.runs);
+        out.extend(runs);
     }
     Ok(out)
 }
 
-fn convert(flags: &ImportFlags<'_>, file: &std::path::Path, out: Option<&std::path::Path>) -> ExitCode {
-    let runs = match import_xosc(file, flags) {
+fn convert(flags: &ImportFlags<'_>, file: &std::path::Path, permutation: Option<usize>, out: Option<&std::path::Path>) -> ExitCode {
+    let runs = match import_xosc(file, flags, permutation) {
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
@@ -736,7 +753,7 @@ fn scenarios(cli: &Cli) -> Result<Vec<(Scenario, Option<Calibration>)>, SimError
         };
         for path in &cli.config {
             if is_xosc(path) {
-                let runs = import_xosc(path, &flags).map_err(SimError::Input)?;
+                let runs = import_xosc(path, &flags, None).map_err(SimError::Input)?;
                 for r in runs {
                     out.push((apply_set(r.scenario, &set, &path.display().to_string())?, None));
                 }
@@ -894,9 +911,9 @@ fn main() -> ExitCode {
             }
             return sweep(file, out.as_deref(), quiet, *restart);
         }
-        Some(Command::Convert { file, out, xosc, controllers, quiet }) => {
+        Some(Command::Convert { file, out, xosc, controllers, permutation, quiet }) => {
             let flags = ImportFlags { xosc, controllers: controllers.as_deref(), quiet: *quiet || cli.quiet };
-            return convert(&flags, file, out.as_deref());
+            return convert(&flags, file, *permutation, out.as_deref());
         }
         Some(Command::Suite { name, out, root, controllers, quiet, ncap_workbook, .. }) => {
             return suite(controllers.as_deref(), name, out.as_deref(), root.as_deref(), *quiet || cli.quiet, ncap_workbook.as_deref());

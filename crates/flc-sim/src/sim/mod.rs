@@ -139,9 +139,6 @@ struct State {
     lead_steer: PurePursuit,
     lead_x0: f64,
     followers: Vec<Follower>,
-    /// Each follower's centre position along the centreline at the start (triggers' travelled
-    /// distance).
-    follower_s0: Vec<f64>,
     /// The `[[vehicles]]` besides the lead.
     traffic: Vec<Traffic>,
     /// The vehicles in front of each follower ([`Simulation::fill_fronts`]), reused.
@@ -290,7 +287,6 @@ impl Simulation {
             lead: Vehicle::new(*ll, lead_state),
             lead_driver: LeadDriver::new(*ll, &s.lead.phases, s.lead.initial_speed, s_pos[0], s.lead.offset, &|l| track.lane_offset(l)),
             lead_steer: centreline_pursuit(ll)?,
-            follower_s0: s_pos[1..].to_vec(),
             followers,
             traffic,
             fronts: Vec::new(),

@@ -22,6 +22,8 @@ pub(super) struct StoryRun {
     always_kinematic: Vec<bool>,
     started: Vec<Started>,
     stopped: Vec<usize>,
+    /// Slots that moved before the others this step ([`StoryRun::advance`]; kept to reuse).
+    moved_first: Vec<bool>,
 }
 
 /// An entity as the story moves it: its state, length and reference point (the box centre's
@@ -43,21 +45,23 @@ pub(super) fn motion_of(track: &Track, b: &Body) -> Motion {
     let (c, s) = (st.yaw.cos(), st.yaw.sin());
     let [rx, ry] = b.reference;
     let p = track.project(st.x - c * rx + s * ry, st.y - s * rx - c * ry);
-    let m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
+    let mut m = Motion::new(p.s, p.lateral_offset, st.speed, track.lane_width)
         .with_length(b.length)
         .with_reference(b.reference)
         .with_limits(b.limits)
         .with_heading(crate::track::wrap(st.yaw - p.heading));
+    m.traveled = st.odometer;
     if b.pedestrian { m.holding_heading() } else { m }
 }
 
-/// The pose a motion puts its vehicle's box centre in.
+/// The pose a motion puts its vehicle's box centre in, with the path its reference point has
+/// travelled as the odometer (esmini's, which a teleport does not advance).
 pub(super) fn pose_of(track: &Track, m: &Motion, steer: f64) -> VehicleState {
     let (x, y, h) = track.place(m.s, m.offset);
     let yaw = h + m.heading;
     let [rx, ry] = m.reference();
     let (c, s) = (yaw.cos(), yaw.sin());
-    VehicleState { x: x + c * rx - s * ry, y: y + s * rx + c * ry, yaw, speed: m.speed, accel: m.accel, steer, odometer: 0.0 }
+    VehicleState { x: x + c * rx - s * ry, y: y + s * rx + c * ry, yaw, speed: m.speed, accel: m.accel, steer, odometer: m.traveled }
 }
 
 /// What [`StoryRun::step`] reads of the loop: the story, the ground truth at the start of the
@@ -82,6 +86,7 @@ impl StoryRun {
             always_kinematic: initial.iter().map(|b| b.pedestrian).collect(),
             started: Vec::new(),
             stopped: Vec::new(),
+            moved_first: Vec::new(),
         }
     }
 
@@ -151,32 +156,61 @@ impl StoryRun {
     }
 
     /// Every motion the story drives advanced from `t` to `t + dt`.
+    ///
+    /// In esmini's order: a `FollowTrajectoryAction` moves its entity while the actions step, an
+    /// Init action before the story's, so a synchronisation measures a master that follows a
+    /// trajectory where it is after this step's move along it (esmini 3.6.0
+    /// `StoryBoard::Step`: Init private actions, then the story; `SynchronizeAction::Step`
+    /// reads `master_object_->pos_`). Those masters step first, then the distances are told,
+    /// then every other motion steps (each once).
     pub(super) fn advance(&mut self, input: &StepInput<'_>, t: f64, dt: f64) {
-        let StepInput { world, track, slot, .. } = *input;
-        let ego = self.ego();
-        // Distances along a master's trajectory, from the motions at the start of the step (esmini
-        // steps every action before any entity moves).
-        // (No allocation: each synchronisation is told before any motion steps.)
-        for j in 0..self.motions.len() {
+        let StepInput { slot, .. } = *input;
+        let n = self.motions.len();
+        self.moved_first.clear();
+        for k in 0..n {
+            let first = self.trajectory_master(k, slot);
+            self.moved_first.push(first);
+            if first {
+                self.advance_one(k, input, t, dt);
+            }
+        }
+        for j in 0..n {
             let Some((name, point)) = self.motions[j].sync_master_point() else { continue };
             let ahead = slot(name).and_then(|k| self.motions.get(k)).and_then(|mm| mm.ahead_on_trajectory(point));
             self.motions[j].set_master_ahead(ahead);
         }
-        for j in 0..self.motions.len() {
-            if j == ego && !self.ego_scripted {
-                continue;
+        for k in 0..n {
+            if !self.moved_first[k] {
+                self.advance_one(k, input, t, dt);
             }
-            let m = &mut self.motions[j];
-            let kappa = track.curvature_at(m.s);
-            let s_before = m.s;
-            let out = m.step(t, dt, kappa, world);
-            m.end_of_road(s_before, track.length(), dt);
-            if let Some(i) = out.long_done {
-                self.state.end_action(i, false);
-            }
-            if let Some(i) = out.lat_done {
-                self.state.end_action(i, false);
-            }
+        }
+    }
+
+    /// `true` when slot `k` is the master of a running synchronisation that measures it along
+    /// the trajectory it follows, and is not synchronised itself (it moves before the others).
+    fn trajectory_master(&self, k: usize, slot: &dyn Fn(&str) -> Option<usize>) -> bool {
+        let Some(mk) = self.motions.get(k) else { return false };
+        mk.sync_master_point().is_none()
+            && mk.follows_trajectory()
+            && self.motions.iter().any(|m| m.sync_master_point().is_some_and(|(name, _)| slot(name) == Some(k)))
+    }
+
+    /// Slot `j`'s motion advanced from `t` to `t + dt` (not the ego while flc drives it).
+    fn advance_one(&mut self, j: usize, input: &StepInput<'_>, t: f64, dt: f64) {
+        let StepInput { world, track, .. } = *input;
+        if j == self.ego() && !self.ego_scripted {
+            return;
+        }
+        let m = &mut self.motions[j];
+        let kappa = track.curvature_at(m.s);
+        let s_before = m.s;
+        let out = m.step(t, dt, kappa, world);
+        m.end_of_road(s_before, track.length(), dt);
+        if let Some(i) = out.long_done {
+            self.state.end_action(i, false);
+        }
+        if let Some(i) = out.lat_done {
+            self.state.end_action(i, false);
         }
     }
 

@@ -78,10 +78,9 @@ macro_rules! truth {
     ($st:expr) => {
         $crate::sim::traffic::Truth {
             track: &$st.track,
-            lead: (&$st.lead, $st.lead_x0, &$st.lead_driver),
+            lead: (&$st.lead, &$st.lead_driver),
             traffic: &$st.traffic,
             followers: &$st.followers,
-            follower_s0: &$st.follower_s0,
             story: $st.story.as_ref().map(|r| &r.state),
             contacts: &$st.other_contacts,
             still: &$st.still,
@@ -93,11 +92,9 @@ pub(super) use truth;
 /// The ground truth triggers see (`crate::trigger::WorldView`).
 pub(super) struct Truth<'a> {
     pub(super) track: &'a Track,
-    pub(super) lead: (&'a Vehicle, f64, &'a LeadDriver),
+    pub(super) lead: (&'a Vehicle, &'a LeadDriver),
     pub(super) traffic: &'a [Traffic],
     pub(super) followers: &'a [Follower],
-    /// Each follower's centre position along the centreline at the start.
-    pub(super) follower_s0: &'a [f64],
     /// The story's runtime (element states, variables).
     pub(super) story: Option<&'a crate::story::StoryState>,
     /// Contacts without a follower.
@@ -106,7 +103,7 @@ pub(super) struct Truth<'a> {
     pub(super) still: &'a [f64],
 }
 
-fn entity_state(track: &Track, v: &Vehicle, s0: f64, still_for: f64) -> EntityState {
+fn entity_state(track: &Track, v: &Vehicle, still_for: f64) -> EntityState {
     let st = v.state();
     let p = track.project(st.x, st.y);
     let par = v.params();
@@ -116,7 +113,9 @@ fn entity_state(track: &Track, v: &Vehicle, s0: f64, still_for: f64) -> EntitySt
         speed: st.speed,
         length: par.length,
         width: par.width,
-        traveled: p.s - s0,
+        // The path its reference point travelled (esmini's odometer), not the distance along
+        // the road: a turn off the road travels on while `s` hardly grows.
+        traveled: st.odometer,
         accel: st.accel,
         still_for,
     }
@@ -150,19 +149,14 @@ impl WorldView for Truth<'_> {
     fn entity(&self, name: &str) -> Option<EntityState> {
         let still = |i: usize| self.still.get(i).copied().unwrap_or(0.0).max(0.0);
         if name == "lead" {
-            return Some(entity_state(self.track, self.lead.0, self.lead.1, still(0)));
+            return Some(entity_state(self.track, self.lead.0, still(0)));
         }
         if let Some(k) = follower_index(name) {
             let f = self.followers.get(k)?;
-            return Some(entity_state(
-                self.track,
-                &f.vehicle,
-                self.follower_s0.get(k).copied().unwrap_or(0.0),
-                still(1 + self.traffic.len() + k),
-            ));
+            return Some(entity_state(self.track, &f.vehicle, still(1 + self.traffic.len() + k)));
         }
         let i = self.traffic.iter().position(|t| t.name == name)?;
-        self.traffic.get(i).map(|t| entity_state(self.track, &t.vehicle, t.s0, still(1 + i)))
+        self.traffic.get(i).map(|t| entity_state(self.track, &t.vehicle, still(1 + i)))
     }
 
     fn element(&self, name: &str) -> Option<crate::trigger::ElementStatus> {
@@ -200,7 +194,7 @@ impl WorldView for Truth<'_> {
     }
 
     fn phase(&self, name: &str, phase: usize) -> PhaseStatus {
-        let driver = if name == "lead" { Some(self.lead.2) } else { self.traffic.iter().find(|t| t.name == name).map(|t| &t.driver) };
+        let driver = if name == "lead" { Some(self.lead.1) } else { self.traffic.iter().find(|t| t.name == name).map(|t| &t.driver) };
         let (started, ended) = driver.map_or((None, None), |d| d.phase_times(phase));
         PhaseStatus { started, ended }
     }

@@ -300,6 +300,9 @@ pub struct Motion {
     hold_heading: bool,
     /// It reached an end of the road ([`Motion::end_of_road`]).
     at_end: bool,
+    /// Its velocity along the road over its last step (`ds / dt`; `None` before its first
+    /// step): what esmini's ground truth reports as the velocity (from the displacement), m/s.
+    vel_s: Option<f64>,
 }
 
 impl Motion {
@@ -324,6 +327,7 @@ impl Motion {
             spline: None,
             hold_heading: false,
             at_end: false,
+            vel_s: None,
         }
     }
 
@@ -372,6 +376,11 @@ impl Motion {
     pub fn ahead_on_trajectory(&self, point: [f64; 2]) -> Option<f64> {
         let tr = self.spline.as_ref()?;
         Some(tr.project(point)? - tr.u.min(tr.length))
+    }
+
+    /// `true` while this entity follows a trajectory (a running spline).
+    pub fn follows_trajectory(&self) -> bool {
+        self.spline.is_some()
     }
 
     /// This motion for an entity `length` m long (freespace placements).
@@ -756,7 +765,11 @@ impl Motion {
                     y.mode = SyncMode::NonLinear;
                     y.convex = (v1 + self.speed) / 2.0 < dist / t_master;
                 }
-                let (sd, t, v0) = (dist, t_master, self.speed);
+                // esmini takes the current speed from the ground truth's velocity projected on
+                // the road (`SIGN(speed) * |GetVelS()|`): the displacement of the last step, which
+                // lags the speed an action set by a step where a trajectory moves first.
+                let v_now = self.vel_s.map_or(self.speed, |v| v.abs().copysign(self.speed));
+                let (sd, t, v0) = (dist, t_master, v_now);
                 let mut vx = 0.0;
                 if (v1 - v0).abs() < SMALL {
                     vx = (sd - (t / 2.0) * v0) / (t / 2.0);
@@ -859,9 +872,42 @@ impl Motion {
             Some(Lat { action: i, from: self.offset, to, shape: tr.shape, by_distance, extent, t0, x0: self.traveled, along_heading });
     }
 
+    /// `step_len` m along the running spline (esmini's `MoveTrajectoryDS`); past its end the rest
+    /// straight on along its last heading, and the action ends (`out.lat_done`).
+    fn move_on_spline(&mut self, step_len: f64, out: &mut MotionStep) {
+        let Some(tr) = self.spline.as_mut() else { return };
+        let u_prev = tr.u.min(tr.length);
+        tr.u += step_len;
+        let mut p = tr.at(tr.u);
+        if tr.u > tr.length - 1.0e-9 {
+            let rest = (step_len - (tr.length - u_prev)).max(0.0);
+            p[0] += rest * p[2].cos();
+            p[1] += rest * p[2].sin();
+            out.lat_done = Some(tr.action);
+        }
+        self.s = p[0];
+        self.offset = p[1];
+        self.heading = crate::track::wrap(p[2]);
+        self.traveled += step_len;
+        if out.lat_done.is_some() {
+            self.spline = None;
+            self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
+        }
+    }
+
     /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)
     /// here; `world` answers the speeds of relative targets.
     pub fn step(&mut self, t: f64, dt: f64, curvature: f64, world: &dyn WorldView) -> MotionStep {
+        let s_before = self.s;
+        let out = self.step_motion(t, dt, curvature, world);
+        if dt > 0.0 {
+            self.vel_s = Some((self.s - s_before) / dt);
+        }
+        out
+    }
+
+    /// [`Motion::step`] without the velocity bookkeeping.
+    fn step_motion(&mut self, t: f64, dt: f64, curvature: f64, world: &dyn WorldView) -> MotionStep {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
@@ -885,6 +931,13 @@ impl Motion {
             return out;
         }
         let long_action = self.long.as_ref().map(|l| l.action);
+        // esmini steps actions in storyboard order: a trajectory before the speed action in that
+        // order (an Init trajectory under a story's synchronisation) moves the entity first, at
+        // the speed of the step before; the speed action then sees where it moved to.
+        let spline_first = self.spline.as_ref().is_some_and(|tr| long_action.is_some_and(|a| tr.action < a));
+        if spline_first {
+            self.move_on_spline(v_prev * dt, &mut out);
+        }
         if let Some(k) = self.long.as_ref().and_then(|l| l.keep.clone()) {
             // A kept distance: placed from `of` at the start of the step, at its speed, then
             // moved on with that speed (esmini's order).
@@ -927,31 +980,11 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        if let Some(tr) = self.spline.as_mut() {
-            // Along the trajectory at the speed (esmini's MoveTrajectoryDS); past its end the
-            // rest of the step straight on along its last heading, and the action ends. esmini
-            // steps actions in storyboard order: a trajectory before the speed action in that
-            // order (an Init trajectory under a story's synchronisation) moves at the speed of
-            // the step before.
-            let earlier = long_action.is_some_and(|a| tr.action < a);
-            let step_len = if earlier { v_prev * dt } else { self.speed * dt };
-            let u_prev = tr.u.min(tr.length);
-            tr.u += step_len;
-            let mut p = tr.at(tr.u);
-            if tr.u > tr.length - 1.0e-9 {
-                let rest = (step_len - (tr.length - u_prev)).max(0.0);
-                p[0] += rest * p[2].cos();
-                p[1] += rest * p[2].sin();
-                out.lat_done = Some(tr.action);
-            }
-            self.s = p[0];
-            self.offset = p[1];
-            self.heading = crate::track::wrap(p[2]);
-            self.traveled += step_len;
-            if out.lat_done.is_some() {
-                self.spline = None;
-                self.reversed = self.heading.abs() > std::f64::consts::FRAC_PI_2;
-            }
+        if spline_first || out.lat_done.is_some() {
+            return out;
+        }
+        if self.spline.is_some() {
+            self.move_on_spline(self.speed * dt, &mut out);
             return out;
         }
         let mut step_len = self.speed * dt;
