@@ -26,6 +26,11 @@
 //!   (3.5 m/s², the comfort limit of the simulator's `time_hard_braking` metric).
 //! * **Perception and reaction** (`risk_perception_time + reaction_time = 1.15 s` after the
 //!   onset frame): the acceleration commanded on the frame before the onset is held.
+//! * **A disturbance already there on the first frame** (a scenario that starts with the ego
+//!   closing in fast, as esmini's `acc-test`: 120 km/h, 75 m behind a car at 30 km/h): its onset
+//!   lies before the driver's first frame, while it was already driving and looking ahead, so it
+//!   is taken as perceived and reacted to: the braking ramp starts on that frame (from 0). Only
+//!   the very first frame after [`CarefulDriver::new`] counts; a fault's reset does not.
 //! * **Braking**: the command ramps from `min(held, 0)` to `-max_decel` with the jerk
 //!   `max_decel / decel_ramp_time` and then holds it. Each frame commands the ramp's value in the
 //!   middle of the coming frame interval (`tau + dt / 2` after the brake start, the interval
@@ -306,6 +311,8 @@ pub struct CarefulDriver {
     last_accel: f64,
     prev_lead_speed: Option<f64>,
     terms: CarefulDriverTerms,
+    /// A valid frame has been driven (the first frame's rule, module docs).
+    started: bool,
 }
 
 impl CarefulDriver {
@@ -321,6 +328,7 @@ impl CarefulDriver {
             last_accel: 0.0,
             prev_lead_speed: None,
             terms: CarefulDriverTerms::default(),
+            started: false,
         })
     }
 
@@ -404,8 +412,14 @@ impl CarefulDriver {
         // The state machine: onset, then the clock of perception and reaction, then the end of
         // a braking (checked after the clock, so a disturbance gone by the end of the reaction
         // time is not braked for).
+        let t_response = p.response_time();
         if self.mode == CarefulMode::Normal {
-            if a_req > p.risk_decel {
+            if a_req > p.risk_decel && !self.started {
+                // Already there on the first frame: perceived and reacted to before it.
+                self.mode = CarefulMode::Braking;
+                self.since_onset = t_response;
+                self.held = 0.0;
+            } else if a_req > p.risk_decel {
                 // The onset frame: nothing perceived yet, the previous command is kept.
                 self.mode = CarefulMode::Perceiving;
                 self.since_onset = 0.0;
@@ -414,7 +428,7 @@ impl CarefulDriver {
         } else {
             self.since_onset += dt;
         }
-        let t_response = p.response_time();
+        self.started = true;
         if matches!(self.mode, CarefulMode::Perceiving | CarefulMode::Reacting) {
             self.mode = if self.since_onset + TIME_EPSILON >= t_response {
                 CarefulMode::Braking
@@ -656,6 +670,34 @@ mod tests {
         assert!((c.terms().since_onset - 39.0 * DT).abs() < 1e-9);
     }
 
+    /// A disturbance already there on the very first frame (esmini's acc-test: 120 km/h, 75 m
+    /// behind a car at 30 km/h: a_req = 25² / (2 * 73) = 4.28 m/s²) is braked for on that frame,
+    /// with the ramp from 0; the same situation arising on a later frame waits 1.15 s. The
+    /// first frame alone: after a fault the driver is still driving.
+    #[test]
+    fn a_disturbance_on_the_first_frame_was_perceived_before_it() {
+        let (v, lead) = (120.0 / 3.6, 30.0 / 3.6);
+        let mut c = CarefulDriver::new(cruising(v)).unwrap();
+        let out = c.step_measured(Some(75.0), v, DT, Some(lead));
+        assert_eq!(c.mode(), CarefulMode::Braking);
+        assert!((c.terms().a_req - 25.0 * 25.0 / (2.0 * 73.0)).abs() < 1e-9, "{}", c.terms().a_req);
+        assert!((out.accel + A * 0.025 / 0.6).abs() < 1e-9, "{}", out.accel);
+        let out = c.step_measured(Some(75.0 - 25.0 * DT), v, DT, Some(lead));
+        assert!((out.accel + A * 0.075 / 0.6).abs() < 1e-9, "{}", out.accel);
+        // Seen on the second frame instead: perceived and reacted to first.
+        let mut c = CarefulDriver::new(cruising(v)).unwrap();
+        c.step_measured(None, v, DT, None);
+        let out = c.step_measured(Some(75.0), v, DT, Some(lead));
+        assert_eq!((c.mode(), out.accel), (CarefulMode::Perceiving, 0.0));
+        // A fault's reset keeps the driver driving: the next disturbance waits.
+        let mut c = CarefulDriver::new(cruising(v)).unwrap();
+        c.step_measured(None, v, DT, None);
+        let fault = c.step_measured(Some(f64::NAN), v, DT, None);
+        assert_eq!(fault.status, Status::InvalidDistance);
+        c.step_measured(Some(75.0), v, DT, Some(lead));
+        assert_eq!(c.mode(), CarefulMode::Perceiving);
+    }
+
     #[test]
     fn the_held_acceleration_is_the_previous_command() {
         // Cruising below the desired speed (default 130 km/h) at 80 km/h: the IDM accelerates at
@@ -676,6 +718,7 @@ mod tests {
         let p = CarefulDriverParams::default();
         let mut c = CarefulDriver::new(p).unwrap();
         c.last_accel = -3.5;
+        c.started = true;
         c.step_measured(Some(30.0), 20.0, DT, Some(0.0));
         assert_eq!(c.terms().held_accel, -3.5);
         for _ in 0..22 {
@@ -751,8 +794,10 @@ mod tests {
 
     #[test]
     fn the_end_of_a_disturbance() {
-        // Closing on a 10 m/s lead at 15 m: a_req = 100 / 26 = 3.85 > 3.5.
+        // Closing on a 10 m/s lead at 15 m: a_req = 100 / 26 = 3.85 > 3.5 (after a first frame
+        // with nothing in sight: a disturbance on the first frame brakes at once).
         let mut c = CarefulDriver::new(CarefulDriverParams::default()).unwrap();
+        c.step_measured(None, 20.0, DT, None);
         c.step_measured(Some(15.0), 20.0, DT, Some(10.0));
         assert_eq!(c.mode(), CarefulMode::Perceiving);
         // The lead speeds up to 25 m/s meanwhile: the reaction still runs its course...
@@ -856,6 +901,7 @@ mod tests {
     #[test]
     fn through_the_trait() {
         let mut c = CarefulDriver::new(CarefulDriverParams::default()).unwrap();
+        c.step_measured(None, 20.0, DT, None);
         let mut d = c.clone();
         let f = Frame { lead_speed: Some(10.0), ..Frame::new(Some(15.0), 20.0, DT) };
         let o = LongitudinalController::step(&mut c, &f);
