@@ -908,7 +908,8 @@ def reach_map(path: str) -> str:
             f"boxes (their corners and random points), {len(cc['collisions'])} collisions; least simulated gap "
             f"{cc['least_gap']:.2f} m; least margin over the certified lower bound {cc['least_margin']:.4f} m "
             f"(must be >= 0); largest range error of the detector {cc['max_range_error']:.1e} m "
-            f"(the model allows {d['model']['noise']:.0e} m per frame); largest lateral offset {cc['max_lateral_offset']:.1e} m."
+            f"(the model allows {d['model']['noise']:.0e} m per frame); largest lateral offset {cc['max_lateral_offset']:.1e} m; "
+            f"frames whose detection differs from the model's (none at t = 0, one at every later frame): {cc['frames_not_as_modelled']}."
         )
     return "".join(lines) + "\n"
 
@@ -930,4 +931,5 @@ def reach_arch(path: str) -> str:
     if cc:
         rows.append(["simulated starts in the set (corners + random)", f"{cc['runs']}, {len(cc['collisions'])} collisions, least margin over the bound {cc['least_margin']:.3f} m"])
         rows.append(["their largest range error / lateral offset (m)", f"{cc['max_range_error']:.1e} / {cc['max_lateral_offset']:.1e}"])
+        rows.append(["their frames detecting otherwise than the model", str(cc["frames_not_as_modelled"])])
     return table(["", ""], rows, "ll")
