@@ -933,3 +933,27 @@ def reach_arch(path: str) -> str:
         rows.append(["their largest range error / lateral offset (m)", f"{cc['max_range_error']:.1e} / {cc['max_lateral_offset']:.1e}"])
         rows.append(["their frames detecting otherwise than the model", str(cc["frames_not_as_modelled"])])
     return table(["", ""], rows, "ll")
+
+
+@generator("reach-model")
+def reach_model() -> str:
+    """docs/safety-evidence.md: the constants of :mod:`flc.reach` (its model, its refinement, the
+    map and the ARCH-COMP check)."""
+    from . import reach
+
+    sig = __import__("inspect").signature
+    paths = sig(reach.certify).parameters["max_paths"].default
+    syms = sig(reach._run_batch).parameters["max_symbols"].default
+    sp, gp = reach.MAP_SPEEDS, reach.MAP_GAPS
+    rows = [
+        ["range error: constant bias, per frame (m)", f"±{reach.BIAS:g}, ±{reach.NOISE:g}"],
+        ["contact margin: the gap's lower bound must stay above (m)", f"{reach.CONTACT_MARGIN:g}"],
+        ["widening of every bound per physics step (relative, absolute m)", f"{reach.WIDEN[0]:g}, {reach.WIDEN[1]:g}"],
+        ["branch paths per box before they are merged", str(paths)],
+        ["symbols kept at each frame (the start box's among them)", f"{syms} ({reach.K0})"],
+        ["map nodes: speed (m/s), gap (m)", f"{sp[0]:g}-{sp[-1]:g} every {sp[1] - sp[0]:g}; {gp[0]:g}-{gp[-1]:g} every {gp[1] - gp[0]:g}"],
+        ["map start box at a node: speed, gap widths", f"{reach.MAP_CELL[0]:g} m/s, {reach.MAP_CELL[1]:g} m"],
+        ["map lead deceleration (m/s²), horizon (s)", f"{reach.MAP_DECEL[0]:g}-{reach.MAP_DECEL[1]:g}, {reach.MAP_HORIZON:g}"],
+        ["ARCH-COMP horizon (s)", f"{reach.ARCH_HORIZON:g}"],
+    ]
+    return table(["", ""], rows, "ll")
