@@ -1,25 +1,30 @@
 """Sound reachability of the paper FLC's discrete-time closed loop: where no contact is possible
-(``docs/safety-evidence.md``, section 4).
+(``docs/safety-evidence.md``, section 4). ``python -m flc.reach {map,arch,check} --out FILE``.
 
 What it computes. For a *box* of starts (follower speed, lead speed, bumper-to-bumper gap, lead
-deceleration, each an interval) it steps the closed loop of the simulator in interval arithmetic,
-all boxes of a batch at once (NumPy, one row per box or branch path), and decides:
+deceleration, each an interval) it steps the simulator's closed loop on affine forms (:class:`AF`:
+a centre, one coefficient per symbol, an independent remainder), all boxes of a batch at once
+(NumPy, one row per box or branch path), and decides:
 
 * **certified**: for every start in the box, every lead deceleration in the box and every range
-  error allowed (below), the gap stays above :data:`CONTACT_MARGIN` at every physics step up to
-  the horizon (and, with ``property="arch"``, ``gap >= 10 + 1.4 v_follower`` at every step);
-* **not certified**: the lower bound reached the limit. That does *not* mean unsafe: interval
-  arithmetic over-approximates.
+  error of the model (below), the gap stays above :data:`CONTACT_MARGIN` at every physics step up
+  to the horizon (and, with ``prop="arch"``, ``gap >= 10 + 1.4 v_follower`` at every step);
+* **not certified**: a lower bound reached its limit. That does *not* mean unsafe: the forms
+  over-approximate.
 
-Refinement instead of hulls. Interval hulls lose the correlation between the branch of Eq. (5)
-(``delta_d <= -0.3`` m per frame) and the state. Here a frame whose ``delta_d`` interval straddles
-the threshold because of the box's width (not the range noise) stops that box, and the box is
-bisected (along its widest dimension relative to :data:`SPLIT_SCALE`) and run again, down to
-``max_depth`` bisections. A box that fails its gap bound is bisected too. Where the straddle is
-irreducible (the per-frame noise alone can move ``delta_d`` across the threshold, or the depth
-budget is spent) the path *forks*: one row per branch, each with the whole state (sound: every
-member of the state takes one of the two branches); beyond ``max_paths`` rows per box the two
-branches' outputs are hulled (also sound).
+The symbols are the box's dimensions and the range error's bias (:data:`K0`); at every frame
+each form's remainder becomes a symbol of its own (:func:`_lift`, so that ``e = v_cmd - v`` and
+the gap's changes cancel it later), and the least weighty columns are folded back. Every
+nonlinearity is its chord plus a proven error bound (:func:`law`, :func:`desired`,
+:func:`resistance`, :func:`_pwl` for the clamps and overrides), or its exact range where that is
+narrower (all of them are nondecreasing).
+
+The branch of Eq. (5) (``Delta_d <= -0.3`` m per frame). Where the interval of ``Delta_d`` allows
+both branches the path *forks*, and each fork is refined to the members that take its branch
+(:func:`_contract`: the linear constraint narrows the symbols' ranges). Beyond ``max_paths`` rows
+per box they are merged pairwise (:func:`_merge`, their affine hull), and beyond that the two
+branches' outputs are hulled: all sound. A box that fails is bisected (:meth:`Box.split`) and its
+halves run again, down to ``max_depth`` bisections (:func:`certify`).
 
 The model, step for step as the simulator (``crates/flc-sim/src/sim/mod.rs``: sense, then act):
 
@@ -27,8 +32,11 @@ The model, step for step as the simulator (``crates/flc-sim/src/sim/mod.rs``: se
   ``-decel + resistance(v)`` until its speed is at most 0.01 m/s, then the hold loop
   ``clamp(-3 v, -3, 2) + resistance(v)``; through its own vehicle model (as the follower's);
 * a LiDAR frame every ``round(1 / (rate_hz physics_dt))`` physics steps from t = 0, on the state
-  at the start of the step; the paper FLC (``flc_core::flc::FallbackController::step``, Eqs.
-  (2)-(5), first frame ``steady``) sets the held speed command;
+  at the start of the step. The scan at t = 0 finds no lead (the simulator's bodies enter its
+  query pipeline with the first physics step): the law cruises at the set speed, the follower's
+  initial speed (``NoTargetCruise``); from the next frame the paper FLC
+  (``flc_core::flc::FallbackController::step``, Eqs. (2)-(5), first frame ``steady``) sets the
+  held speed command;
 * the follower: the PI speed controller with anti-windup, clamps and the stop hold
   (``vehicle::SpeedController::step``), the actuator (dead time as a FIFO of physics steps starting
   idle, exact first-order lag, traction / power / brake limits), drag and rolling resistance, speed
@@ -37,27 +45,28 @@ The model, step for step as the simulator (``crates/flc-sim/src/sim/mod.rs``: se
 Assumptions (what a certificate does *not* cover):
 
 * **range error**: the distance the law gets at frame k is ``gap_k + b + n_k`` with a bias
-  ``|b| <= bias`` constant over the run (it cancels in ``delta_d``) and a per-frame error
-  ``|n_k| <= noise``; the lead is detected at every frame (no dropout, ghost, latency or jitter).
-  The simulator's Gaussian range noise is unbounded: a run is covered while its detector's errors
-  stay within these bounds (:func:`check_sample` measures them on the cross-check's runs);
+  ``|b| <= bias`` constant over the run (it cancels in ``Delta_d``) and a per-frame error
+  ``|n_k| <= noise`` (:data:`BIAS`, :data:`NOISE` for the documents' certificates); the lead is
+  detected at every later frame (no dropout, ghost, latency or jitter). The simulator's Gaussian
+  range noise is unbounded: its noise-free LiDAR is what the documents' certificates cover, and
+  :func:`crosscheck` measures its errors;
 * straight driving: the follower's displacement is its path length (the simulator steers by pure
-  pursuit of the detected lead; the cross-check measures the deviation);
+  pursuit of the detected lead; :func:`crosscheck` measures the lateral offset);
 * the lead brakes with a constant deceleration in the box's interval from t = 0 (the simulator's
   brake phase), not an arbitrary profile;
-* no controller other than the paper FLC; its own state at the start: no previous distance; the
-  follower's actuator idle, integrator empty;
+* no controller other than the paper FLC; no previous distance at the start; the follower's
+  actuator idle, its integrator empty;
 * rounding: every state bound is widened outward by :data:`WIDEN` (relative and absolute) at every
   physics step. Each bound is a composition of at most a few dozen floating-point operations on
-  magnitudes below 10^3 (rounding error below 1e-11) and the law's cosine is evaluated at its
-  interval's ends (it is monotone there, ``_law``); the simulator's own rounding of the positions
-  (below 1e-9 m over 10^4 steps) is inside the widening of the gap. Contact in the simulator is
-  rapier's (f32 geometry): :data:`CONTACT_MARGIN` covers it.
+  magnitudes below 10^3 (rounding error below 1e-11); the chords' ends are padded for the
+  rounding of the functions there; the simulator's own rounding of the positions (below 1e-9 m
+  over 10^4 steps) is inside the widening of the gap. Contact in the simulator is rapier's (f32
+  geometry): :data:`CONTACT_MARGIN` covers it.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Iterable, Mapping, Optional, Sequence
 
 import numpy as np
@@ -130,8 +139,14 @@ class Model:
         if not f["clip_dist_s"] or f["shift_normal"] < 1 or f["shift_brake"] < 1:
             raise ValueError("reach: Eq. (5) is monotone only with clip_dist_s = true and shifts >= 1")
         lid = d["lidar"]
-        if lid["latency_frames"] != 0 or lid["jitter"] != 0 or lid["scan_drop_prob"] != 0 or lid["dropout_prob"] != 0:
-            raise ValueError("reach: the LiDAR must have no latency, jitter or dropout (not modelled)")
+        if (lid["latency_frames"] != 0 or lid["jitter"] != 0 or lid["scan_drop_prob"] != 0 or lid["dropout_prob"] != 0
+                or lid.get("dropout_at_max_range", 0) != 0 or lid.get("faults")):
+            raise ValueError("reach: the LiDAR must have no latency, jitter, dropout or faults (not modelled)")
+        fo = d["follower"]
+        if fo.get("set_speed") is not None:
+            raise ValueError("reach: follower.set_speed must be unset (the law cruises at the initial speed until its first target)")
+        if fo.get("perception", "lidar") != "lidar" or fo.get("distance_offset") is not None:
+            raise ValueError("reach: the law must read the LiDAR's bumper-to-bumper distance (perception = \"lidar\", no distance_offset)")
         dt = float(d["physics_dt"])
         frame = 1.0 / (float(lid["rate_hz"]) * dt)
         if abs(frame - round(frame)) > 1e-9:
@@ -734,7 +749,7 @@ def _run_batch(m: Model, boxes: Sequence[Box], horizon: float, prop: str, split_
                         _contract(rows, idx, dg, thr - 2 * m.noise, upper=False)
                         _contract(rows, twins, rows.s["dgap"], thr + 2 * m.noise, upper=True)
                         paths[:] = np.maximum(paths, np.bincount(rows.box, minlength=nb))
-            if rows.box.size and n_ok is not None:
+            if rows.box.size and n_ok is not None and b_ok is not None:
                 _lift(rows, max_symbols)
                 _frame(m, rows, n_ok, b_ok)
         if rows.box.size == 0:
@@ -869,8 +884,12 @@ def _model_json(m: Model) -> dict[str, Any]:
 def samples(box: Mapping[str, Any], n: int, rng: np.random.Generator) -> list[tuple[float, float, float, float]]:
     """The box's corners and ``n`` uniform points in it: (v, vl, gap, decel)."""
     dims = [box["v"], box["vl"], box["gap"], box["decel"]]
-    pts = [tuple(float(d[i]) for d, i in zip(dims, idx)) for idx in np.ndindex(2, 2, 2, 2)]
-    pts += [tuple(float(rng.uniform(lo, hi)) for lo, hi in dims) for _ in range(n)]
+
+    def four(xs: Sequence[float]) -> tuple[float, float, float, float]:
+        return (float(xs[0]), float(xs[1]), float(xs[2]), float(xs[3]))
+
+    pts = [four([d[i] for d, i in zip(dims, idx)]) for idx in np.ndindex(2, 2, 2, 2)]
+    pts += [four([rng.uniform(lo, hi) for lo, hi in dims]) for _ in range(n)]
     return list(dict.fromkeys(pts))
 
 
