@@ -954,6 +954,7 @@ def reach_model() -> str:
         ["map nodes: speed (m/s), gap (m)", f"{sp[0]:g}-{sp[-1]:g} every {sp[1] - sp[0]:g}; {gp[0]:g}-{gp[-1]:g} every {gp[1] - gp[0]:g}"],
         ["map start box at a node: speed, gap widths", f"{reach.MAP_CELL[0]:g} m/s, {reach.MAP_CELL[1]:g} m"],
         ["map lead deceleration (m/s²), horizon (s)", f"{reach.MAP_DECEL[0]:g}-{reach.MAP_DECEL[1]:g}, {reach.MAP_HORIZON:g}"],
+        ["map: bisections of a start box at most", str(reach.MAP_DEPTH)],
         ["ARCH-COMP horizon (s)", f"{reach.ARCH_HORIZON:g}"],
     ]
     return table(["", ""], rows, "ll")

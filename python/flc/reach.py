@@ -809,6 +809,8 @@ MAP_GAPS = tuple(float(g) for g in range(8, 65, 8))
 MAP_CELL = (0.05, 0.25)
 MAP_DECEL = (5.95, 6.0)
 MAP_HORIZON = 20.0
+#: Bisections of a map's start box at most (each box is split along its widest dimension).
+MAP_DEPTH = 6
 #: The ARCH-COMP ACC benchmark's initial set (``flc.arch_acc``) and horizon.
 ARCH_HORIZON = 5.0
 
@@ -847,7 +849,7 @@ def _leaves(out: Sequence[Outcome]) -> list[dict[str, Any]]:
 
 def certified_map(m: Model, speeds: Sequence[float] = MAP_SPEEDS, gaps: Sequence[float] = MAP_GAPS,
                   cell: tuple[float, float] = MAP_CELL, decel: tuple[float, float] = MAP_DECEL,
-                  horizon: float = MAP_HORIZON, max_depth: int = 2) -> dict[str, Any]:
+                  horizon: float = MAP_HORIZON, max_depth: int = MAP_DEPTH) -> dict[str, Any]:
     """Per node (speed, gap): the start box ``[v, v + cell[0]] x [gap, gap + cell[1]] x decel``
     refined to ``max_depth`` bisections (certified when every leaf is), and the point start
     ``(v, gap, decel[1])`` (certified for every range error of the model)."""
@@ -862,7 +864,8 @@ def certified_map(m: Model, speeds: Sequence[float] = MAP_SPEEDS, gaps: Sequence
         rows.append({"speed": v, "gap": g, "box": b.to_json(), "box_certified": all(o.certified for o in leaves),
                      "box_least": min(o.least for o in leaves), "leaves": _leaves(leaves),
                      "point_certified": p.certified, "point_least": p.least})
-    return {"model": _model_json(m), "horizon": horizon, "cell": list(cell), "decel": list(decel), "nodes": rows}
+    return {"model": _model_json(m), "horizon": horizon, "cell": list(cell), "decel": list(decel), "max_depth": max_depth,
+            "nodes": rows}
 
 
 def arch_certificate(m: Model, max_depth: int = 4) -> dict[str, Any]:
