@@ -545,7 +545,9 @@ def _physics(m: Model, rows: _Rows, k: int) -> tuple[AF, AF]:
 
 
 def _start(m: Model, boxes: Sequence[Box]) -> _Rows:
+    """The rows of ``boxes`` at t = 0 (the symbols: the start box's only)."""
     nb = len(boxes)
+    _K[0] = K0
 
     def form(dim: int, sym: int) -> AF:
         lo = np.array([b.dims()[dim][0] for b in boxes], dtype=float)
