@@ -963,8 +963,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     else:
         with open(a.out) as f:
             data = json.load(f)
+        data.pop("crosscheck", None)
         if "nodes" in data:
+            # The certified boxes' leaves and the certified single starts (zero-width boxes).
             boxes = [dict(l) for nd in data["nodes"] for l in nd["leaves"] if l["certified"]]
+            top = data["decel"][1]
+            boxes += [{"v": [nd["speed"]] * 2, "vl": [nd["speed"]] * 2, "gap": [nd["gap"]] * 2, "decel": [top, top],
+                       "least": nd["point_least"]} for nd in data["nodes"] if nd["point_certified"]]
             data["crosscheck"] = crosscheck(boxes, n=a.samples, horizon=data["horizon"])
         else:
             boxes = [dict(l) for l in data["leaves"] if l["certified"]]
