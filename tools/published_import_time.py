@@ -2,8 +2,9 @@
 """Times the import of the published OpenSCENARIO files (the set of tools/published_check.py).
 
 For every file: `scenario convert FILE [--permutation 0] -q` (a distribution: its first run
-only), repeated `--repeat` times; the median wall time of the whole process is an upper bound of
-the import (it also starts the process, reads the road and catalogs, and writes the TOML twin).
+only), repeated `--repeat` times; the median CPU time (user + system) of the whole process is an
+upper bound of the import (it also starts the process, reads the road and catalogs, and writes
+the TOML twin). CPU time, not wall time: the figure holds on a loaded machine too.
 Prints a Markdown table: the count, the median over files, the slowest files, the goal.
 
     python3 tools/published_import_time.py --pub /work/scratch/pub
@@ -12,10 +13,10 @@ from __future__ import annotations
 
 import argparse
 import platform
+import resource
 import statistics
 import subprocess
 import sys
-import time
 from datetime import date
 from pathlib import Path
 
@@ -25,10 +26,15 @@ import published_check as pc  # noqa: E402
 GOAL_MS = 50.0
 
 
+def cpu_children() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def once(cmd: list[str]) -> float:
-    t0 = time.perf_counter()
+    t0 = cpu_children()
     done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    dt = time.perf_counter() - t0
+    dt = cpu_children() - t0
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)}: exit {done.returncode}: {done.stderr.strip()[:300]}")
     return dt * 1000.0
@@ -53,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     rows.sort(reverse=True)
     med = statistics.median(r[0] for r in rows)
     print(f"{len(rows)} files, {date.today()}, {platform.machine()} {platform.processor() or ''}, "
-          f"median of {args.repeat} per file; command: python3 tools/published_import_time.py --pub DIR\n")
+          f"median CPU time of {args.repeat} runs per file; command: python3 tools/published_import_time.py --pub DIR\n")
     print("| what | figure | goal |\n|---|---|---|")
     print(f"| import a published file, the slowest (`{rows[0][1]}`) | **{rows[0][0]:.1f} ms** | < {GOAL_MS:.0f} ms |")
     for ms, name in rows[1:4]:
