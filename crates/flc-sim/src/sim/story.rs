@@ -166,11 +166,18 @@ impl StoryRun {
     pub(super) fn advance(&mut self, input: &StepInput<'_>, t: f64, dt: f64) {
         let StepInput { slot, .. } = *input;
         let n = self.motions.len();
+        // The masters of synchronisations that measure them along their trajectory, not
+        // synchronised themselves.
         self.moved_first.clear();
+        self.moved_first.resize(n, false);
+        for j in 0..n {
+            let Some(k) = self.motions[j].sync_master_point().and_then(|(name, _)| slot(name)) else { continue };
+            if let Some(mk) = self.motions.get(k) {
+                self.moved_first[k] = mk.follows_trajectory() && mk.sync_master_point().is_none();
+            }
+        }
         for k in 0..n {
-            let first = self.trajectory_master(k, slot);
-            self.moved_first.push(first);
-            if first {
+            if self.moved_first[k] {
                 self.advance_one(k, input, t, dt);
             }
         }
@@ -186,15 +193,6 @@ impl StoryRun {
         }
     }
 
-    /// `true` when slot `k` is the master of a running synchronisation that measures it along
-    /// the trajectory it follows, and is not synchronised itself (it moves before the others).
-    fn trajectory_master(&self, k: usize, slot: &dyn Fn(&str) -> Option<usize>) -> bool {
-        let Some(mk) = self.motions.get(k) else { return false };
-        mk.sync_master_point().is_none()
-            && mk.follows_trajectory()
-            && self.motions.iter().any(|m| m.sync_master_point().is_some_and(|(name, _)| slot(name) == Some(k)))
-    }
-
     /// Slot `j`'s motion advanced from `t` to `t + dt` (not the ego while flc drives it).
     fn advance_one(&mut self, j: usize, input: &StepInput<'_>, t: f64, dt: f64) {
         let StepInput { world, track, .. } = *input;
@@ -206,6 +204,7 @@ impl StoryRun {
         let s_before = m.s;
         let out = m.step(t, dt, kappa, world);
         m.end_of_road(s_before, track.length(), dt);
+        m.record_velocity(s_before, dt);
         if let Some(i) = out.long_done {
             self.state.end_action(i, false);
         }

@@ -378,6 +378,14 @@ impl Motion {
         Some(tr.project(point)? - tr.u.min(tr.length))
     }
 
+    /// Records the step's velocity along the road from `s_before` to where the step (and the
+    /// road's end) left it (esmini's ground-truth velocity, which a synchronisation reads).
+    pub fn record_velocity(&mut self, s_before: f64, dt: f64) {
+        if dt > 0.0 {
+            self.vel_s = Some((self.s - s_before) / dt);
+        }
+    }
+
     /// `true` while this entity follows a trajectory (a running spline).
     pub fn follows_trajectory(&self) -> bool {
         self.spline.is_some()
@@ -898,16 +906,6 @@ impl Motion {
     /// Advances from `t` to `t + dt` on a centreline of curvature `curvature` (1/m, + left)
     /// here; `world` answers the speeds of relative targets.
     pub fn step(&mut self, t: f64, dt: f64, curvature: f64, world: &dyn WorldView) -> MotionStep {
-        let s_before = self.s;
-        let out = self.step_motion(t, dt, curvature, world);
-        if dt > 0.0 {
-            self.vel_s = Some((self.s - s_before) / dt);
-        }
-        out
-    }
-
-    /// [`Motion::step`] without the velocity bookkeeping.
-    fn step_motion(&mut self, t: f64, dt: f64, curvature: f64, world: &dyn WorldView) -> MotionStep {
         let mut out = MotionStep::default();
         let t1 = t + dt;
         let v_prev = self.speed;
@@ -980,7 +978,7 @@ impl Motion {
             self.long = None;
         }
         self.accel = if dt > 0.0 { (self.speed - v_prev) / dt } else { 0.0 };
-        if spline_first || out.lat_done.is_some() {
+        if spline_first {
             return out;
         }
         if self.spline.is_some() {
