@@ -866,6 +866,14 @@ fn translate(
     if top > 0.0 {
         set_cruise_speed(&mut s, top + crate::paper::BASELINE_SET_SPEED_MARGIN_KMH * KMH);
     }
+    let ego_speed = speed_of(ego);
+    if ego_speed > 0.0 {
+        // The careful driver drives the ego's speed, as esmini's R157 ReferenceDriver keeps the
+        // speed it has when it takes over (its `set_speed_`): the scenario's driver, not an ACC.
+        let mut sec = s.sections();
+        ControllerKind::CarefulDriver.set_cruise_speed(&mut sec, ego_speed);
+        s.set_sections(sec);
+    }
     s.track = TrackSpec::Custom(track);
     s.stop.trigger = stop;
     s.story = Some(story);
