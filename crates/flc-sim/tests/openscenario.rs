@@ -530,3 +530,20 @@ fn an_ego_in_a_positive_lane_meets_a_crossing_pedestrian_and_stops_at_the_road_s
     let r = sim.result();
     assert!(r.metrics.max_decel > 3.0, "max deceleration {}", r.metrics.max_decel);
 }
+
+/// The R157 careful driver drives the ego's own speed in the file (as esmini's ReferenceDriver
+/// keeps the speed it takes over at); the baselines cruise 20 km/h above the file's fastest
+/// speed (target_brakes.xosc: both cars at EgoSpeed_kmh = 50, the lead then brakes).
+#[test]
+fn the_careful_driver_drives_the_egos_speed_the_baselines_20_kmh_above_the_fastest() {
+    let file = data().join("target_brakes.xosc");
+    let import = openscenario::import(&file, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let s = &import.runs[0].scenario;
+    assert!((s.careful_driver.normal.desired_speed - 50.0 / 3.6).abs() < 1e-9, "{}", s.careful_driver.normal.desired_speed);
+    assert!((s.idm.desired_speed - 70.0 / 3.6).abs() < 1e-9, "{}", s.idm.desired_speed);
+    let opts = ImportOptions { params: vec![("EgoSpeed_kmh".into(), "80".into())], ..ImportOptions::default() };
+    let fast = openscenario::import(&file, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let s = &fast.runs[0].scenario;
+    assert!((s.careful_driver.normal.desired_speed - 80.0 / 3.6).abs() < 1e-9, "{}", s.careful_driver.normal.desired_speed);
+    assert!((s.idm.desired_speed - 100.0 / 3.6).abs() < 1e-9, "{}", s.idm.desired_speed);
+}
