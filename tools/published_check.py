@@ -11,7 +11,7 @@ at every common step, collisions (same pair, start within one step), end time (s
 the committed data file (default docs/openscenario/published.json) that `python -m flc docs`
 renders into docs/openscenario.md. Only the Python standard library.
 
-    python3 tools/published_check.py --pub /work/scratch/pub -j 2          # the 53 files of issue 45
+    python3 tools/published_check.py --pub /work/scratch/pub -j 2          # the 53 published files
     python3 tools/published_check.py DIR_OR_FILE... --data out.json        # any files
     python3 tools/published_check.py --pub /work/scratch/pub --only 4_6_2 --out /tmp/check   # some, into a scratch folder
 
@@ -44,7 +44,7 @@ import esmini_reference as er  # noqa: E402
 STEP = 0.01
 POS_TOL, SPEED_TOL = 0.05, 0.05
 TIMEOUT_S = 900
-#: The published set of issue 45: (collection folder, subfolder, files or None for all below).
+#: The published set (docs/openscenario.md, "Published files against esmini"): (collection folder, subfolder, files or None for all below).
 STANDARD_SET = [
     ("OSC-NCAP-scenarios", "OpenSCENARIO/NCAP/AEB_C2C_2023", None),
     ("OSC-ALKS-scenarios", "logical_scenarios", None),
@@ -299,7 +299,7 @@ def permutations(n: int) -> list[int]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("paths", nargs="*", help="folders (every scenario / distribution .xosc below) or files")
-    ap.add_argument("--pub", help="folder holding OSC-NCAP-scenarios, OSC-ALKS-scenarios and esmini: adds issue 45's 53 files")
+    ap.add_argument("--pub", help="folder holding OSC-NCAP-scenarios, OSC-ALKS-scenarios and esmini: adds the 53 published files (docs/openscenario.md)")
     ap.add_argument("-j", "--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--flc", default=str(ROOT / "target" / "release" / "scenario"), help="the scenario binary (cargo build --release)")
     ap.add_argument("--esmini", help="folder of the headless esmini build (default ../shared/tools/esmini or $ESMINI_DIR)")
