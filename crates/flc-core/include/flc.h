@@ -52,7 +52,7 @@
 /**
  * Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
  */
-#define FLC_DETECTOR_WORDS 8051
+#define FLC_DETECTOR_WORDS 8052
 
 /**
  * Words (8 bytes each) of `FlcNeighbours::storage` (672 bytes).
@@ -1216,6 +1216,11 @@ typedef struct FlcDetectorParams {
      * (replaces the two rules above when positive; 0 = off, the paper's corridor).
      */
     double swept_half_width;
+    /**
+     * Half width of the band the ego's body sweeps, m: a wide object whose body reaches within
+     * it is in path too, reported only when nothing else is (0 = off).
+     */
+    double body_half_width;
     /**
      * Solid-face test: a ray through the outline counts beyond this past its far edge, m.
      */

@@ -22,8 +22,10 @@
 //! (6) stats    : per cluster, extents and counts of the ORIGINAL points lying in its cells
 //! (7) accept   : points >= the range's point threshold, width across the path in
 //!                [min_width, max_width], depth <= max_depth, |centre offset| <= path_half_width
-//!                (or, with swept_half_width > 0, the body reaching within it: issue 46)
-//! (8) select   : the accepted cluster with the smallest rear-face x
+//!                (or, with swept_half_width > 0, the body reaching within it: issue 46;
+//!                with body_half_width > 0 a wide body reaching within that too)
+//! (8) select   : the accepted cluster with the smallest rear-face x (one in path by
+//!                body_half_width alone only when there is no other)
 //! (9) metres   : position = (rear-face x, lateral centre y); distance = rear-face x
 //! ```
 //!
@@ -157,6 +159,14 @@ pub struct DetectorParams {
     /// `path_half_width` and `narrow_width`); the simulator's robust FLCs use the ego's half
     /// width plus 0.5 m (`docs/detector.md`).
     pub swept_half_width: f64,
+    /// With this positive, a wide object (not below `narrow_width`) whose body (its returns'
+    /// offsets from the path, widened by one beam spacing at its range) reaches within it of the
+    /// path is in path too, whatever its centre: into the band the ego's own body sweeps, m
+    /// (0 = off, the centre rule alone). Such an object is reported only when no object is in
+    /// path by the other rules (a driver looks past a lead cutting out at what it reveals, but
+    /// does not drive into a car on the lane marking). The simulator sets it to the ego's half
+    /// width for an ego that keeps its lane.
+    pub body_half_width: f64,
     /// Step 8's solid-face test: a ray whose bearing lies strictly inside a cluster's bearing
     /// span and whose return is more than this beyond the cluster's far edge (x) passed through
     /// where the cluster would be a surface, m. Default 1.0. A vehicle's rear face and sides stop
@@ -209,6 +219,7 @@ impl DetectorParams {
             path_half_width: 1.8,
             narrow_width: 1.2,
             swept_half_width: 0.0,
+            body_half_width: 0.0,
             see_through_margin: 1.0,
             see_through_share: 0.25,
             rear_face_depth: 1.0,
@@ -251,6 +262,7 @@ impl DetectorParams {
         check_positive("path_half_width", self.path_half_width, 100.0, "must be finite and in (0, 100] m")?;
         check_range("narrow_width", self.narrow_width, 0.0, 50.0, "must be finite and in [0, 50] m")?;
         check_range("swept_half_width", self.swept_half_width, 0.0, 100.0, "must be finite and in [0, 100] m (0 = off)")?;
+        check_range("body_half_width", self.body_half_width, 0.0, 100.0, "must be finite and in [0, 100] m (0 = off)")?;
         check_range("see_through_margin", self.see_through_margin, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
         check_range("see_through_share", self.see_through_share, 0.0, 1e6, "must be finite and in [0, 1e6]")?;
         check_range("rear_face_depth", self.rear_face_depth, 0.0, 1000.0, "must be finite and in [0, 1000] m")?;
@@ -935,11 +947,13 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         // so this ends after at most `n_clusters` passes over the scan; in practice one.
         let bx = grid_box(&g);
         let best = loop {
+            // The nearest, an object in path by its body alone only when there is no other.
             let mut best: Option<usize> = None;
-            let mut best_x = f64::INFINITY;
+            let mut best_key = (true, f64::INFINITY);
             for (i, c) in self.clusters.iter().take(n_clusters).enumerate() {
-                if c.rejection.is_none() && c.x_min < best_x {
-                    best_x = c.x_min;
+                let key = (by_body_alone(c, &p), c.x_min);
+                if c.rejection.is_none() && (best.is_none() || (key.0, key.1) < best_key) {
+                    best_key = key;
                     best = Some(i);
                 }
             }
@@ -982,7 +996,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         if p.join_gap.is_nan() || p.join_gap <= 0.0 {
             return;
         }
-        let reach = p.path_half_width.max(p.swept_half_width) + p.max_width;
+        let reach = p.path_half_width.max(p.swept_half_width).max(p.body_half_width) + p.max_width;
         let mut cand = [0u16; JOIN_CAPACITY];
         let mut n = 0;
         for (i, c) in self.clusters().iter().enumerate() {
@@ -1276,30 +1290,49 @@ fn judge(c: &ClusterInfo, p: &DetectorParams, kappa: f64) -> Option<RejectReason
 }
 
 /// Step 7's corridor: with `swept_half_width > 0`, a narrow object (below `narrow_width`) is in
-/// it when its body reaches within it (its nearest offset
-/// from the path, 0 when it straddles the path, less one beam spacing at its range, is below
-/// it); otherwise the paper's rule, the
-/// centre within `path_half_width` and narrow objects wholly inside. Written so that a non-finite
+/// it when its body reaches within it (its nearest offset from the path, 0 when it straddles the
+/// path, less one beam spacing at its range, is below it); otherwise the paper's rule, the centre
+/// within `path_half_width` and narrow objects wholly inside, or with `body_half_width > 0` a
+/// wide object whose body reaches within that ([`by_body_alone`]). Written so that a non-finite
 /// offset is rejected.
 fn in_corridor(c: &ClusterInfo, p: &DetectorParams) -> bool {
     if p.swept_half_width > 0.0 && c.width() < p.narrow_width {
-        let near = if c.d_min > 0.0 {
-            c.d_min
-        } else if c.d_max < 0.0 {
-            -c.d_max
-        } else if c.d_min <= 0.0 && c.d_max >= 0.0 {
-            0.0
-        } else {
-            f64::NAN
-        };
         // The body reaches up to one beam spacing beyond its outermost return (as in step 7's
         // width): a motorbike on the marking 70 m ahead returns its first beam 0.1 m inside its
         // edge with 0.2 deg beams.
-        near - c.x_min.max(0.0) * p.beam_spacing() < p.swept_half_width
+        body_offset(c, p) < p.swept_half_width
     } else {
-        let off = libm::fabs(c.center_offset());
-        off <= p.path_half_width && (c.width() >= p.narrow_width || off + 0.5 * c.width() <= p.path_half_width)
+        by_centre(c, p) || by_body_alone(c, p)
     }
+}
+
+/// The paper's rule: the centre within `path_half_width`, a narrow object wholly inside.
+fn by_centre(c: &ClusterInfo, p: &DetectorParams) -> bool {
+    let off = libm::fabs(c.center_offset());
+    off <= p.path_half_width && (c.width() >= p.narrow_width || off + 0.5 * c.width() <= p.path_half_width)
+}
+
+/// A wide object in the corridor by its body alone: outside the centre rule, its body reaching
+/// within `body_half_width` (the band the ego's body sweeps; a car driving on the lane marking,
+/// its centre 1.75 m off, which the centre rule finds on its edge at 1.8 m). Reported only when
+/// no other object is in path (step 8).
+fn by_body_alone(c: &ClusterInfo, p: &DetectorParams) -> bool {
+    p.body_half_width > 0.0 && c.width() >= p.narrow_width && !by_centre(c, p) && body_offset(c, p) < p.body_half_width
+}
+
+/// The nearest offset of a cluster's body from the path, widened by one beam spacing at its
+/// range, m: 0 when it straddles the path; NaN when its offsets are not finite.
+fn body_offset(c: &ClusterInfo, p: &DetectorParams) -> f64 {
+    let near = if c.d_min > 0.0 {
+        c.d_min
+    } else if c.d_max < 0.0 {
+        -c.d_max
+    } else if c.d_min <= 0.0 && c.d_max >= 0.0 {
+        0.0
+    } else {
+        f64::NAN
+    };
+    near - c.x_min.max(0.0) * p.beam_spacing()
 }
 
 /// The box holding the grid of `g` (see [`LeadDetector::bounds`]).
@@ -1479,7 +1512,7 @@ mod tests {
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
         // The figure quoted in the docs (62.9 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size, 64408);
+        assert_eq!(size, 64416);
     }
 
     #[test]
@@ -1626,6 +1659,41 @@ mod tests {
 
     /// Issue 46: the swept-path corridor. A 1.9 m wide ego keeping 0.5 m: 1.45 m.
     const SWEPT: DetectorParams = DetectorParams { swept_half_width: 1.45, ..DetectorParams::defaults() };
+
+    /// `body_half_width` (an ego keeping its lane, 1.9 m wide): a car driving on the lane marking
+    /// (centre 1.75-1.95 m off, 1.9 m wide: its body 0.8-1.0 m from the path) is in path by its
+    /// body, where the centre rule (1.8 m) loses it at 1.85 m; one half a lane over (2.4 m: 1.45 m)
+    /// and a car in the next lane are not. An object in path by its body alone comes second: with
+    /// a car on the lane centre farther ahead (a lead cutting out and the car it reveals), the
+    /// farther car is reported.
+    #[test]
+    fn a_car_on_the_marking_is_in_path_by_its_body_after_everything_else() {
+        let body = DetectorParams { body_half_width: 0.95, ..SWEPT };
+        let mut d = <LeadDetector>::new(body).unwrap();
+        let mut centre = <LeadDetector>::new(SWEPT).unwrap();
+        for side in [1.0, -1.0] {
+            // (what, centre offset, in path by the body rule)
+            for (what, yc, inside) in [
+                ("on the marking", 1.75, true),
+                ("on the marking, 0.1 m further out", 1.85, true),
+                ("half a lane over", 2.4, false),
+                ("in the next lane", 3.5, false),
+            ] {
+                let scan = rear_face(25.0, side * yc, 1.9);
+                let tag = std::format!("{what} (side {side})");
+                let out = d.detect(&scan, 0.0);
+                assert_eq!(out.detection.is_some(), inside, "{tag}: {:?}", d.clusters());
+                if (yc - 1.85).abs() < 1e-9 {
+                    assert!(centre.detect(&scan, 0.0).detection.is_none(), "{tag}: the centre rule");
+                }
+            }
+            // A car on the marking 20 m ahead and a car on the lane centre 40 m ahead.
+            let mut scan = rear_face(20.0, side * 1.85, 1.9);
+            scan.extend(rear_face(40.0, 0.0, 1.9));
+            let out = d.detect(&scan, 0.0).detection.expect("a car in path");
+            assert!((out.distance - 40.0).abs() <= 0.2, "side {side}: {}", out.distance);
+        }
+    }
 
     /// A motorbike standing on the lane marking (0.8 m wide, centre 1.75 m off the path: its
     /// body reaches to 1.35 m) is in the swept path, on either side and on a curved path; the

@@ -90,6 +90,9 @@ pub struct FlcDetectorParams {
     /// Half width of the swept path plus clearance, m: a body reaching within it is in path
     /// (replaces the two rules above when positive; 0 = off, the paper's corridor).
     pub swept_half_width: f64,
+    /// Half width of the band the ego's body sweeps, m: a wide object whose body reaches within
+    /// it is in path too, reported only when nothing else is (0 = off).
+    pub body_half_width: f64,
     /// Solid-face test: a ray through the outline counts beyond this past its far edge, m.
     pub see_through_margin: f64,
     /// Solid-face test: rejected above this share of the cluster's point count.
@@ -183,7 +186,7 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // ---------------------------------------------------------------------------------------------
 
 /// Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 8051;
+pub const FLC_DETECTOR_WORDS: usize = 8052;
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 63 KiB: prefer static storage on small stacks.
@@ -220,6 +223,7 @@ impl From<DetectorParams> for FlcDetectorParams {
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
             swept_half_width: p.swept_half_width,
+            body_half_width: p.body_half_width,
             see_through_margin: p.see_through_margin,
             see_through_share: p.see_through_share,
             rear_face_depth: p.rear_face_depth,
@@ -265,6 +269,7 @@ impl TryFrom<FlcDetectorParams> for DetectorParams {
             path_half_width: p.path_half_width,
             narrow_width: p.narrow_width,
             swept_half_width: p.swept_half_width,
+            body_half_width: p.body_half_width,
             see_through_margin: p.see_through_margin,
             see_through_share: p.see_through_share,
             rear_face_depth: p.rear_face_depth,
