@@ -952,7 +952,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
             let mut best_key = (true, f64::INFINITY);
             for (i, c) in self.clusters.iter().take(n_clusters).enumerate() {
                 let key = (by_body_alone(c, &p), c.x_min);
-                if c.rejection.is_none() && (best.is_none() || (key.0, key.1) < best_key) {
+                if c.rejection.is_none() && key < best_key {
                     best_key = key;
                     best = Some(i);
                 }
