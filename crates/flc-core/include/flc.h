@@ -50,9 +50,14 @@
 #define FLC_PURSUIT_WORDS 5
 
 /**
- * Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
+ * Words (8 bytes each) of `FlcDetector::storage` (63.4 KiB).
  */
-#define FLC_DETECTOR_WORDS 8052
+#define FLC_DETECTOR_WORDS 8117
+
+/**
+ * Most offsets of a path profile (`flc_detector_set_path_profile`).
+ */
+#define FLC_PROFILE_STATIONS 64
 
 /**
  * Words (8 bytes each) of `FlcNeighbours::storage` (672 bytes).
@@ -1736,6 +1741,24 @@ FlcResult flc_detector_detect(struct FlcDetector *det,
                               size_t n_points,
                               double path_curvature,
                               struct FlcDetectorOutput *out);
+
+/**
+ * Sets the path profile for the scans that follow (Rust `LeadDetector::set_path_profile`): where
+ * the predicted path leaves the arc of `path_curvature`, `n_offsets` lateral offsets (m, + left;
+ * at most `FLC_PROFILE_STATIONS`) at forward distances `0, spacing, 2 spacing, ...`; linear
+ * between, the last value beyond. `spacing` 0 or `n_offsets` 0 removes it. A rejected profile
+ * returns `FLC_RESULT_INVALID_PARAMS`, names the field in the optional `error` and leaves the
+ * profile as it was. Cleared by `flc_detector_reset`.
+ *
+ * # Safety
+ * `det` is NULL or points to an `FlcDetector`; `offsets` is NULL or valid for reads of
+ * `n_offsets` doubles; `error` is NULL or valid for writes.
+ */
+FlcResult flc_detector_set_path_profile(struct FlcDetector *det,
+                                        double spacing,
+                                        const double *offsets,
+                                        size_t n_offsets,
+                                        struct FlcParamError *error);
 
 /**
  * Clears the last scan's grids and clusters (each detect starts from scratch anyway).

@@ -59,6 +59,9 @@ pub const JOIN_CAPACITY: usize = 32;
 /// a whole scan of the default LiDAR (1201 rays) and takes 12.5 KiB.
 pub const POINT_CACHE: usize = 1280;
 
+/// Stations of a path profile ([`LeadDetector::set_path_profile`]).
+pub const PROFILE_STATIONS: usize = 64;
+
 /// A cached point outside the grid (or not finite).
 pub(crate) const NO_CELL: u16 = u16::MAX;
 
@@ -557,7 +560,7 @@ impl Run {
 
 /// Grid geometry in metres, for one scan's path curvature.
 #[derive(Debug, Clone, Copy)]
-struct Geometry {
+struct Geometry<'a> {
     x_lo: f64,
     cell: f64,
     /// Start of the far cells (`x_lo + n_near * cell`).
@@ -570,9 +573,19 @@ struct Geometry {
     d_lo: f64,
     /// Path curvature, 1/m (finite, |kappa| <= MAX_CURVATURE).
     kappa: f64,
+    /// The path's departure from the arc at stations `k / inv_spacing` ahead, m
+    /// ([`LeadDetector::set_path_profile`]); unused while `inv_spacing` is 0.
+    profile: &'a [f64; PROFILE_STATIONS],
+    /// 1 / station spacing, 1/m; 0: no profile (the path is the arc).
+    inv_spacing: f64,
+    /// Largest `|profile|`, m.
+    profile_reach: f64,
 }
 
-impl Geometry {
+/// The profile of a path that is the arc.
+static NO_PROFILE: [f64; PROFILE_STATIONS] = [0.0; PROFILE_STATIONS];
+
+impl<'a> Geometry<'a> {
     fn new(p: &DetectorParams, nx: usize, ny: usize, kappa: f64) -> Self {
         let near = (p.far_start - p.x_min) / p.cell_size + 0.5;
         // Truncating cast of a finite non-negative value (validated), saturated to the grid.
@@ -587,7 +600,38 @@ impl Geometry {
             ny,
             d_lo: -0.5 * ny as f64 * p.cell_size,
             kappa,
+            profile: &NO_PROFILE,
+            inv_spacing: 0.0,
+            profile_reach: 0.0,
         }
+    }
+
+    /// This geometry with the path profile `profile` at stations `spacing` m apart (`spacing` 0:
+    /// none).
+    fn with_profile(mut self, profile: &'a [f64; PROFILE_STATIONS], spacing: f64) -> Self {
+        if spacing > 0.0 {
+            self.profile = profile;
+            self.inv_spacing = 1.0 / spacing;
+            self.profile_reach = profile.iter().fold(0.0, |m: f64, &o| m.max(libm::fabs(o)));
+        }
+        self
+    }
+
+    /// The path's departure from the arc at forward distance `x`, m: linear between stations,
+    /// the first station's value before it and the last's beyond (0 without a profile).
+    #[inline]
+    fn departure(&self, x: f64) -> f64 {
+        let f = x * self.inv_spacing;
+        if !(f > 0.0) {
+            return self.profile[0];
+        }
+        if f >= (PROFILE_STATIONS - 1) as f64 {
+            return self.profile[PROFILE_STATIONS - 1];
+        }
+        // `f` is finite and in (0, PROFILE_STATIONS - 1): the cast is floor and in range.
+        let i = f as usize;
+        let (a, b) = (self.profile.get(i).copied().unwrap_or(0.0), self.profile.get(i + 1).copied().unwrap_or(0.0));
+        a + (f - i as f64) * (b - a)
     }
 
     /// Forward end of the grid, m.
@@ -609,8 +653,17 @@ impl Geometry {
     /// `(2 y - kappa (x^2 + y^2)) / (1 + sqrt((kappa x)^2 + (1 - kappa y)^2))` (no cancellation
     /// for small kappa; the root is at least 0, the denominator at least 1). `None` for points on the
     /// far half of that circle (`1 - kappa y <= 0`: more than a quarter turn along the path).
+    ///
+    /// With a path profile, less the path's departure from the arc at `x` ([`Geometry::departure`]).
     #[inline]
     fn offset(&self, x: f64, y: f64) -> Option<f64> {
+        let d = self.arc_offset(x, y)?;
+        Some(if self.inv_spacing > 0.0 { d - self.departure(x) } else { d })
+    }
+
+    /// The offset from the arc alone (see [`Geometry::offset`]).
+    #[inline]
+    fn arc_offset(&self, x: f64, y: f64) -> Option<f64> {
         let k = self.kappa;
         if k == 0.0 {
             return Some(y);
@@ -682,6 +735,10 @@ pub struct LeadDetector<const NX: usize = 520, const NY: usize = 60> {
     pub(crate) params: DetectorParams,
     /// Path curvature of the last scan (0 before the first), 1/m.
     pub(crate) curvature: f64,
+    /// The path profile ([`LeadDetector::set_path_profile`]): the path's departure from the arc
+    /// at stations `profile_spacing` m apart; `profile_spacing` 0: none.
+    pub(crate) profile: [f64; PROFILE_STATIONS],
+    pub(crate) profile_spacing: f64,
     pub(crate) occupied: [u64; NX],
     pub(crate) edges: [u64; NX],
     pub(crate) dilated: [u64; NX],
@@ -735,6 +792,8 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         Ok(Self {
             params,
             curvature: 0.0,
+            profile: [0.0; PROFILE_STATIONS],
+            profile_spacing: 0.0,
             occupied: [0; NX],
             edges: [0; NX],
             dilated: [0; NX],
@@ -768,12 +827,14 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         Ok(())
     }
 
-    /// Clears the grids, runs and clusters of the last scan and its curvature (the parameters
-    /// stay). Each [`LeadDetector::detect`] starts from scratch anyway, so this only clears what
+    /// Clears the grids, runs and clusters of the last scan, its curvature and the path profile
+    /// (the parameters stay). Each [`LeadDetector::detect`] starts from scratch anyway, so this only clears what
     /// the diagnostic accessors ([`LeadDetector::clusters`], [`LeadDetector::is_occupied`], ...)
     /// show.
     pub fn reset(&mut self) {
         self.curvature = 0.0;
+        self.profile = [0.0; PROFILE_STATIONS];
+        self.profile_spacing = 0.0;
         self.occupied.fill(0);
         self.edges.fill(0);
         self.dilated.fill(0);
@@ -844,8 +905,51 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         self.clusters.get(..self.n_clusters).unwrap_or(&[])
     }
 
-    fn geometry(&self, kappa: f64) -> Geometry {
-        Geometry::new(&self.params, NX, NY, kappa)
+    fn geometry(&self, kappa: f64) -> Geometry<'_> {
+        Geometry::new(&self.params, NX, NY, kappa).with_profile(&self.profile, self.profile_spacing)
+    }
+
+    /// Sets the **path profile** for the scans that follow: where the predicted path leaves the
+    /// arc of `path_curvature` ([`LeadDetector::detect`]), as lateral offsets (m, + left) at
+    /// forward distances `0, spacing, 2 spacing, ...` (at most [`PROFILE_STATIONS`]; linear
+    /// between, the last value beyond). A point's offset from the path is then its offset from
+    /// the arc less the profile at its forward distance. The points stay as measured, so their
+    /// bearings (step 8's see-through test) stay true.
+    ///
+    /// For a follower keeping its lane: the lane ahead as the arc of the curvature at the ego plus
+    /// where the lane departs from it (an S-bend, the start of a curve: on R = 1000 m arcs
+    /// reversing 40 m ahead the arc is 1.6 m off the lane at 80 m). `spacing` 0 (or an empty
+    /// `offsets`) removes the profile: the path is the arc. Errors, leaving the profile as it
+    /// was: `spacing` not finite or negative (`"spacing"`), an offset not finite or beyond
+    /// 100 m, or more than [`PROFILE_STATIONS`] of them (`"offsets"`).
+    ///
+    /// ```
+    /// use flc_core::{DetectorParams, LeadDetector};
+    /// let mut d = <LeadDetector>::new(DetectorParams::default()).unwrap();
+    /// // A car's rear face 40 m ahead, 1.8 m wide, centred 3 m to the left.
+    /// let face: Vec<[f64; 2]> = (0..=12).map(|i| [40.0, 2.1 + 0.15 * f64::from(i)]).collect();
+    /// assert!(d.detect(&face, 0.0).detection.is_none()); // off a straight path
+    /// // The lane bends left: 3 m to the left at 40 m and beyond (stations 10 m apart).
+    /// d.set_path_profile(10.0, &[0.0, 0.75, 1.5, 2.25, 3.0]).unwrap();
+    /// let car = d.detect(&face, 0.0).detection.unwrap();
+    /// assert_eq!(car.distance, 40.0);
+    /// ```
+    pub fn set_path_profile(&mut self, spacing: f64, offsets: &[f64]) -> Result<(), ParamError> {
+        if !(spacing.is_finite() && spacing >= 0.0) {
+            return Err(ParamError { field: "spacing", problem: "must be finite and >= 0 m" });
+        }
+        if offsets.len() > PROFILE_STATIONS || offsets.iter().any(|o| !(libm::fabs(*o) <= 100.0)) {
+            return Err(ParamError { field: "offsets", problem: "at most 64 offsets, each finite and within 100 m" });
+        }
+        let last = offsets.last().copied().unwrap_or(0.0);
+        for (k, o) in self.profile.iter_mut().enumerate() {
+            *o = offsets.get(k).copied().unwrap_or(last);
+        }
+        self.profile_spacing = if offsets.is_empty() { 0.0 } else { spacing };
+        if self.profile_spacing == 0.0 {
+            self.profile = [0.0; PROFILE_STATIONS];
+        }
+        Ok(())
     }
 
     /// Runs the pipeline on one scan. `points` are `[x, y]` in the sensor frame (x forward, y left),
@@ -855,7 +959,9 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
     pub fn detect(&mut self, points: &[[f64; 2]], path_curvature: f64) -> DetectorOutput {
         let p = self.params;
         let curvature = valid_curvature(path_curvature);
-        let g = self.geometry(curvature.unwrap_or(0.0));
+        // The profile copied out (512 bytes of stack), as the passes below borrow `self` mutably.
+        let profile = self.profile;
+        let g = Geometry::new(&p, NX, NY, curvature.unwrap_or(0.0)).with_profile(&profile, self.profile_spacing);
         self.curvature = g.kappa;
         let truncated = points.len() > p.max_points;
         let scan = points.get(..p.max_points).unwrap_or(points);
@@ -1338,7 +1444,9 @@ fn body_offset(c: &ClusterInfo, p: &DetectorParams) -> f64 {
 /// The box holding the grid of `g` (see [`LeadDetector::bounds`]).
 fn grid_box(g: &Geometry) -> (f64, f64, f64, f64) {
     let (x0, x1) = (g.x_lo, g.x_hi());
-    let half = -g.d_lo;
+    // A point in the grid is within `-d_lo` of the path, so within that plus the profile's
+    // largest departure of the arc.
+    let half = -g.d_lo + g.profile_reach;
     if g.kappa == 0.0 {
         return (x0, x1, -half, half);
     }
@@ -1510,9 +1618,9 @@ mod tests {
     fn memory_fits_in_64_kib() {
         let size = core::mem::size_of::<LeadDetector>();
         assert!(size <= 65536, "LeadDetector takes {size} bytes");
-        // The figure quoted in the docs (62.9 KiB on 64-bit targets).
+        // The figure quoted in the docs (63.4 KiB on 64-bit targets).
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size, 64416);
+        assert_eq!(size, 64936);
     }
 
     #[test]
@@ -1655,6 +1763,55 @@ mod tests {
         assert!((det.position.y - 3.7).abs() <= 0.2 && (det.distance - 20.0).abs() <= 0.2);
         // Bending the other way does not help.
         assert_eq!(d.detect(&scan, -0.0185).detection, None);
+    }
+
+    /// The path profile: a car in the next lane 60 m ahead where the lane bends towards it
+    /// (an S-bend's reversal) is in path with the lane's profile and off it without, at its
+    /// measured distance; a car on the lane ahead of the ego is out of path where the profile
+    /// says the lane has moved away; a zero profile, and clearing it, give what no profile gives.
+    #[test]
+    fn the_path_profile_moves_the_corridor_not_the_points() {
+        let mut d = det();
+        let bent: Vec<f64> = (0..PROFILE_STATIONS).map(|k| (k as f64 * 5.0 - 30.0).clamp(0.0, 30.0) * 0.12).collect();
+        let next_lane = rear_face(60.0, 3.5, 1.9);
+        assert_eq!(d.detect(&next_lane, 0.0).detection, None);
+        d.set_path_profile(5.0, &bent).unwrap();
+        let car = d.detect(&next_lane, 0.0).detection.expect("in the bent lane");
+        assert!((car.distance - 60.0).abs() <= 0.2 && (car.position.y - 3.5).abs() <= 0.2, "{car:?}");
+        // Where the lane has moved 3.6 m left, a car straight ahead is beside it.
+        assert_eq!(d.detect(&rear_face(60.0, 0.0, 1.9), 0.0).detection, None);
+        // Zero, cleared and reset profiles are the arc.
+        let scan: Vec<[f64; 2]> = rear_face(30.0, 0.4, 1.9).into_iter().chain(rail(-4.0, 2.0, 150.0, 0.5)).collect();
+        let mut plain = det();
+        let want = plain.detect(&scan, 0.004);
+        d.set_path_profile(4.0, &[0.0; PROFILE_STATIONS]).unwrap();
+        assert_eq!(d.detect(&scan, 0.004), want);
+        assert_eq!(d.clusters(), plain.clusters());
+        d.set_path_profile(5.0, &bent).unwrap();
+        d.set_path_profile(0.0, &[]).unwrap();
+        assert_eq!(d.detect(&scan, 0.004), want);
+        d.set_path_profile(5.0, &bent).unwrap();
+        d.reset();
+        assert_eq!(d.detect(&scan, 0.004), want);
+    }
+
+    /// A refused profile names its field and leaves the profile as it was.
+    #[test]
+    fn a_bad_path_profile_names_its_field() {
+        let mut d = det();
+        d.set_path_profile(10.0, &[0.0, 1.0, 2.0]).unwrap();
+        let before = (d.profile, d.profile_spacing);
+        for (spacing, offsets, field) in [
+            (f64::NAN, std::vec![0.0], "spacing"),
+            (-1.0, std::vec![0.0], "spacing"),
+            (f64::INFINITY, std::vec![0.0], "spacing"),
+            (4.0, std::vec![0.0, f64::NAN], "offsets"),
+            (4.0, std::vec![100.5], "offsets"),
+            (4.0, std::vec![0.0; PROFILE_STATIONS + 1], "offsets"),
+        ] {
+            assert_eq!(d.set_path_profile(spacing, &offsets).unwrap_err().field, field);
+            assert_eq!((d.profile, d.profile_spacing), before);
+        }
     }
 
     /// Issue 46: the swept-path corridor. A 1.9 m wide ego keeping 0.5 m: 1.45 m.
@@ -2101,8 +2258,12 @@ mod tests {
         fn bounds_hold_every_grid_point(
             k in prop_oneof![-0.2f64..0.2, -0.01f64..0.01, Just(0.0)],
             pts in proptest::collection::vec((0.0f64..210.0, -220.0f64..220.0), 1..200),
+            profile in proptest::option::of((1.0f64..20.0, proptest::collection::vec(-5.0f64..5.0, 1..=PROFILE_STATIONS))),
         ) {
             let mut d = det();
+            if let Some((spacing, offsets)) = &profile {
+                d.set_path_profile(*spacing, offsets).unwrap();
+            }
             d.detect(&[], k);
             let (x0, x1, y0, y1) = d.bounds(k);
             for (x, y) in pts {

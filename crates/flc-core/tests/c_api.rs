@@ -371,6 +371,10 @@ fn expected() -> Vec<String> {
     let s3 = scan(13, 30.0, 3.7, 1.9, 600, false);
     detect(&mut det, "next_lane_straight", &s3, 0.0);
     detect(&mut det, "next_lane_curve", &s3, 0.0082);
+    det.set_path_profile(10.0, &[0.0, 1.2, 2.5, 3.7]).unwrap();
+    detect(&mut det, "next_lane_profile", &s3, 0.0);
+    det.set_path_profile(0.0, &[]).unwrap();
+    detect(&mut det, "next_lane_profile_cleared", &s3, 0.0);
     let mut s4 = scan(14, 25.0, 0.0, 1.9, 900, true);
     for p in s4.iter_mut().step_by(50) {
         p[0] = f64::NAN;
@@ -436,6 +440,9 @@ fn expected() -> Vec<String> {
         ("detector_detect_null_points", 1, ""),
         ("detector_detect_huge_count", 5, ""),
         ("detector_detect_null_self", 1, ""),
+        ("detector_profile_spacing", 4, "spacing"),
+        ("detector_profile_count", 4, "offsets"),
+        ("detector_profile_null_offsets", 1, ""),
         ("supervisor_step_null", 1, ""),
         ("neighbours_init_max_misses", 4, "max_misses"),
         ("neighbours_init_wandering", 4, "wandering"),
@@ -495,6 +502,9 @@ fn c_example_outputs_equal_rust() {
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(4) == Some("1")), "the supervisor never switched");
     assert!(got.iter().any(|l| l.starts_with("sup ") && l.split(' ').nth(3) == Some("5")), "never not associated");
     assert!(got.iter().filter(|l| l.starts_with("det ") && l.split(' ').nth(4) == Some("1")).count() >= 4, "too few detections");
+    // The path profile takes the next lane's car into the path; cleared, it is off the path again.
+    let has = |label: &str| got.iter().find(|l| l.starts_with(&format!("det {label} "))).and_then(|l| l.split(' ').nth(4)) == Some("1");
+    assert!(!has("next_lane_straight") && has("next_lane_profile") && !has("next_lane_profile_cleared"), "the path profile");
     // The car changing lanes intrudes on either side, and not while it keeps its lane (k < 15).
     for side in ["0", "1"] {
         let intruding: Vec<u32> = got
@@ -554,6 +564,7 @@ fn linked_c_program_contains_no_panic_path() {
         "flc_detector_init",
         "flc_detector_detect",
         "flc_detector_reset",
+        "flc_detector_set_path_profile",
         "flc_neighbours_init",
         "flc_neighbours_update",
         "flc_neighbours_reset",
@@ -631,6 +642,7 @@ fn stack_use_of_every_c_function_is_bounded() {
         ("flc_pursuit_init", 1024),
         ("flc_pursuit_step", 1024),
         ("flc_detector_init", 1024),
+        ("flc_detector_set_path_profile", 1024),
         ("flc_detector_detect", 2048),
         ("flc_neighbours_init", 2048),
         ("flc_neighbours_update", 1024),

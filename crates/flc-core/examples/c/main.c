@@ -335,6 +335,12 @@ static void run_detector(void) {
     n = make_scan(scan_buf, 13, 30.0, 3.7, 1.9, 600, 0);
     detect_and_print(&det_storage, "next_lane_straight", (const double (*)[2])scan_buf, n, 0.0);
     detect_and_print(&det_storage, "next_lane_curve", (const double (*)[2])scan_buf, n, 0.0082);
+    /* The same car on a straight arc with a path profile: the lane moves 3.7 m left by 30 m. */
+    static const double bend[4] = {0.0, 1.2, 2.5, 3.7};
+    check("flc_detector_set_path_profile", flc_detector_set_path_profile(&det_storage, 10.0, bend, 4, NULL));
+    detect_and_print(&det_storage, "next_lane_profile", (const double (*)[2])scan_buf, n, 0.0);
+    check("flc_detector_set_path_profile clear", flc_detector_set_path_profile(&det_storage, 0.0, NULL, 0, NULL));
+    detect_and_print(&det_storage, "next_lane_profile_cleared", (const double (*)[2])scan_buf, n, 0.0);
     n = make_scan(scan_buf, 14, 25.0, 0.0, 1.9, 900, 1);
     for (size_t i = 0; i < n; i += 50) scan_buf[i][0] = NAN;
     detect_and_print(&det_storage, "car25_nan_points", (const double (*)[2])scan_buf, n, 0.0);
@@ -450,6 +456,10 @@ static void run_errors(void) {
     err_line("detector_detect_null_points", flc_detector_detect(&det_storage, NULL, 5, 0.0, &o), NULL);
     err_line("detector_detect_huge_count", flc_detector_detect(&det_storage, aligned, SIZE_MAX, 0.0, &o), NULL);
     err_line("detector_detect_null_self", flc_detector_detect(NULL, aligned, 4, 0.0, &o), NULL);
+    err_line("detector_profile_spacing", flc_detector_set_path_profile(&det_storage, NAN, aligned, 2, &e), &e);
+    static double too_many[FLC_PROFILE_STATIONS + 1];
+    err_line("detector_profile_count", flc_detector_set_path_profile(&det_storage, 4.0, too_many, FLC_PROFILE_STATIONS + 1, &e), &e);
+    err_line("detector_profile_null_offsets", flc_detector_set_path_profile(&det_storage, 4.0, NULL, 3, &e), NULL);
     err_line("supervisor_step_null", flc_supervisor_step(NULL, false, m, true, 20.0, 10.0, 0.05, &so), NULL);
 
     static FlcNeighbours zeroed_nb;

@@ -105,6 +105,11 @@ static void pursuit_step(void) {
     sink = flc_pursuit_step(&pp, true, 20.0, 1.5, 10.0, &s);
 }
 static void detector_init(void) { sink = flc_detector_init(&det, &det_p, NULL); }
+/* Sets a profile, so that the detect below runs with one (its offsets go through it). */
+static void detector_set_path_profile(void) {
+    static const double bend[5] = {0.0, 0.2, 0.6, 1.2, 2.0};
+    sink = flc_detector_set_path_profile(&det, 10.0, bend, 5, NULL);
+}
 static void detector_detect(void) {
     FlcDetectorOutput o;
     sink = flc_detector_detect(&det, &scan[0][0], scan_n, 0.0, &o);
@@ -153,7 +158,9 @@ int main(void) {
         {"flc_supervisor_init", supervisor_init},   {"flc_supervisor_step", supervisor_step},
         {"flc_supervisor_step_intruder", supervisor_step_intruder},
         {"flc_pursuit_init", pursuit_init},         {"flc_pursuit_step", pursuit_step},
-        {"flc_detector_init", detector_init},       {"flc_detector_detect", detector_detect},
+        {"flc_detector_init", detector_init},
+        {"flc_detector_set_path_profile", detector_set_path_profile},
+        {"flc_detector_detect", detector_detect},
         {"flc_neighbours_init", neighbours_init},   {"flc_neighbours_update", neighbours_update},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {

@@ -4,7 +4,7 @@
 use core::mem::size_of;
 use core::ptr::addr_of_mut;
 
-use super::storage::{check_ptr, get_mut, init, param_error, storage, tri, write_out};
+use super::storage::{check_ptr, get_mut, init, param_error, report, storage, tri, write_out};
 use super::{FlcParamError, FlcResult};
 use crate::detector::{
     CLUSTER_CAPACITY, ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RUN_CAPACITY, Reprojection,
@@ -185,8 +185,12 @@ impl From<DetectorOutput> for FlcDetectorOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcDetector::storage` (62.9 KiB).
-pub const FLC_DETECTOR_WORDS: usize = 8052;
+/// Words (8 bytes each) of `FlcDetector::storage` (63.4 KiB).
+pub const FLC_DETECTOR_WORDS: usize = 8117;
+
+/// Most offsets of a path profile (`flc_detector_set_path_profile`).
+pub const FLC_PROFILE_STATIONS: usize = 64;
+const _: () = assert!(FLC_PROFILE_STATIONS == crate::detector::PROFILE_STATIONS);
 
 /// Caller-owned storage of one lead detector (default 520 x 60 grid). Initialise with
 /// `flc_detector_init`. About 63 KiB: prefer static storage on small stacks.
@@ -321,6 +325,8 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
         let LeadDetector {
             params: _,
             curvature: _,
+            profile: _,
+            profile_spacing: _,
             occupied: _,
             edges: _,
             dilated: _,
@@ -343,6 +349,8 @@ unsafe fn init_detector_in_place(d: *mut LeadDetector, params: DetectorParams) {
     unsafe {
         addr_of_mut!((*d).params).write(params);
         addr_of_mut!((*d).curvature).write(0.0);
+        addr_of_mut!((*d).profile).write_bytes(0, 1);
+        addr_of_mut!((*d).profile_spacing).write(0.0);
         addr_of_mut!((*d).occupied).write_bytes(0, 1);
         addr_of_mut!((*d).edges).write_bytes(0, 1);
         addr_of_mut!((*d).dilated).write_bytes(0, 1);
@@ -403,6 +411,45 @@ pub unsafe extern "C" fn flc_detector_detect(
     // SAFETY: checked, caller contract.
     unsafe { write_out(out, o.into()) };
     FlcResult::Ok
+}
+
+/// Sets the path profile for the scans that follow (Rust `LeadDetector::set_path_profile`): where
+/// the predicted path leaves the arc of `path_curvature`, `n_offsets` lateral offsets (m, + left;
+/// at most `FLC_PROFILE_STATIONS`) at forward distances `0, spacing, 2 spacing, ...`; linear
+/// between, the last value beyond. `spacing` 0 or `n_offsets` 0 removes it. A rejected profile
+/// returns `FLC_RESULT_INVALID_PARAMS`, names the field in the optional `error` and leaves the
+/// profile as it was. Cleared by `flc_detector_reset`.
+///
+/// # Safety
+/// `det` is NULL or points to an `FlcDetector`; `offsets` is NULL or valid for reads of
+/// `n_offsets` doubles; `error` is NULL or valid for writes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn flc_detector_set_path_profile(
+    det: *mut FlcDetector,
+    spacing: f64,
+    offsets: *const f64,
+    n_offsets: usize,
+    error: *mut FlcParamError,
+) -> FlcResult {
+    let offsets: &[f64] = if n_offsets == 0 {
+        &[]
+    } else {
+        tri!(check_ptr(offsets));
+        if n_offsets > FLC_PROFILE_STATIONS {
+            // SAFETY: caller contract.
+            return unsafe { report(error, param_error("offsets", "at most 64 offsets, each finite and within 100 m")) };
+        }
+        // SAFETY: non-null and aligned (checked), at most PROFILE_STATIONS doubles (checked),
+        // valid for reads of `n_offsets` doubles (caller contract).
+        unsafe { core::slice::from_raw_parts(offsets, n_offsets) }
+    };
+    // SAFETY: caller contract.
+    let d = tri!(unsafe { get_mut(det) });
+    match d.set_path_profile(spacing, offsets) {
+        Ok(()) => FlcResult::Ok,
+        // SAFETY: caller contract.
+        Err(e) => unsafe { report(error, e) },
+    }
 }
 
 /// Clears the last scan's grids and clusters (each detect starts from scratch anyway).
