@@ -60,9 +60,9 @@
 #define FLC_PROFILE_STATIONS 64
 
 /**
- * Words (8 bytes each) of `FlcNeighbours::storage` (672 bytes).
+ * Words (8 bytes each) of `FlcNeighbours::storage` (736 bytes).
  */
-#define FLC_NEIGHBOURS_WORDS 84
+#define FLC_NEIGHBOURS_WORDS 92
 
 /**
  * Result of every C API call. Anything but `FLC_RESULT_OK` means the call did nothing (no output

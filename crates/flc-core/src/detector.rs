@@ -622,7 +622,7 @@ impl<'a> Geometry<'a> {
     #[inline]
     fn departure(&self, x: f64) -> f64 {
         let f = x * self.inv_spacing;
-        if !(f > 0.0) {
+        if f.is_nan() || f <= 0.0 {
             return self.profile[0];
         }
         if f >= (PROFILE_STATIONS - 1) as f64 {
@@ -938,7 +938,7 @@ impl<const NX: usize, const NY: usize> LeadDetector<NX, NY> {
         if !(spacing.is_finite() && spacing >= 0.0) {
             return Err(ParamError { field: "spacing", problem: "must be finite and >= 0 m" });
         }
-        if offsets.len() > PROFILE_STATIONS || offsets.iter().any(|o| !(libm::fabs(*o) <= 100.0)) {
+        if offsets.len() > PROFILE_STATIONS || offsets.iter().any(|o| o.is_nan() || libm::fabs(*o) > 100.0) {
             return Err(ParamError { field: "offsets", problem: "at most 64 offsets, each finite and within 100 m" });
         }
         let last = offsets.last().copied().unwrap_or(0.0);

@@ -25,12 +25,12 @@
 //! careful driver perceives it:
 //!
 //! ```text
-//! intruding  <=>  near_far - |near| > wandering  and  |centre| < lane_width - wandering
+//! intruding  <=>  near_far - |near| > wandering  and  |near| + body_width / 2 < lane_width - wandering
 //! ```
 //!
-//! it has come `wandering` closer than the farthest it has been and its centre is `wandering`
-//! inside the middle of the next lane (the ego keeping its lane's centre), on a view at least
-//! `full_width` wide (the centre of a car partly out of the field of view is not its centre). A car weaving about
+//! it has come `wandering` closer than the farthest it has been and its centre (near edge plus
+//! half the widest full view of its body) is `wandering` inside the middle of the next lane (the
+//! ego keeping its lane's centre), on a view at least `full_width` wide. A car weaving about
 //! the next lane's centre, or keeping steadily off it, meets one condition only. A slow (5 s)
 //! lane change on the wet road (4 m/s²) was reported by the band rule alone about 0.25 s after
 //! the careful driver perceived it, too late to stop. (The detector's swept-path corridor,
@@ -157,6 +157,9 @@ pub struct NeighbourTrack {
     pub near_close: f64,
     /// Width across the path then, m.
     pub width: f64,
+    /// Widest `width` of a full view (at least `full_width` within `full_range`), m; 0 before
+    /// the first: the body's width, which the lane rule adds to the near edge.
+    pub body_width: f64,
     /// Depth then, m.
     pub depth: f64,
     /// Points then.
@@ -232,7 +235,11 @@ impl NeighbourTracker {
 
     /// The lane rule: the track's near edge has come more than `wandering` towards the path from
     /// the farthest it has been, and its lateral centre (on the path) is more than `wandering`
-    /// inside the middle of the next lane (`lane_width` from the path).
+    /// inside the middle of the next lane (`lane_width` from the path). The centre is the near
+    /// edge plus half the body's width (the widest full view, [`NeighbourTrack::body_width`]), not
+    /// the middle of the points in view: a car weaving 0.3 m towards the ego while the ego passes
+    /// it, 1.62 m of its 1.9 m in view, showed a middle 0.08 m inside its centre, 3.12 m from the
+    /// path, and the rule read it as a cut-in (`tests/false_cut_ins.rs`, an S-bend).
     ///
     /// Only on a view at least `full_width` wide: the centre of a narrower one is that of the
     /// part in view. A car the ego passes, weaving +-0.3 m in the next lane, leaves the sensor's
@@ -240,7 +247,7 @@ impl NeighbourTracker {
     /// of it in view): its near edge stayed, the centre of the part in view came 0.2 m in and the
     /// rule read it as a cut-in (`tests/false_cut_ins.rs`, straight road).
     fn left_its_lane(p: &NeighbourParams, t: &NeighbourTrack, c: &ClusterInfo) -> bool {
-        let centre = libm::fabs(0.5 * (c.d_min + c.d_max));
+        let centre = libm::fabs(t.near) + 0.5 * t.body_width;
         p.lane_width > 0.0
             && c.width() >= p.full_width
             && t.near_far - libm::fabs(t.near) > p.wandering
@@ -284,10 +291,15 @@ impl NeighbourTracker {
             let full = c.width() >= p.full_width && c.x_min <= p.full_range;
             let track = match self.tracks.get(i).copied().flatten().filter(|_| best.is_some()) {
                 // The first full view: the band starts again from it.
-                Some(t) if full && !t.full => NeighbourTrack { near_far: a, near_close: a, full: true, ..t },
+                Some(t) if full && !t.full => NeighbourTrack { near_far: a, near_close: a, full: true, body_width: c.width(), ..t },
                 // A partial view of a track seen in full: the band stays.
                 Some(t) if !full && t.full => t,
-                Some(t) => NeighbourTrack { near_far: t.near_far.max(a), near_close: t.near_close.min(a), ..t },
+                Some(t) => NeighbourTrack {
+                    near_far: t.near_far.max(a),
+                    near_close: t.near_close.min(a),
+                    body_width: if full { t.body_width.max(c.width()) } else { t.body_width },
+                    ..t
+                },
                 None => {
                     self.next_id = self.next_id.wrapping_add(1);
                     NeighbourTrack {
@@ -298,6 +310,7 @@ impl NeighbourTracker {
                         near_far: a,
                         near_close: a,
                         width: 0.0,
+                        body_width: if full { c.width() } else { 0.0 },
                         depth: 0.0,
                         points: 0,
                         misses: 0,
@@ -489,7 +502,11 @@ mod tests {
         // Weaving +-0.3 m about the next lane's centre (near edge 2.25-2.85 m), then beside the
         // ego at its inner extreme with only 1.3 m of its rear face in view (the field of view
         // cuts its outer side): the centre of the part in view is 3.1 m off the path, inside
-        // `lane_width - wandering`, but the view is too narrow to place its centre.
+        // `lane_width - wandering`, but the view is too narrow to place its centre. With 1.5 m
+        // in view (a full view) the centre is still its near edge plus half its 1.9 m body
+        // (3.3 m), not the middle of the part in view (3.1 m); a near edge 0.2 m further in
+        // (centre 3.1 m: it has left its lane's middle by more than the wandering zone) is a
+        // cut-in by the lane rule (the band rule alone: 0.33 m, no).
         let mut n = tracker();
         for k in 0..100 {
             let t = 3.5 + 0.3 * libm::sin(f64::from(k) * 0.1);
@@ -498,8 +515,10 @@ mod tests {
         for k in 0..5 {
             assert_eq!(n.update(&[cluster(4.0 - 0.4 * f64::from(k), 2.4, 3.7 - 0.1 * f64::from(k))]), None, "scan {k}");
         }
-        // The same view in full width is read as a cut-in (the lane rule).
-        assert!(n.update(&[cluster(2.0, 2.35, 3.85)]).is_some());
+        assert_eq!(n.update(&[cluster(2.0, 2.35, 3.85)]), None);
+        let mut moved = n.clone();
+        assert!(moved.update(&[cluster(1.8, 2.15, 3.65)]).is_some());
+        assert!(moved.tracks().next().is_some_and(|t| t.moved_towards() < 0.375), "the band rule alone would not");
     }
 
     #[test]

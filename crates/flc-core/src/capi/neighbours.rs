@@ -58,8 +58,8 @@ pub struct FlcNeighbourOutput {
 // Storage
 // ---------------------------------------------------------------------------------------------
 
-/// Words (8 bytes each) of `FlcNeighbours::storage` (672 bytes).
-pub const FLC_NEIGHBOURS_WORDS: usize = 84;
+/// Words (8 bytes each) of `FlcNeighbours::storage` (736 bytes).
+pub const FLC_NEIGHBOURS_WORDS: usize = 92;
 
 /// Caller-owned storage of one neighbour tracker (at most 8 tracks). Initialise with
 /// `flc_neighbours_init`.
