@@ -45,6 +45,10 @@ cargo test --locked --release -p flc-sim --test mutation
 echo "== Rust: robust FLC v2 against missed detections (release; issue 24)"
 cargo test --locked --release -p flc-sim --test robust_flc2
 
+echo "== Rust: robust FLC, the cut-in grid and the hour of three-lane traffic (release; issue 47)"
+# Each is marked slow in debug, so `cargo test` above skips them.
+cargo test --locked --release -p flc-sim --test robust_flc --test cut_in_grid --test false_cut_ins
+
 echo "== Rust: the main job's build, so that \`cargo run --release --bin scenario\` starts at once afterwards"
 # The release tests above build the dependencies with flc-sim's dev-dependencies' features unified in
 # (serde \`alloc\`, serde_json \`float_roundtrip\`, zerocopy \`derive\`: \`cargo tree -e features\`), so

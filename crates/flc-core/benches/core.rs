@@ -127,6 +127,19 @@ fn detector(c: &mut Criterion) {
                 nb.update(det.clusters())
             })
         });
+        // The same with the lane-keeping ego's path: a curved arc and a path profile (an S-bend's
+        // reversal ahead), every point's offset also interpolated in the profile.
+        // R = 1000 m reversing 40 m ahead: the lane leaves the arc by 0.001 (x - 40)^2.
+        let profile: Vec<f64> = (0..64).map(|k| -0.001 * (f64::from(k) * 4.0 - 40.0).max(0.0).powi(2)).collect();
+        det.set_path_profile(4.0, &profile).unwrap();
+        assert!(det.detect(&pts, 0.001).detection.is_some());
+        group.bench_with_input(BenchmarkId::new("detect_and_track_profile", n), &pts, |b, pts| {
+            b.iter(|| {
+                det.detect(black_box(pts), black_box(0.001));
+                nb.update(det.clusters())
+            })
+        });
+        det.set_path_profile(0.0, &[]).unwrap();
     }
     group.finish();
 }

@@ -3,7 +3,8 @@
 //!
 //! A segment: three 3.5 m lanes (0 right, 1 the ego's, 2 left), the ego (a controller keeping its
 //! lane) following a lead in its lane at the same speed (60-130 km/h); on a straight road, an arc
-//! of R = 1000 m (left or right), or an S-bend (arcs of R = 1000 m alternating every 400 m);
+//! of R = 1000 m (left or right), or an S-bend (curves of 0.4 rad at R = 1000 m alternating left
+//! and right), every change of curvature a clothoid of 120 m (motorway design);
 //! guard rails beside the outer lanes (0.5-1.5 m beyond their edges) or delineator posts every
 //! 50 m instead. Each neighbouring lane has one speed for all its vehicles (no two of them meet):
 //! the left lane from 5 km/h slower to 30 km/h faster than the ego (cars overtaking), the right
@@ -35,8 +36,8 @@ pub enum RoadShape {
     Straight,
     /// One arc of R = 1000 m, turning left (`true`) or right.
     Arc(bool),
-    /// Arcs of R = 1000 m alternating left and right every 400 m (the first turning left when
-    /// `true`).
+    /// Curves of 0.4 rad at R = 1000 m alternating left and right (the first turning left when
+    /// `true`), joined by clothoids.
     SBend(bool),
 }
 
@@ -75,17 +76,50 @@ impl Draw {
 }
 
 /// The road of `shape` with three lanes (the ego's the middle one) and the road side, from `draw`.
+/// Length of a clothoid transition, m: A = sqrt(R L) = 346 m >= R / 3 for R = 1000 m, the
+/// motorway design rule (RAA 2008 / AASHTO spirals: curvature changes gradually, so that a driver
+/// can follow the lane). Without transitions the S-bend's curvature reversed in one step and the
+/// traffic's lane keeper drifted 0.1-0.14 m off its lane centre there (`tests/false_cut_ins.rs`).
+const TRANSITION: f64 = 120.0;
+
+/// Plan legs (`Track::from_plan`) of 2 m along pieces of `(length m, curvature at start, at end)`
+/// whose curvature changes linearly (a clothoid where the ends differ): each leg an arc of the
+/// curvature at its middle.
+fn legs(pieces: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
+    let mut plan = Vec::new();
+    for &(len, k0, k1) in pieces {
+        let n = (len / 2.0).round().max(1.0) as usize;
+        let ds = len / n as f64;
+        for i in 0..n {
+            let k = k0 + (k1 - k0) * (i as f64 + 0.5) / n as f64;
+            plan.push(if k == 0.0 { (ds, 1.0, 0.0) } else { (0.0, 1.0 / k.abs(), k * ds) });
+        }
+    }
+    plan
+}
+
 fn road(shape: RoadShape, draw: &mut Draw) -> Track {
-    let r = 1000.0;
-    let plan: Vec<(f64, f64, f64)> = match shape {
-        RoadShape::Straight => vec![(3200.0, 1.0, 0.0)],
-        RoadShape::Arc(left) => vec![(150.0, r, if left { 2.9 } else { -2.9 }), (100.0, 1.0, 0.0)],
+    let k = 1.0 / 1000.0;
+    let l = TRANSITION;
+    // Each curve turns by its arc plus half of each transition (k L / 2 each end).
+    let plan = match shape {
+        RoadShape::Straight => legs(&[(3200.0, 0.0, 0.0)]),
+        RoadShape::Arc(left) => {
+            let k = if left { k } else { -k };
+            legs(&[(150.0, 0.0, 0.0), (l, 0.0, k), (2900.0 - l, k, k), (l, k, 0.0), (100.0, 0.0, 0.0)])
+        }
         RoadShape::SBend(left) => {
-            let a = if left { 0.4 } else { -0.4 };
-            let mut p = vec![(150.0, r, a)];
-            p.extend((1..8).map(|k| (0.0, r, if k % 2 == 1 { -a } else { a })));
-            p.push((100.0, 1.0, 0.0));
-            p
+            // Eight curves of 0.4 rad (400 m of R = 1000 m), alternating, each reversal a
+            // transition through a point of inflection.
+            let k = if left { k } else { -k };
+            let mut p = vec![(150.0, 0.0, 0.0), (l, 0.0, k)];
+            for c in 0..8 {
+                let kc = if c % 2 == 0 { k } else { -k };
+                p.push((400.0 - l, kc, kc));
+                p.push(if c < 7 { (2.0 * l, kc, -kc) } else { (l, kc, 0.0) });
+            }
+            p.push((100.0, 0.0, 0.0));
+            legs(&p)
         }
     };
     let mut t = Track::from_plan(&shape.to_string(), &plan, 2.0);

@@ -5,6 +5,13 @@
 //! in the middle lane, must never change their target away from it, and no neighbour may make
 //! them brake harder than 0.5 m/s² beyond what the same segment without neighbours shows. A real
 //! cut-in, judged the same way, must count.
+//!
+//! Measured 2026-12-07 (`cargo test --release -p flc-sim --test false_cut_ins -- --nocapture`):
+//! 0 switches and 0 m/s² for both. Before the detector's path profile the S-bends gave 157
+//! switches and 8.3 m/s² (the detector's arc of the ego's curvature left the lane where the
+//! curvature reversed); with it, and S-bends whose curvature reverses in one step instead of
+//! along 120 m clothoids, 4 (3 for the odometry variant) and 7.6 m/s²: the traffic's lane
+//! keeper cuts such a reversal by 0.1-0.14 m. With clothoids of 60 m and of 200 m: 0 and 0.
 
 use flc_sim::neighbour_traffic::{cut_in_segment, segment};
 use flc_sim::{ControllerKind, RunResult, run};
@@ -74,7 +81,7 @@ struct Outcome {
 }
 
 #[test]
-#[ignore = "fails today: 163 false switches (flc-robust), 167 (odometry variant), neighbour braking 8.3 m/s², nearly all on S-bends (the detector's path, an arc of the lane's curvature at the ego, leaves the lane where the curvature changes; shifting the scan by the lane's offset cut them to 10 / 8 but lost a lead on the marking of a published R = 250 m road); run with --ignored"]
+#[cfg_attr(debug_assertions, ignore = "slow in debug; tests/run_all.sh runs it with --release")]
 fn an_hour_of_three_lane_traffic_has_no_false_cut_in() {
     let jobs: Vec<(ControllerKind, u64)> = CONTROLLERS.iter().flat_map(|&c| (0..SEGMENTS).map(move |k| (c, k))).collect();
     let results: Vec<Outcome> = jobs

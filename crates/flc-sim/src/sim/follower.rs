@@ -1,5 +1,6 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
+use flc_core::detector::PROFILE_STATIONS;
 use flc_core::{ActiveController, Frame, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::drive::{DriveCommand, Driven};
@@ -172,7 +173,18 @@ impl Follower {
     ) -> (Frame, flc_core::DetectorOutput) {
         let steering = self.cfg.steering();
         let mount = (self.cfg.lidar.mount_x, self.cfg.lidar.mount_y);
-        let points = if steering == Steering::LaneKeeping { lane_frame(points, fs, track, mount, &mut self.lane_buf) } else { points };
+        let points = if steering == Steering::LaneKeeping {
+            let mut profile = [0.0; PROFILE_STATIONS];
+            let turned = lane_frame(points, fs, track, mount, self.path_curvature, &mut self.lane_buf, &mut profile);
+            // Finite and within 100 m for any road the simulator builds; a profile it refuses
+            // leaves the arc alone (the detector's own fallback).
+            if self.detector.set_path_profile(PROFILE_SPACING, &profile).is_err() {
+                let _ = self.detector.set_path_profile(0.0, &[]);
+            }
+            turned
+        } else {
+            points
+        };
         let det = self
             .detector
             .detect(grid_points(&self.detector, &self.cfg.detector, points, self.path_curvature, &mut self.grid_buf), self.path_curvature);
@@ -377,28 +389,69 @@ impl Follower {
     }
 }
 
-/// Lane keeping: the scan `points` (sensor frame of a LiDAR mounted at `(mx, my)` on a vehicle at `fs`) turned by the lane's heading at the sensor
-/// relative to the vehicle's, so that the detector's corridor (an arc tangent to its x axis,
-/// of the lane's curvature) runs along the lane at the ego's lateral position: the ego's swept
-/// path if it keeps its lane. Without the turn the corridor left the lane on a curve: the
-/// sensor sits `mount_x` ahead of the body centre (its lane tangent turned by `mount_x / R`)
-/// and the body of the kinematic bicycle is turned out of the curve by its slip angle (together
-/// about 0.014 rad on R = 250 m: 0.7 m at 50 m), and flc-robust passed a motorbike standing on the
-/// inner marking with 0.27 m of clearance (`tests/in_path.rs`). The lane's
-/// heading is that of the chord over +-5 m of the sensor's projection (the centreline is a
-/// polyline). The detector's output (distances, positions, clusters) is in that frame; the
-/// distances ahead change by less than 1 - cos of the turn (1e-4 at 0.015 rad).
+/// Lane keeping: the scan `points` (sensor frame of a LiDAR mounted at `(mx, my)` on a vehicle at
+/// `fs`) turned into the lane's frame, and the lane's departure from the detector's arc as a path
+/// profile ([`LeadDetector::set_path_profile`]), so that the detector's corridor runs along the
+/// lane at the ego's lateral position: the ego's swept path if it keeps its lane.
+///
+/// 1. **Turned** by the lane's heading at the sensor relative to the vehicle's. Without the turn
+///    the corridor left the lane on a curve: the sensor sits `mount_x` ahead of the body centre
+///    (its lane tangent turned by `mount_x / R`) and the body of the kinematic bicycle is turned
+///    out of the curve by its slip angle (together about 0.014 rad on R = 250 m: 0.7 m at 50 m),
+///    and flc-robust passed a motorbike standing on the inner marking with 0.27 m of clearance
+///    (`tests/in_path.rs`). The lane's heading is that of the chord over +-5 m of the sensor's
+///    projection (the centreline is a polyline). The distances ahead change by less than
+///    1 - cos of the turn (1e-4 at 0.015 rad).
+/// 2. **The profile** (`profile`, stations [`PROFILE_SPACING`] m apart in the turned frame): the
+///    lateral distance between the line parallel to the lane's centre through the sensor and the
+///    arc of curvature `kappa` (the lane's at the ego, which the detector is given). Where the
+///    curvature changes ahead (an S-bend, a curve's start) that arc leaves the lane: on
+///    R = 1000 m arcs reversing 40 m ahead it is 1.6 m off at 80 m, and steady neighbours in the
+///    next lane read as cut-ins (`tests/false_cut_ins.rs`). On an arc or a straight the profile
+///    is about 0. The points are not moved, so their bearings stay true.
 fn lane_frame<'a>(
     points: &'a [[f64; 2]],
     fs: &VehicleState,
     track: &Track,
     (mx, my): (f64, f64),
+    kappa: f64,
     buf: &'a mut Vec<[f64; 2]>,
+    profile: &mut [f64; PROFILE_STATIONS],
 ) -> &'a [[f64; 2]] {
     let (c, sn) = (fs.yaw.cos(), fs.yaw.sin());
-    let s = track.project(fs.x + c * mx - sn * my, fs.y + sn * mx + c * my).s;
+    let (sx, sy) = (fs.x + c * mx - sn * my, fs.y + sn * mx + c * my);
+    let proj = track.project(sx, sy);
+    let s = proj.s;
     let ((x0, y0, _), (x1, y1, _)) = (track.place(s - 5.0, 0.0), track.place(s + 5.0, 0.0));
-    let turn = wrap_angle((y1 - y0).atan2(x1 - x0) - fs.yaw);
+    let lane_heading = (y1 - y0).atan2(x1 - x0);
+    let turn = wrap_angle(lane_heading - fs.yaw);
+    // The parallel line sampled along the lane, in the turned frame, resampled at the stations'
+    // forward distances (linear between samples; the last sample's departure beyond it, or from
+    // where the lane turns back towards the sensor).
+    let (cl, sl) = (lane_heading.cos(), lane_heading.sin());
+    let departure = |x: f64, y: f64| y - kappa * x * x / (1.0 + (1.0 - kappa * kappa * x * x).max(0.0).sqrt());
+    let mut prev = (0.0, departure(0.0, 0.0));
+    let mut k = 0;
+    let mut j = 0;
+    while k < PROFILE_STATIONS && j < LANE_SAMPLES {
+        j += 1;
+        let (px, py, _) = track.place(s + j as f64 * LANE_SAMPLE, proj.lateral_offset);
+        let (gx, gy) = (px - sx, py - sy);
+        let (x, y) = (cl * gx + sl * gy, -sl * gx + cl * gy);
+        if x <= prev.0 {
+            break;
+        }
+        let d = departure(x, y);
+        while k < PROFILE_STATIONS && k as f64 * PROFILE_SPACING <= x {
+            let w = (k as f64 * PROFILE_SPACING - prev.0) / (x - prev.0);
+            profile[k] = prev.1 + w.max(0.0) * (d - prev.1);
+            k += 1;
+        }
+        prev = (x, d);
+    }
+    for o in profile.iter_mut().skip(k) {
+        *o = prev.1;
+    }
     if turn == 0.0 {
         return points;
     }
@@ -407,6 +460,14 @@ fn lane_frame<'a>(
     buf.extend(points.iter().map(|&[x, y]| [x * ct + y * st, -x * st + y * ct]));
     buf
 }
+
+/// Spacing of the path profile's stations ([`lane_frame`]), m: 64 of them reach 252 m (the
+/// default grid ends at 200.5 m).
+pub(super) const PROFILE_SPACING: f64 = 4.0;
+/// Spacing of the samples of the lane the profile is resampled from, m.
+const LANE_SAMPLE: f64 = 2.0;
+/// Samples of the lane: up to 300 m along it.
+const LANE_SAMPLES: usize = 150;
 
 /// Curvature of the arc from the sensor (heading along x) through `(x, y)`, kappa = 2 y / (x² +
 /// y²) (pure-pursuit geometry); 0 for a point within 1 m.

@@ -320,7 +320,10 @@ mod tests {
         // and reaches it when the ego, at 60 km/h, does (3.6 s). Straight part of the track.
         let track = curve(1000.0, true);
         let ego = Object {
-            state: { let (x, y, h) = track.place(20.0, 0.0); VehicleState { x, y, yaw: h, speed: 60.0 / 3.6, ..VehicleState::default() } },
+            state: {
+                let (x, y, h) = track.place(20.0, 0.0);
+                VehicleState { x, y, yaw: h, speed: 60.0 / 3.6, ..VehicleState::default() }
+            },
             length: CAR.0,
             width: CAR.1,
         };
