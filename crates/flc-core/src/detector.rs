@@ -168,7 +168,7 @@ pub struct DetectorParams {
     /// (0 = off, the centre rule alone). Such an object is reported only when no object is in
     /// path by the other rules (a driver looks past a lead cutting out at what it reveals, but
     /// does not drive into a car on the lane marking). The simulator sets it to the ego's half
-    /// width for an ego that keeps its lane.
+    /// width plus 0.5 m (the swept corridor's margin) for an ego that keeps its lane.
     pub body_half_width: f64,
     /// Step 8's solid-face test: a ray whose bearing lies strictly inside a cluster's bearing
     /// span and whose return is more than this beyond the cluster's far edge (x) passed through
@@ -1419,7 +1419,7 @@ fn by_centre(c: &ClusterInfo, p: &DetectorParams) -> bool {
 }
 
 /// A wide object in the corridor by its body alone: outside the centre rule, its body reaching
-/// within `body_half_width` (the band the ego's body sweeps; a car driving on the lane marking,
+/// within `body_half_width` (the band the ego's body sweeps plus a margin; a car driving on the lane marking,
 /// its centre 1.75 m off, which the centre rule finds on its edge at 1.8 m). Reported only when
 /// no other object is in path (step 8).
 fn by_body_alone(c: &ClusterInfo, p: &DetectorParams) -> bool {

@@ -21,9 +21,12 @@ fn motorbike() -> VehicleParams {
 }
 
 /// The standing objects: what, its body, its offset from the ego lane's centre (m, + left).
-fn standing_objects() -> [(&'static str, VehicleParams, f64); 4] {
+fn standing_objects() -> [(&'static str, VehicleParams, f64); 6] {
     [
         ("car on the lane centre", car(), 0.0),
+        // Its body 1.2 m from the lane's centre: 0.25 m from an ego's on the centre.
+        ("car half on the left marking", car(), 1.2 + 0.5 * car().width),
+        ("car half on the right marking", car(), -1.2 - 0.5 * car().width),
         ("motorbike on the lane centre", motorbike(), 0.0),
         ("motorbike on the left marking", motorbike(), LW / 2.0),
         ("motorbike on the right marking", motorbike(), -LW / 2.0),
@@ -191,8 +194,9 @@ fn flc_robust_never_passes_an_in_path_object_within_the_margin() {
             }
         }
     }
-    // An ego holding its lane centre (within `lane_tolerance`) cannot pass any of the 16 with
-    // the margin (the motorbike on a marking is 0.4 m from its body): it stops for every one.
+    // An ego holding its lane centre (within `lane_tolerance`) cannot pass any of the 24 with
+    // the margin (the motorbike on a marking is 0.4 m from its body, the car half on the marking
+    // 0.25 m): it stops for every one.
     assert_eq!(passed, 0, "{passed} objects passed");
 }
 

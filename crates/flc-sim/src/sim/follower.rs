@@ -482,15 +482,16 @@ fn arc_curvature(x: f64, y: f64) -> f64 {
 /// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
 ///
 /// An ego that keeps its lane also counts a wide object whose body reaches into the band its own
-/// body sweeps (`detector.body_half_width`, left at 0: its half width), after everything else
-/// in path; one steering after its lead does not (its path bends towards the lead).
+/// body sweeps plus the same margin (`detector.body_half_width`, left at 0: its half width plus
+/// 0.5 m), after everything else in path; one steering after its lead does not (its path bends
+/// towards the lead).
 fn detector_params(cfg: &FollowerConfig) -> flc_core::DetectorParams {
     let mut p = cfg.detector;
     if cfg.swept_corridor() && p.swept_half_width == 0.0 {
         p.swept_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
     }
     if cfg.steering() == Steering::LaneKeeping && p.body_half_width == 0.0 {
-        p.body_half_width = 0.5 * cfg.follower.vehicle.width;
+        p.body_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
     }
     p
 }
