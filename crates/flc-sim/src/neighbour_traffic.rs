@@ -82,31 +82,15 @@ impl Draw {
 /// traffic's lane keeper drifted 0.1-0.14 m off its lane centre there (`tests/false_cut_ins.rs`).
 const TRANSITION: f64 = 120.0;
 
-/// Plan legs (`Track::from_plan`) of 2 m along pieces of `(length m, curvature at start, at end)`
-/// whose curvature changes linearly (a clothoid where the ends differ): each leg an arc of the
-/// curvature at its middle.
-fn legs(pieces: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
-    let mut plan = Vec::new();
-    for &(len, k0, k1) in pieces {
-        let n = (len / 2.0).round().max(1.0) as usize;
-        let ds = len / n as f64;
-        for i in 0..n {
-            let k = k0 + (k1 - k0) * (i as f64 + 0.5) / n as f64;
-            plan.push(if k == 0.0 { (ds, 1.0, 0.0) } else { (0.0, 1.0 / k.abs(), k * ds) });
-        }
-    }
-    plan
-}
-
 fn road(shape: RoadShape, draw: &mut Draw) -> Track {
     let k = 1.0 / 1000.0;
     let l = TRANSITION;
     // Each curve turns by its arc plus half of each transition (k L / 2 each end).
     let plan = match shape {
-        RoadShape::Straight => legs(&[(3200.0, 0.0, 0.0)]),
+        RoadShape::Straight => vec![(3200.0, 0.0, 0.0)],
         RoadShape::Arc(left) => {
             let k = if left { k } else { -k };
-            legs(&[(150.0, 0.0, 0.0), (l, 0.0, k), (2900.0 - l, k, k), (l, k, 0.0), (100.0, 0.0, 0.0)])
+            vec![(150.0, 0.0, 0.0), (l, 0.0, k), (2900.0 - l, k, k), (l, k, 0.0), (100.0, 0.0, 0.0)]
         }
         RoadShape::SBend(left) => {
             // Eight curves of 0.4 rad (400 m of R = 1000 m), alternating, each reversal a
@@ -119,10 +103,10 @@ fn road(shape: RoadShape, draw: &mut Draw) -> Track {
                 p.push(if c < 7 { (2.0 * l, kc, -kc) } else { (l, kc, 0.0) });
             }
             p.push((100.0, 0.0, 0.0));
-            legs(&p)
+            p
         }
     };
-    let mut t = Track::from_plan(&shape.to_string(), &plan, 2.0);
+    let mut t = Track::from_curvature(&shape.to_string(), &plan, 2.0);
     let len = t.length();
     let edge = 1.5 * LANE_WIDTH;
     for side in [1.0, -1.0] {

@@ -487,6 +487,24 @@ impl Track {
         }
         Self::new(name, pts, default_lane_width(), Vec::new())
     }
+
+    /// One lane (3.5 m) along pieces of `(length m, curvature at its start, at its end, 1/m, +
+    /// left)` whose curvature changes linearly along them (a clothoid where the two differ, an
+    /// arc or a straight where they are equal), from the origin heading along +x: legs of about
+    /// `step` m, each an arc of the curvature at its middle (the heading at every leg's end is the
+    /// clothoid's), sampled as [`Track::from_plan`] samples them.
+    pub fn from_curvature(name: &str, pieces: &[(f64, f64, f64)], step: f64) -> Self {
+        let mut plan = Vec::new();
+        for &(len, k0, k1) in pieces {
+            let n = (len / step).round().max(1.0) as usize;
+            let ds = len / n as f64;
+            for i in 0..n {
+                let k = k0 + (k1 - k0) * (i as f64 + 0.5) / n as f64;
+                plan.push(if k == 0.0 { (ds, 1.0, 0.0) } else { (0.0, 1.0 / k.abs(), k * ds) });
+            }
+        }
+        Self::from_plan(name, &plan, step)
+    }
 }
 
 /// Wraps an angle to (-pi, pi].

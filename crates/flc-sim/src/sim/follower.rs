@@ -463,7 +463,7 @@ fn lane_frame<'a>(
 
 /// Spacing of the path profile's stations ([`lane_frame`]), m: 64 of them reach 252 m (the
 /// default grid ends at 200.5 m).
-pub(super) const PROFILE_SPACING: f64 = 4.0;
+const PROFILE_SPACING: f64 = 4.0;
 /// Spacing of the samples of the lane the profile is resampled from, m.
 const LANE_SAMPLE: f64 = 2.0;
 /// Samples of the lane: up to 300 m along it.
