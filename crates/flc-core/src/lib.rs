@@ -44,6 +44,7 @@ pub mod baselines;
 pub mod capi;
 pub mod comfort;
 pub mod command;
+pub mod departure;
 pub mod detector;
 pub mod flc;
 pub mod flc_robust;
@@ -60,6 +61,7 @@ pub use association::{Association, AssociationParams, AssociationState, OwnFix, 
 pub use baselines::{Baseline, BaselineKind, NoLeadPolicy};
 pub use comfort::ComfortParams;
 pub use command::{LongitudinalCommand, Status};
+pub use departure::{DepartureParams, LeadDeparture};
 pub use detector::{ClusterInfo, Detection, DetectorOutput, DetectorParams, DetectorStatus, LeadDetector, RejectReason, Reprojection};
 pub use flc::{DistOverride, FallbackController, FirstFrame, FlcParams, FlcTerms};
 pub use flc_robust::{FirstObject, RobustFallbackController, RobustFlcParams, RobustFlcTerms};

@@ -15,7 +15,7 @@
 //! use flc_core::{FallbackController, FlcParams, Frame, LongitudinalController};
 //!
 //! let mut law: Box<dyn LongitudinalController + Send> = Box::new(FallbackController::new(FlcParams::paper())?);
-//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None, travelled: None, intruder: None });
+//! let out = law.step(&Frame { distance: Some(25.0), own_speed: 10.0, v2v: None, dt: 0.05, lead_speed: None, own_fix: None, travelled: None, intruder: None, path_clear: false });
 //! // Eqs. (2)-(5): dist_s = 25 - 16 - 4 = 5, a = 5 (1 - cos(5 pi / 11)) = 4.2884...
 //! assert!((out.command.accel - 4.288425808633574).abs() < 1e-12);
 //! assert_eq!(out.terms.get("dist_s"), Some(5.0));
@@ -129,12 +129,17 @@ pub struct Frame {
     /// its FLC, which follows the nearer of `distance` and `intruder`. The robust FLCs are given
     /// the intruder as their `distance` by the caller.
     pub intruder: Option<f64>,
+    /// The path is clear: the last lead was seen leaving it and nothing is in it since
+    /// ([`crate::LeadDeparture`]), so no distance is a clear road, not a lost lead. Read only by a
+    /// no-target wrapper (the simulator's `NoTargetCruise`, which then drives at the set speed);
+    /// the laws themselves never read it. `false` when the caller does not watch.
+    pub path_clear: bool,
 }
 
 impl Frame {
     /// A frame without V2V.
     pub const fn new(distance: Option<f64>, own_speed: f64, dt: f64) -> Self {
-        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None, travelled: None, intruder: None }
+        Self { distance, own_speed, v2v: None, dt, lead_speed: None, own_fix: None, travelled: None, intruder: None, path_clear: false }
     }
 }
 
@@ -337,6 +342,7 @@ mod tests {
             own_fix: None,
             travelled: None,
             intruder: None,
+            path_clear: false,
         }
     }
 

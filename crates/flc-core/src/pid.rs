@@ -320,7 +320,7 @@ impl PidController {
 ///
 /// let mut pid = PidController::new(PidParams::paper())?;
 /// let v2v = Some(V2vMessage::speed_only(10.0, 1));
-/// let out = LongitudinalController::step(&mut pid, &Frame { distance: Some(15.0), own_speed: 10.0, v2v, dt: 0.1, lead_speed: None, own_fix: None, travelled: None, intruder: None });
+/// let out = LongitudinalController::step(&mut pid, &Frame { distance: Some(15.0), own_speed: 10.0, v2v, dt: 0.1, lead_speed: None, own_fix: None, travelled: None, intruder: None, path_clear: false });
 /// // desired = 0.5 * 10 + 6 + 10 * 0.4 = 15 = distance, lead speed = own speed: u = 0.
 /// assert_eq!(out.command.accel, 0.0);
 /// assert_eq!(pid.desired_gap(10.0), 15.0);

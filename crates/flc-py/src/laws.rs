@@ -174,7 +174,7 @@ law_class! {
         /// `(speed_command, u, status)`: the lead speed arrives with every step (a V2V message).
         fn step(&mut self, lead_speed: f64, own_speed: f64, distance: Option<f64>, dt: f64) -> CommandTuple {
             let v2v = Some(flc_core::V2vMessage::speed_only(lead_speed, 0));
-            self.held.step(&Frame { distance, own_speed, v2v, dt, lead_speed: None, own_fix: None, travelled: None, intruder: None })
+            self.held.step(&Frame { distance, own_speed, v2v, dt, lead_speed: None, own_fix: None, travelled: None, intruder: None, path_clear: false })
         }
     }
 }

@@ -182,6 +182,7 @@ impl ExternalFollower {
                 own_fix: None,
                 travelled: Some(self.odometer * self.cfg.follower.odometry_scale),
                 intruder: None,
+                path_clear: false,
             });
             self.speed_cmd = Some(o.command.speed);
             self.out.switches += u32::from(o.switched);

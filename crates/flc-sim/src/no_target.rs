@@ -8,7 +8,10 @@
 //! there is nothing to have lost, so [`NoTargetCruise`] drives such a law's vehicle at the set
 //! speed: its speed command is the set speed (the low-level speed controller's limits bound the
 //! acceleration, as for every command). From the first detection on the law drives alone, and a
-//! target lost later is the law's business. The law is stepped on every frame all the same (its
+//! target lost later is the law's business. A target seen *leaving* the path is not lost: once
+//! the simulator's departure watch (`flc_core::LeadDeparture`, `Frame::path_clear`) sees its
+//! whole body beside the path and nothing else in it, the road is clear again, and the wrapper
+//! cruises until the next detection (a pedestrian who crossed the lane, a car that cut out). The law is stepped on every frame all the same (its
 //! inputs and its V2V bookkeeping stay its own), only its command is replaced while cruising.
 //!
 //! The baselines and the careful driver have a free-road branch of their own (the
@@ -43,7 +46,13 @@ impl NoTargetCruise {
 
 impl LongitudinalController for NoTargetCruise {
     fn step(&mut self, frame: &Frame) -> ControlOutput {
-        self.target_seen |= frame.distance.is_some();
+        // A target seen drives the law; a path seen cleared (the lead left it, `Frame::path_clear`)
+        // is as good as never having had one.
+        if frame.distance.is_some() {
+            self.target_seen = true;
+        } else if frame.path_clear {
+            self.target_seen = false;
+        }
         let mut out = self.law.step(frame);
         if !self.target_seen {
             out.command = LongitudinalCommand { speed: self.set_speed, accel: 0.0, status: Status::Ok };

@@ -21,9 +21,13 @@ fn motorbike() -> VehicleParams {
 }
 
 /// The standing objects: what, its body, its offset from the ego lane's centre (m, + left).
-fn standing_objects() -> [(&'static str, VehicleParams, f64); 6] {
+fn standing_objects() -> [(&'static str, VehicleParams, f64); 8] {
     [
         ("car on the lane centre", car(), 0.0),
+        // Its body 0.25 m into the lane (1.5 m from its centre, 0.55 m from an ego's body on
+        // the centre: ALKS 4.2_2's partially blocking target), either side.
+        ("car reaching 0.25 m into the lane from the left", car(), LW / 2.0 - 0.25 + 0.5 * car().width),
+        ("car reaching 0.25 m into the lane from the right", car(), -LW / 2.0 + 0.25 - 0.5 * car().width),
         // Its body 1.2 m from the lane's centre: 0.25 m from an ego's on the centre.
         ("car half on the left marking", car(), 1.2 + 0.5 * car().width),
         ("car half on the right marking", car(), -1.2 - 0.5 * car().width),
@@ -194,9 +198,11 @@ fn flc_robust_never_passes_an_in_path_object_within_the_margin() {
             }
         }
     }
-    // An ego holding its lane centre (within `lane_tolerance`) cannot pass any of the 24 with
+    // An ego holding its lane centre (within `lane_tolerance`) cannot pass any of the 32 with
     // the margin (the motorbike on a marking is 0.4 m from its body, the car half on the marking
-    // 0.25 m): it stops for every one.
+    // 0.25 m) and may not pass one reaching into its lane: it stops for every one. Before the
+    // corridor was at least the lane (`lane_keeping_half_width`), flc-robust passed the car
+    // reaching 0.25 m into the lane with 0.55 m.
     assert_eq!(passed, 0, "{passed} objects passed");
 }
 
@@ -412,6 +418,59 @@ fn after_a_cut_out_the_ego_keeps_its_lane_and_stops_for_what_it_reveals() {
                 assert!(dev <= lane_tolerance(road), "{tag}: {dev:.3} m off the lane centre");
                 assert!(s.follower_speed[n - 1] < 0.1, "{tag}: still at {:.2} m/s", s.follower_speed[n - 1]);
                 assert!(final_gap > 0.5 && final_gap < 10.0, "{tag}: final gap {final_gap:.2} m");
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A pedestrian crossing the lane (issue 46, ALKS 4.2_3): stop for it, drive on once it has left.
+
+/// A pedestrian as the LiDAR sees it: 0.3 m deep, 0.5 m across the shoulders.
+fn pedestrian() -> VehicleParams {
+    VehicleParams { length: 0.3, width: 0.5, wheelbase: 0.2, ..VehicleParams::default() }
+}
+
+/// A pedestrian standing `ahead` m ahead `from` m off the ego lane's centre, walking to `to` over
+/// `duration` s from the start (a cosine profile: about 1 m/s at its fastest).
+fn crossing(road: Road, controller: ControllerKind, from: f64, to: f64) -> RunResult {
+    let walk = vec![
+        Phase::LaneChange { offset: Some(to), lane: None, duration: 12.0 },
+        Phase::Stand { duration: None },
+    ];
+    let mut sc = fixture(road, controller, (pedestrian(), 130.0, from, 0.0, walk));
+    sc.duration = 30.0;
+    run(&sc).expect("run")
+}
+
+/// flc-robust (and the paper's FLC and the pipeline, which share the no-target cruise) stop for a
+/// pedestrian crossing the ego's lane, wait until its body is out of the lane and drive on to the
+/// set speed: the robust FLC's hold-and-brake keeps a lead that *vanished*, but one seen walking
+/// out of the path leaves a clear road (`flc_core::LeadDeparture`). Before the departure watch
+/// every one of them stood behind the empty lane to the end (ALKS 4.2_3 p119: a far stop).
+#[test]
+fn a_pedestrian_who_crossed_the_lane_leaves_a_clear_road() {
+    let ego = VehicleParams::default();
+    for controller in [ControllerKind::FlcRobust, ControllerKind::Flc, ControllerKind::Pipeline] {
+        for road in Road::curves() {
+            for (from, to) in [(-2.6, LW + 0.6), (LW + 1.8, -2.6)] {
+                let tag = format!("{controller:?} {road}: walking from {from} to {to} m");
+                let r = crossing(road, controller, from, to);
+                assert!(r.collision.is_none(), "{tag}: {:?}", r.collision);
+                let s = &r.series;
+                let n = s.len();
+                // It stopped for the pedestrian (it was in the lane when the ego arrived) ...
+                let slowest = s.follower_speed.iter().copied().fold(f64::INFINITY, f64::min);
+                assert!(slowest < 0.5, "{tag}: slowest {slowest:.2} m/s");
+                // ... and drove on: at the set speed (80 km/h) again by the end.
+                assert!(s.follower_speed[n - 1] > 0.95 * 80.0 * KMH, "{tag}: final {:.2} m/s", s.follower_speed[n - 1]);
+                // Past it only once its body was out of the lane (the ego on its lane's centre
+                // within the lane keeper's few centimetres).
+                let clearance = passing_clearance(&road.track(), &r, &pedestrian());
+                if let Some(c) = clearance {
+                    assert!(c >= 0.5 * (LW - ego.width) - 0.1, "{tag}: passed it with {c:.2} m");
+                }
+                eprintln!("{tag}: slowest {slowest:.2} m/s, final {:.2} m/s, passing clearance {clearance:?}", s.follower_speed[n - 1]);
             }
         }
     }

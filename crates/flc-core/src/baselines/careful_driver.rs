@@ -50,7 +50,9 @@
 //! infinite / `<= 0` / `> 10 s` → [`Status::InvalidDt`]; distance NaN / infinite / negative →
 //! [`Status::InvalidDistance`] (a finite distance beyond `sight_distance` is "nothing in sight",
 //! not a fault: `normal.max_distance` is not used); a measured lead speed NaN / infinite / outside
-//! `[0, max_speed]` → [`Status::InvalidLeadSpeed`]. Each gives `own_speed - fault_brake_step`
+//! `[-max_speed, max_speed]` → [`Status::InvalidLeadSpeed`] (a human sees a lead reversing: a
+//! negative speed is a measurement, and only a forward-moving lead's stopping distance counts as
+//! room in `a_req`). Each gives `own_speed - fault_brake_step`
 //! and resets the state. The command is `speed = clamp(v + command_gain a, 0, max_speed)`.
 
 use super::FollowerParams;
@@ -157,7 +159,9 @@ impl CarefulDriverParams {
             need = closing * closing / (2.0 * margin);
         }
         if lead_decel > 0.0 && v > 0.0 {
-            let room = margin + lead_speed * lead_speed / (2.0 * lead_decel);
+            // A reversing lead (`v_l < 0`) does not stop ahead of where it is: no room from it.
+            let forward = lead_speed.max(0.0);
+            let room = margin + forward * forward / (2.0 * lead_decel);
             if room <= 0.0 {
                 return f64::INFINITY;
             }
@@ -383,7 +387,9 @@ impl CarefulDriver {
                 let estimated = self.estimator.update(gap, dt).range_rate;
                 let speed = match lead_speed_measured {
                     None => lead_speed(own_speed, estimated, s.max_speed),
-                    Some(v) if v.is_finite() && (0.0..=s.max_speed).contains(&v) => v,
+                    // A lead that reverses (ALKS 4.3_1's lead braking through zero) is seen doing
+                    // so: a negative speed is a measurement, not a fault.
+                    Some(v) if v.is_finite() && (-s.max_speed..=s.max_speed).contains(&v) => v,
                     Some(_) => return self.fault(own_speed, Status::InvalidLeadSpeed),
                 };
                 // Limited to +-REPORTED_NEED_CAP: a tiny `dt` would make it meaningless.
@@ -864,12 +870,34 @@ mod tests {
         assert_eq!(c.step_measured(Some(30.0), 20.0, f64::NAN, None).status, Status::InvalidDt);
         assert_eq!(c.step_measured(Some(30.0), 20.0, 10.5, None).status, Status::InvalidDt);
         assert_eq!(c.step_measured(Some(30.0), 20.0, DT, Some(f64::NAN)).status, Status::InvalidLeadSpeed);
-        assert_eq!(c.step_measured(Some(30.0), 20.0, DT, Some(-1.0)).status, Status::InvalidLeadSpeed);
+        assert_eq!(c.step_measured(Some(30.0), 20.0, DT, Some(-71.0)).status, Status::InvalidLeadSpeed);
         // Brake without a lead when asked to (the normal mode's no-lead policy).
         let mut p = CarefulDriverParams::default();
         p.normal.no_lead = NoLeadPolicy::Brake;
         let out = CarefulDriver::new(p).unwrap().step_measured(None, 10.0, DT, None);
         assert_eq!((out.status, out.speed), (Status::NoLead, 7.0));
+    }
+
+    #[test]
+    fn a_reversing_lead_is_seen_not_a_fault() {
+        // ALKS 4.3_1 (p0): the lead brakes through zero and reverses towards a driver at 5 km/h,
+        // 75 m ahead. Its negative speed is a measurement: the driver goes on in normal mode
+        // (before: InvalidLeadSpeed, a fault brake to a stop 75 m short).
+        let mut c = CarefulDriver::new(CarefulDriverParams::default()).unwrap();
+        for k in 0..10 {
+            let out = c.step_measured(Some(75.0 - 0.25 * f64::from(k)), 1.39, DT, Some(-1.0 - 0.05 * f64::from(k)));
+            assert_eq!(out.status, Status::Ok, "{k}");
+            assert!(out.speed > 1.0, "{k}: {out:?}");
+        }
+        assert_eq!(c.mode(), CarefulMode::Normal);
+        // Its stopping distance is no room: a_req against a lead reversing at 2 m/s and braking
+        // (its speed falling further) is the closing term's or the own stop's, whichever is more.
+        let p = CarefulDriverParams::default();
+        let (gap, v) = (12.0, 10.0);
+        let own_stop = v * v / (2.0 * (gap - p.min_gap));
+        let closing = (v + 2.0) * (v + 2.0) / (2.0 * (gap - p.min_gap));
+        assert_eq!(p.required_decel(gap, v, -2.0, 1.0), closing.max(own_stop));
+        assert!(p.required_decel(gap, v, -2.0, 1.0) > p.required_decel(gap, v, 2.0, 1.0));
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
 use flc_core::detector::PROFILE_STATIONS;
-use flc_core::{ActiveController, Frame, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
+use flc_core::{ActiveController, DepartureParams, Frame, LeadDeparture, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
 
 use super::drive::{DriveCommand, Driven};
 use super::geometry::{centreline_pursuit, centreline_steer, grid_points, wrap_angle};
@@ -43,6 +43,9 @@ pub(super) struct Follower {
     /// a lead in the path when it is nearer (the robust FLCs: as their distance; the pipeline: as
     /// the frame's intruder, which its association rule and its FLC read).
     pub(super) neighbours: Option<NeighbourTracker>,
+    /// An ego that keeps its lane watches its lead leave the path (`flc_core::LeadDeparture`):
+    /// nothing in path after it is a clear road (`Frame::path_clear`), not a lost lead.
+    pub(super) departure: LeadDeparture,
     pub(super) pursuit: PurePursuit,
     /// Lost-lead steering `hold_lane`: the lane keeper (pure pursuit of a point on the lane
     /// centre, with the follower's own wheelbase and steering limit).
@@ -88,6 +91,7 @@ pub(super) struct Follower {
 impl Follower {
     pub(super) fn new(
         s: &Scenario,
+        track: &Track,
         index: usize,
         cfg: FollowerConfig,
         body: Body,
@@ -95,6 +99,7 @@ impl Follower {
         lead_link: bool,
     ) -> Result<Self, SimError> {
         let longitudinal = cfg.longitudinal()?;
+        let detector_params = detector_params(&cfg, track.lane_width);
         let active = cfg.controller.initial_active();
         let distance_offset = cfg.follower.distance_offset.unwrap_or(cfg.follower.vehicle.length / 2.0 - cfg.lidar.mount_x);
         let v2v_lead = lead_link.then(|| V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 3))));
@@ -107,8 +112,9 @@ impl Follower {
             v2v: V2vChannel::new(cfg.v2v.clone(), sub_seed(s.seed, follower_stream(index, 2))),
             v2v_lead,
             gnss: GnssError::new(cfg.v2v.gnss, sub_seed(s.seed, follower_stream(index, 4))),
-            detector: Box::new(<LeadDetector>::new(detector_params(&cfg))?),
+            detector: Box::new(<LeadDetector>::new(detector_params)?),
             neighbours: if cfg.controller.tracks_neighbours() { Some(NeighbourTracker::new(cfg.neighbours)?) } else { None },
+            departure: LeadDeparture::new(departure_params(&detector_params, &cfg))?,
             pursuit: PurePursuit::new(cfg.pure_pursuit)?,
             lane_keeper: centreline_pursuit(&cfg.follower.vehicle)?,
             held_lane: None,
@@ -194,6 +200,7 @@ impl Follower {
         let ideal = self.cfg.follower.perception == Perception::Ideal || self.cfg.controller.perceives_truth();
         let mut detection = det.detection;
         let intruder = self.neighbours.as_mut().and_then(|n| n.update(self.detector.clusters()));
+        let path_clear = self.departure.update(self.detector.clusters()) && intruder.is_none();
         // The pipeline gets the intruder beside the detection (its supervisor decides); the robust
         // FLCs follow it as their lead when it is nearer.
         let separate = self.cfg.controller == ControllerKind::Pipeline;
@@ -260,6 +267,7 @@ impl Follower {
                 own_fix,
                 travelled: Some(fs.odometer * self.cfg.follower.odometry_scale),
                 intruder,
+                path_clear: path_clear && distance.is_none(),
             },
             det,
         )
@@ -476,22 +484,35 @@ fn arc_curvature(x: f64, y: f64) -> f64 {
     if r2 > 1.0 { 2.0 * y / r2 } else { 0.0 }
 }
 
-/// The detector's parameters this follower runs: `[detector]`, with the swept-path corridor
-/// of the followers that use it ([`crate::FollowerConfig::swept_corridor`]) set to the
-/// ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario leaves
-/// `detector.swept_half_width` at 0; a value the scenario sets is used as given.
+/// The detector's parameters this follower runs on lanes `lane_width` m wide: `[detector]`, with
+/// the swept-path corridor of the followers that use it ([`crate::FollowerConfig::swept_corridor`])
+/// set to the ego's half width plus the corridor margin (`sim/path.rs`, 0.5 m) when the scenario
+/// leaves `detector.swept_half_width` at 0; a value the scenario sets is used as given.
 ///
 /// An ego that keeps its lane also counts a wide object whose body reaches into the band its own
-/// body sweeps plus the same margin (`detector.body_half_width`, left at 0: its half width plus
-/// 0.5 m), after everything else in path; one steering after its lead does not (its path bends
-/// towards the lead).
-fn detector_params(cfg: &FollowerConfig) -> flc_core::DetectorParams {
+/// body sweeps plus the same margin (`detector.body_half_width`, left at 0), after everything else
+/// in path; one steering after its lead does not (its path bends towards the lead). For such an
+/// ego both half widths are at least half its lane ([`super::lane_keeping_half_width`]): an object
+/// poking into its lane is in its path.
+fn detector_params(cfg: &FollowerConfig, lane_width: f64) -> flc_core::DetectorParams {
     let mut p = cfg.detector;
+    let lane_keeping = cfg.steering() == Steering::LaneKeeping;
+    let swept = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
+    let in_lane = super::lane_keeping_half_width(cfg.follower.vehicle.width, lane_width);
     if cfg.swept_corridor() && p.swept_half_width == 0.0 {
-        p.swept_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
+        p.swept_half_width = if lane_keeping { in_lane } else { swept };
     }
-    if cfg.steering() == Steering::LaneKeeping && p.body_half_width == 0.0 {
-        p.body_half_width = 0.5 * cfg.follower.vehicle.width + super::CORRIDOR_MARGIN;
+    if lane_keeping && p.body_half_width == 0.0 {
+        p.body_half_width = in_lane;
     }
     p
+}
+
+/// The departure watch of a follower: an ego that keeps its lane clears its path once the body
+/// of the lead it lost lies beyond the detector's corridor (the larger of its two half widths);
+/// one steering after its lead does not watch (its path bends towards where the lead was).
+fn departure_params(detector: &flc_core::DetectorParams, cfg: &FollowerConfig) -> DepartureParams {
+    let clear_half_width =
+        if cfg.steering() == Steering::LaneKeeping { detector.swept_half_width.max(detector.body_half_width) } else { 0.0 };
+    DepartureParams { clear_half_width, ..DepartureParams::default() }
 }

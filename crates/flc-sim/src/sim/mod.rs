@@ -27,7 +27,7 @@ mod traffic;
 pub use drive::{DriveCommand, DriveOptions, GroundTruth, Measurement, V2vSeen};
 pub(crate) use links::sub_seed;
 pub use observer::Observer;
-pub(crate) use path::CORRIDOR_MARGIN;
+pub(crate) use path::{CORRIDOR_MARGIN, lane_keeping_half_width};
 
 use flc_core::PurePursuit;
 
@@ -246,7 +246,7 @@ impl Simulation {
                 // no sender to associate the detection with (docs/v2v-and-metrics.md 1.11).
                 c.supervisor.association.enabled = false;
             }
-            followers.push(Follower::new(s, k + 1, c, body, state, lead_link)?);
+            followers.push(Follower::new(s, &track, k + 1, c, body, state, lead_link)?);
         }
         // Scripted traffic: bodies after the string's.
         let traffic = s.vehicles.iter().map(|v| Traffic::new(v, &track, &mut world)).collect::<Result<Vec<_>, _>>()?;

@@ -34,6 +34,16 @@ pub const WANDERING: f64 = 0.375;
 /// clearance to pass an object with).
 pub const CORRIDOR_MARGIN: f64 = 0.5;
 
+/// Half width of the detector's corridor for an ego `ego_width` m wide that keeps its lane on
+/// lanes `lane_width` m wide, m: its swept band plus [`CORRIDOR_MARGIN`], and at least its lane
+/// (an object poking into the ego's lane is in its path: ALKS 4.2_2's target 2 m off the lane's
+/// centre, 0.57 m clear of a 2 m wide ego's body, which the swept band plus margin alone let
+/// `flc-robust` pass at 10.4 m/s). The band is measured about the ego's path (its lateral place
+/// in the lane), as the outside check measures its lane band.
+pub fn lane_keeping_half_width(ego_width: f64, lane_width: f64) -> f64 {
+    f64::max(0.5 * ego_width + CORRIDOR_MARGIN, 0.5 * lane_width)
+}
+
 /// Lateral speed away from the lane's centre above which a vehicle beyond the wandering zone is
 /// read as leaving the lane (a cut-out), m/s: well below a lane change's (a 3.5 m change in 5 s
 /// crosses the wandering zone at about 0.7 m/s), above the lateral speed at the turning point of
