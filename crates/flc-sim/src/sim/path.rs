@@ -8,8 +8,10 @@
 //! the heading line leaves the lane by `d² / 2R` at distance `d`: 1.8 m at 30 m on R = 250 m, so
 //! every vehicle ahead in the lane would be "off the line"):
 //! * the **swept-path corridor**: the band the ego's body sweeps if it holds its lateral position
-//!   in its lane, widened by [`PathParams::corridor_margin`] on each side. An object whose body
-//!   reaches into it is in the path (a motorbike on the lane marking is).
+//!   in its lane, widened by [`PathParams::corridor_margin`] on each side, and at least its lane
+//!   (half the lane width each side of its path, [`lane_keeping_half_width`]; the detector of an
+//!   ego that keeps its lane uses the same). An object whose body reaches into it is in the path
+//!   (a motorbike on the lane marking is, and so is a car poking 0.25 m into the lane).
 //! * the **lane as a careful driver reads it** (UN R157 Annex 3): the lateral movement a driver
 //!   does not read as a lane change is the wandering zone [`PathParams::wandering`] (0.375 m)
 //!   *relative to the lane*. A vehicle of the next lane is perceived as cutting in once its centre
@@ -41,7 +43,13 @@ pub const CORRIDOR_MARGIN: f64 = 0.5;
 /// `flc-robust` pass at 10.4 m/s). The band is measured about the ego's path (its lateral place
 /// in the lane), as the outside check measures its lane band.
 pub fn lane_keeping_half_width(ego_width: f64, lane_width: f64) -> f64 {
-    f64::max(0.5 * ego_width + CORRIDOR_MARGIN, 0.5 * lane_width)
+    corridor_half_width(0.5 * ego_width, CORRIDOR_MARGIN, lane_width)
+}
+
+/// The corridor's half width about the ego's path: its body's half extent plus `margin`, at least
+/// half the lane. The one formula of [`lane_keeping_half_width`] and [`EgoPath`].
+fn corridor_half_width(half_width: f64, margin: f64, lane_width: f64) -> f64 {
+    f64::max(half_width + margin, 0.5 * lane_width)
 }
 
 /// Lateral speed away from the lane's centre above which a vehicle beyond the wandering zone is
@@ -146,10 +154,17 @@ impl<'a> EgoPath<'a> {
         }
     }
 
-    /// Whether an object at `l` reaches into the swept-path corridor: the lateral distance from
-    /// the ego's body to its body is below the corridor's margin.
+    /// Half width of the corridor about the ego's path, m: the band its body sweeps plus the
+    /// corridor's margin, at least half the lane ([`lane_keeping_half_width`], the detector's).
+    fn corridor(&self) -> f64 {
+        corridor_half_width(self.half_width, self.params.corridor_margin, self.track.lane_width)
+    }
+
+    /// Whether an object at `l` reaches into the corridor: its body comes within
+    /// [`Self::corridor`] of the ego's path (within the margin of the ego's body, or into its
+    /// lane).
     pub(super) fn in_corridor(&self, l: &Located) -> bool {
-        (l.t - self.t).abs() - l.half_width - self.half_width < self.params.corridor_margin
+        (l.t - self.t).abs() - l.half_width < self.corridor()
     }
 
     /// Whether the body of an object at `l` overlaps, across the road, the band the ego's body
@@ -183,7 +198,7 @@ impl<'a> EgoPath<'a> {
         if !l.crossing || towards <= self.params.leaving_speed || closing <= 0.0 {
             return false;
         }
-        let gap = (side.abs() - l.half_width - self.half_width - self.params.corridor_margin).max(0.0);
+        let gap = (side.abs() - l.half_width - self.corridor()).max(0.0);
         gap / towards <= l.ds / closing
     }
 }
