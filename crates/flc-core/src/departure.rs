@@ -159,7 +159,19 @@ mod tests {
     use super::*;
 
     fn cluster(x: f64, d_min: f64, d_max: f64, rejection: Option<RejectReason>, selected: bool) -> ClusterInfo {
-        ClusterInfo { x_min: x, x_max: x + 0.3, y_min: d_min, y_max: d_max, d_min, d_max, points: 12, cells: 4, rejection, selected, ..ClusterInfo::EMPTY }
+        ClusterInfo {
+            x_min: x,
+            x_max: x + 0.3,
+            y_min: d_min,
+            y_max: d_max,
+            d_min,
+            d_max,
+            points: 12,
+            cells: 4,
+            rejection,
+            selected,
+            ..ClusterInfo::EMPTY
+        }
     }
 
     fn watch() -> LeadDeparture {

@@ -1,7 +1,10 @@
 //! One follower of the loop: its vehicle, sensors, links, pipeline and records.
 
 use flc_core::detector::PROFILE_STATIONS;
-use flc_core::{ActiveController, DepartureParams, Frame, LeadDeparture, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason, V2vMessage};
+use flc_core::{
+    ActiveController, DepartureParams, Frame, LeadDeparture, LeadDetector, NeighbourTracker, OwnFix, Point2, PurePursuit, SwitchReason,
+    V2vMessage,
+};
 
 use super::drive::{DriveCommand, Driven};
 use super::geometry::{centreline_pursuit, centreline_steer, grid_points, wrap_angle};
