@@ -11,8 +11,9 @@
 //! target lost later is the law's business. A target seen *leaving* the path is not lost: once
 //! the simulator's departure watch (`flc_core::LeadDeparture`, `Frame::path_clear`) sees its
 //! whole body beside the path and nothing else in it, the road is clear again, and the wrapper
-//! cruises until the next detection (a pedestrian who crossed the lane, a car that cut out). The law is stepped on every frame all the same (its
-//! inputs and its V2V bookkeeping stay its own), only its command is replaced while cruising.
+//! cruises until the next detection (a pedestrian who crossed the lane, a car that cut out). The
+//! law is stepped on every frame all the same (its inputs and its V2V bookkeeping stay its own),
+//! only its command is replaced while cruising.
 //!
 //! The baselines and the careful driver have a free-road branch of their own (the
 //! `NoLeadPolicy::Cruise` of `flc_core::baselines`, towards their `desired_speed`) and are not

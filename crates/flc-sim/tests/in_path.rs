@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::two_lanes::{KMH, LW, Road, ahead_for_gap, lane_change, two_lanes};
+use common::two_lanes::{KMH, LW, Road, ahead_for_gap, lane_change, lateral_move, two_lanes};
 use flc_sim::{BodyKind, ControllerKind, Phase, RunResult, Scenario, ScriptedVehicle, Track, VehicleParams, run};
 
 fn car() -> VehicleParams {
@@ -443,40 +443,7 @@ fn crossing(road: Road, controller: ControllerKind, from: f64, to: f64) -> RunRe
     let mut sc = fixture(road, controller, (pedestrian(), 200.0, from, 0.0, vec![]));
     sc.lead.phases = Vec::new();
     sc.duration = 40.0;
-    let text = format!(
-        r#"
-dynamics = "kinematic"
-ego = "controller"
-
-[[acts]]
-name = "Cross"
-start = {{ kind = "simulation_time", value = 0.0, rule = "greater_than" }}
-
-[[acts.groups]]
-name = "Walker"
-actors = ["lead"]
-
-[[acts.groups.maneuvers]]
-name = "Walk"
-
-[[acts.groups.maneuvers.events]]
-name = "Walk"
-priority = "override"
-max_executions = 1
-start = {{ kind = "simulation_time", value = 0.0, rule = "greater_than" }}
-
-[[acts.groups.maneuvers.events.actions]]
-name = "WalkAcross"
-kind = "lane_change"
-of = "ego"
-lanes = 0
-lane_offset = {to}
-shape = "sinusoidal"
-dimension = "time"
-value = 20.0
-"#
-    );
-    sc.story = Some(toml::from_str(&text).expect("story"));
+    lateral_move(&mut sc, 0.0, 0, to, 20.0);
     run(&sc).expect("run")
 }
 

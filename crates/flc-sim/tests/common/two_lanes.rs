@@ -84,6 +84,12 @@ pub fn ahead_for_gap(gap: f64, ego_kmh: f64, lead_kmh: f64, at: f64) -> f64 {
 /// `lanes` to the left of the ego's (0: into the ego's lane, a cut-in; 1: into the next lane, a
 /// cut-out), then holds its speed.
 pub fn lane_change(s: &mut Scenario, at: f64, lanes: i32, duration: f64) {
+    lateral_move(s, at, lanes, 0.0, duration);
+}
+
+/// [`lane_change`] to `lane_offset` m left of the centre of the lane `lanes` to the left of the
+/// ego's (a pedestrian walking across: `lanes` 0 and its end offset).
+pub fn lateral_move(s: &mut Scenario, at: f64, lanes: i32, lane_offset: f64, duration: f64) {
     let text = format!(
         r#"
 dynamics = "kinematic"
@@ -111,6 +117,7 @@ name = "ChangeAction"
 kind = "lane_change"
 of = "ego"
 lanes = {lanes}
+lane_offset = {lane_offset}
 shape = "sinusoidal"
 dimension = "time"
 value = {duration}
